@@ -1,0 +1,62 @@
+// The G-buffer (what the GL renderer saw at each pixel centre) and the C++ twin of the shading
+// pass evaluated on it. The fitter's exact-derivative path and the GLSL-vs-C++ test use this.
+#pragma once
+
+#include <vector>
+
+#include "shadefit/render/image.h"
+#include "shadefit/render/models.h"
+#include "shadefit/render/scene.h"
+
+namespace shadefit {
+
+struct GBuffer {
+  int width = 0, height = 0;
+  Image position;  // xyz world position; w = object index + 1 (0 = background)
+  Image normal;    // xyz unit normal facing the camera; w = coverage in [0, 1]
+  Image view;      // xyz unit direction from the surface to the eye
+
+  bool Hit(int x, int y) const { return position.at(x, y, 3) > 0.5f; }
+  float Coverage(int x, int y) const { return normal.at(x, y, 3); }
+};
+
+// One light as seen from one pixel: unit direction to it and the irradiance it delivers at
+// normal incidence (I / d^2 or E). Only lights above the surface and unoccluded are kept.
+struct PixelLight {
+  Vec3d l;
+  Vec3d irradiance;
+};
+
+struct ShadingPoint {
+  int x = 0, y = 0;
+  Vec3d n, v;
+  Vec3d ambient;                   // ambient radiance (times ka for classic models)
+  std::vector<PixelLight> lights;
+};
+
+// True when every light of the scene is point, directional or ambient: the twin evaluates them
+// exactly. Environment and uniform lights need the GL renderer.
+bool TwinSupportsScene(const Scene& scene);
+
+// The pixels with a hit and coverage >= min_coverage, with their light geometry.
+std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& gbuffer,
+                                         float min_coverage);
+
+// Radiance of one shading point, RGB into out[0..2]; T = double or ceres::Jet.
+template <typename T>
+void ShadePoint(ModelId model, const T* params, const ShadingPoint& point, T* out) {
+  T ka[3];
+  AmbientReflectance(model, params, ka);
+  for (int c = 0; c < 3; ++c) out[c] = ka[c] * T(point.ambient[c]);
+  for (const PixelLight& light : point.lights) {
+    T f[3];
+    Reflect(model, params, point.n, light.l, point.v, f);
+    for (int c = 0; c < 3; ++c) out[c] += f[c] * T(light.irradiance[c]);
+  }
+}
+
+// Twin image (RGBA, alpha = coverage) for pixels with a hit; 0 elsewhere.
+Image ShadeGBuffer(const Scene& scene, const GBuffer& gbuffer, ModelId model,
+                   const std::vector<double>& params);
+
+}  // namespace shadefit

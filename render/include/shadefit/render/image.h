@@ -1,0 +1,62 @@
+// Float images in linear radiance and their file I/O.
+//
+// Conventions (docs/conventions.md): row 0 is the top row of the picture, pixel (x, y) has its
+// centre at (x + 0.5, y + 0.5) in pixel units, channels are interleaved. Values are linear and
+// unclamped (HDR) unless a function says otherwise.
+#pragma once
+
+#include <cstddef>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace shadefit {
+
+// A dense, interleaved float image.
+struct Image {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  std::vector<float> data;  // width * height * channels, row-major, row 0 on top.
+
+  Image() = default;
+  Image(int w, int h, int c, float fill = 0.0f)
+      : width(w), height(h), channels(c), data(static_cast<std::size_t>(w) * h * c, fill) {}
+
+  bool empty() const { return data.empty(); }
+  std::size_t PixelCount() const { return static_cast<std::size_t>(width) * height; }
+  float& at(int x, int y, int c) {
+    return data[(static_cast<std::size_t>(y) * width + x) * channels + c];
+  }
+  float at(int x, int y, int c) const {
+    return data[(static_cast<std::size_t>(y) * width + x) * channels + c];
+  }
+  // Copies channels [first, first + count) into a new image.
+  Image Channels(int first, int count) const;
+};
+
+// String metadata written into EXR headers (and read back): model, parameters, scene, ...
+using ImageMetadata = std::map<std::string, std::string>;
+
+// Reads any image OpenImageIO understands. 8-bit files are returned as values in [0, 1] without
+// any transfer-function conversion (callers decide: see reference import). Throws shadefit::Error
+// naming the file on a missing, truncated or unreadable file.
+Image ReadImage(const std::string& path, ImageMetadata* metadata = nullptr);
+
+// Writes a linear float EXR (half is never used: references need float). Written to a temporary
+// file beside the target and renamed, so a failure never leaves a partial file.
+void WriteExr(const std::string& path, const Image& image, const ImageMetadata& metadata = {},
+              const std::vector<std::string>& channel_names = {});
+
+// Writes an 8-bit PNG after the display transform: value * 2^exposure, sRGB OETF, clip to [0, 1].
+// Only RGB is written (premultiplied renders composite over black). Atomic like WriteExr.
+void WritePngPreview(const std::string& path, const Image& image, float exposure_stops = 0.0f);
+
+// Writes an 8-bit PNG of values already in [0, 1] display space (false-colour maps, figures).
+void WritePng8(const std::string& path, const Image& image);
+
+// sRGB transfer functions (IEC 61966-2-1).
+float SrgbOetf(float linear);
+float SrgbToLinear(float encoded);
+
+}  // namespace shadefit

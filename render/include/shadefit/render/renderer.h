@@ -1,0 +1,35 @@
+// The headless GL renderer: scene + model + parameters -> linear radiance, and the G-buffer.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "shadefit/render/gbuffer.h"
+#include "shadefit/render/gl_context.h"
+#include "shadefit/render/image.h"
+#include "shadefit/render/models.h"
+#include "shadefit/render/scene.h"
+
+namespace shadefit {
+
+class Renderer {
+ public:
+  // The context must be current on the calling thread for every call.
+  explicit Renderer(GlContext& context);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // RGBA float: RGB = linear radiance (premultiplied when the background is transparent),
+  // A = coverage. Row 0 is the top row.
+  Image Render(const Scene& scene, ModelId model, const std::vector<double>& params);
+
+  // Position, normal + coverage, view direction at every pixel centre.
+  GBuffer RenderGBuffer(const Scene& scene);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace shadefit

@@ -1,0 +1,104 @@
+// Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_MODEL,
+// SHADEFIT_GBUFFER, then brdf.glsl, models.glsl, scene.glsl, environment.glsl.
+
+const int kMaxLights = 8;
+uniform int u_num_lights;
+uniform int u_light_type[kMaxLights];   // 0 point, 1 directional (ambient/env handled apart).
+uniform vec3 u_light_pos[kMaxLights];   // point: position; directional: direction to the light.
+uniform vec3 u_light_value[kMaxLights]; // point: intensity W/sr; directional: irradiance.
+uniform vec3 u_ambient;                 // ambient radiance (classic ka term)
+uniform int u_supersample;
+uniform int u_transparent;
+uniform vec3 u_background;
+
+#if SHADEFIT_GBUFFER
+layout(location = 0) out vec4 out_position;  // xyz world position, w = object id + 1 (0 miss)
+layout(location = 1) out vec4 out_normal;    // xyz unit normal, w = coverage
+layout(location = 2) out vec4 out_view;      // xyz unit direction to the eye
+#else
+layout(location = 0) out vec4 out_color;     // premultiplied radiance, alpha = coverage
+#endif
+
+// Offset added along the normal to shadow-ray origins, in world units (scenes are metre-sized).
+const float kRayEpsilon = 1e-4;
+
+vec3 ShadeDirect(vec3 p, vec3 n, vec3 v) {
+  vec3 radiance = AmbientReflectance() * u_ambient;
+  for (int i = 0; i < u_num_lights; ++i) {
+    vec3 l;
+    vec3 e;
+    float dist;
+    if (u_light_type[i] == 0) {
+      vec3 d = u_light_pos[i] - p;
+      float d2 = dot(d, d);
+      dist = sqrt(d2);
+      l = d / dist;
+      e = u_light_value[i] / d2;  // Inverse-square law: E = I / d^2 at normal incidence.
+    } else {
+      l = u_light_pos[i];
+      e = u_light_value[i];
+      dist = 1e30;
+    }
+    if (dot(n, l) <= 0.0) continue;
+    if (u_num_objects > 1 && Occluded(p + n * kRayEpsilon, l, dist)) continue;
+    radiance += Reflect(n, l, v) * e;
+  }
+  radiance += ShadeEnvironment(p, n, v);
+  return radiance;
+}
+
+void main() {
+  // gl_FragCoord has its origin at the bottom left; our pixel rows count from the top.
+  vec2 pixel_corner = vec2(floor(gl_FragCoord.x), u_resolution.y - 1.0 - floor(gl_FragCoord.y));
+#if SHADEFIT_GBUFFER
+  vec3 origin, dir;
+  CameraRay(pixel_corner + 0.5, origin, dir);
+  float t;
+  vec3 n;
+  int obj = Intersect(origin, dir, 0.0, 1e30, t, n);
+  // Coverage from the supersampling grid so that silhouettes can be masked out of fits.
+  int ss = max(u_supersample, 1);
+  int hits = 0;
+  for (int sy = 0; sy < ss; ++sy) {
+    for (int sx = 0; sx < ss; ++sx) {
+      vec3 o2, d2;
+      CameraRay(pixel_corner + (vec2(sx, sy) + 0.5) / float(ss), o2, d2);
+      float t2;
+      vec3 n2;
+      if (Intersect(o2, d2, 0.0, 1e30, t2, n2) >= 0) ++hits;
+    }
+  }
+  float coverage = float(hits) / float(ss * ss);
+  if (obj < 0) {
+    out_position = vec4(0.0);
+    out_normal = vec4(0.0, 0.0, 0.0, coverage);
+    out_view = vec4(-dir, 0.0);
+  } else {
+    out_position = vec4(origin + dir * t, float(obj + 1));
+    out_normal = vec4(n, coverage);
+    out_view = vec4(-dir, 0.0);
+  }
+#else
+  int ss = max(u_supersample, 1);
+  vec3 sum = vec3(0.0);
+  vec3 background_sum = vec3(0.0);
+  int hits = 0;
+  for (int sy = 0; sy < ss; ++sy) {
+    for (int sx = 0; sx < ss; ++sx) {
+      vec3 origin, dir;
+      CameraRay(pixel_corner + (vec2(sx, sy) + 0.5) / float(ss), origin, dir);
+      float t;
+      vec3 n;
+      if (Intersect(origin, dir, 0.0, 1e30, t, n) >= 0) {
+        sum += ShadeDirect(origin + dir * t, n, -dir);
+        ++hits;
+      } else if (u_transparent == 0) {
+        background_sum += BackgroundRadiance(dir, u_background);
+      }
+    }
+  }
+  float inv = 1.0 / float(ss * ss);
+  float coverage = float(hits) * inv;
+  out_color = vec4((sum + background_sum) * inv, coverage);
+#endif
+}

@@ -1,0 +1,69 @@
+#include "shadefit/render/gbuffer.h"
+
+#include <cmath>
+
+namespace shadefit {
+
+// Same offset as kRayEpsilon in render/shaders/render.frag.
+constexpr double kRayEpsilon = 1e-4;
+
+bool TwinSupportsScene(const Scene& scene) { return scene.EnvironmentLight() < 0; }
+
+std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
+                                         float min_coverage) {
+  std::vector<ShadingPoint> points;
+  Vec3d ambient{0, 0, 0};
+  for (const Light& light : scene.lights) {
+    if (light.type == Light::Type::kAmbient) ambient += light.value;
+  }
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      if (!g.Hit(x, y) || g.Coverage(x, y) < min_coverage) continue;
+      ShadingPoint sp;
+      sp.x = x;
+      sp.y = y;
+      const Vec3d p{g.position.at(x, y, 0), g.position.at(x, y, 1), g.position.at(x, y, 2)};
+      sp.n = {g.normal.at(x, y, 0), g.normal.at(x, y, 1), g.normal.at(x, y, 2)};
+      sp.v = {g.view.at(x, y, 0), g.view.at(x, y, 1), g.view.at(x, y, 2)};
+      sp.ambient = ambient;
+      for (const Light& light : scene.lights) {
+        PixelLight pl;
+        double dist = 1e30;
+        if (light.type == Light::Type::kPoint) {
+          const Vec3d d = light.position - p;
+          const double d2 = Dot(d, d);
+          dist = std::sqrt(d2);
+          pl.l = d / dist;
+          pl.irradiance = light.value / d2;
+        } else if (light.type == Light::Type::kDirectional) {
+          pl.l = -light.direction;
+          pl.irradiance = light.value;
+        } else {
+          continue;
+        }
+        if (Dot(sp.n, pl.l) <= 0) continue;
+        if (scene.objects.size() > 1 &&
+            Intersect(scene, Ray{p + sp.n * kRayEpsilon, pl.l}, 1e-4, dist, nullptr)) {
+          continue;
+        }
+        sp.lights.push_back(pl);
+      }
+      points.push_back(std::move(sp));
+    }
+  }
+  return points;
+}
+
+Image ShadeGBuffer(const Scene& scene, const GBuffer& g, ModelId model,
+                   const std::vector<double>& params) {
+  Image out(g.width, g.height, 4);
+  for (const ShadingPoint& sp : PrepareShading(scene, g, 0.0f)) {
+    double rgb[3];
+    ShadePoint(model, params.data(), sp, rgb);
+    for (int c = 0; c < 3; ++c) out.at(sp.x, sp.y, c) = static_cast<float>(rgb[c]);
+    out.at(sp.x, sp.y, 3) = g.Coverage(sp.x, sp.y);
+  }
+  return out;
+}
+
+}  // namespace shadefit

@@ -1,0 +1,319 @@
+#include "shadefit/render/renderer.h"
+
+#include <epoxy/gl.h>
+#include <fmt/format.h>
+
+#include <cmath>
+#include <map>
+#include <regex>
+#include <string>
+
+#include "shadefit/render/environment.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit {
+namespace internal {
+const std::map<std::string, std::string>& ShaderSources();
+}
+
+namespace {
+
+// Files of the fragment program in the order they are joined (render.frag documents it).
+const char* const kFragmentFiles[] = {"brdf.glsl", "models.glsl", "scene.glsl",
+                                      "environment.glsl", "render.frag"};
+
+std::string JoinSources(const std::string& preamble, const std::vector<std::string>& files) {
+  std::string out = preamble;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    out += fmt::format("#line 1 {}\n", k + 1);
+    out += internal::ShaderSources().at(files[k]);
+    out += "\n";
+  }
+  return out;
+}
+
+// Mesa and NVIDIA print "<source>:<line>(<col>)" or "<source>(<line>)"; put file names back.
+std::string NameSources(std::string log, const std::vector<std::string>& files) {
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    log = std::regex_replace(log, std::regex(fmt::format(R"(\b{}:(\d+)\()", k + 1)),
+                             files[k] + ":$1(");
+    log = std::regex_replace(log, std::regex(fmt::format(R"(\b{}\((\d+)\))", k + 1)),
+                             files[k] + "($1)");
+  }
+  return log;
+}
+
+GLuint CompileShader(GLenum type, const std::string& source,
+                     const std::vector<std::string>& files) {
+  GLuint shader = glCreateShader(type);
+  const char* src = source.c_str();
+  glShaderSource(shader, 1, &src, nullptr);
+  glCompileShader(shader);
+  GLint ok = 0;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    GLint len = 0;
+    glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &len);
+    std::string log(static_cast<std::size_t>(len > 0 ? len : 1), '\0');
+    glGetShaderInfoLog(shader, len, nullptr, log.data());
+    glDeleteShader(shader);
+    std::string first_line = NameSources(log, files);
+    first_line = first_line.substr(0, first_line.find('\n'));
+    throw Error("GLSL", "compile", first_line);
+  }
+  return shader;
+}
+
+constexpr int kMaxParams = 16;  // u_params[16] in models.glsl.
+
+}  // namespace
+
+struct Renderer::Impl {
+  GlContext& context;
+  GLuint vao = 0;
+  GLuint fbo = 0;
+  int fbo_width = 0, fbo_height = 0;
+  GLuint color_tex[3] = {0, 0, 0};
+  std::map<std::pair<int, bool>, GLuint> programs;  // (model, gbuffer) -> program
+  // Environment textures, rebuilt when the light changes.
+  std::shared_ptr<const EnvironmentMap> env;
+  int env_samples = 0;
+  GLuint env_tex = 0, env_pdf_tex = 0, env_samples_tex = 0;
+
+  explicit Impl(GlContext& c) : context(c) {
+    glGenVertexArrays(1, &vao);
+    glGenFramebuffers(1, &fbo);
+  }
+
+  ~Impl() {
+    for (auto& [key, program] : programs) glDeleteProgram(program);
+    glDeleteTextures(3, color_tex);
+    GLuint env_textures[3] = {env_tex, env_pdf_tex, env_samples_tex};
+    glDeleteTextures(3, env_textures);
+    glDeleteFramebuffers(1, &fbo);
+    glDeleteVertexArrays(1, &vao);
+  }
+
+  GLuint Program(ModelId model, bool gbuffer) {
+    const auto key = std::make_pair(static_cast<int>(model), gbuffer);
+    auto it = programs.find(key);
+    if (it != programs.end()) return it->second;
+    const std::string preamble =
+        fmt::format("#version 430 core\n#define SHADEFIT_MODEL {}\n#define SHADEFIT_GBUFFER {}\n",
+                    static_cast<int>(model), gbuffer ? 1 : 0);
+    const std::vector<std::string> vfiles = {"fullscreen.vert"};
+    const std::vector<std::string> ffiles(std::begin(kFragmentFiles), std::end(kFragmentFiles));
+    GLuint vs = CompileShader(GL_VERTEX_SHADER, JoinSources("#version 430 core\n", vfiles), vfiles);
+    GLuint fs = CompileShader(GL_FRAGMENT_SHADER, JoinSources(preamble, ffiles), ffiles);
+    GLuint program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+      char log[1024] = {0};
+      glGetProgramInfoLog(program, sizeof(log), nullptr, log);
+      glDeleteProgram(program);
+      std::string line(log);
+      throw Error("GLSL", "link", line.substr(0, line.find('\n')));
+    }
+    programs[key] = program;
+    return program;
+  }
+
+  void EnsureTargets(int w, int h) {
+    if (w == fbo_width && h == fbo_height) return;
+    glDeleteTextures(3, color_tex);
+    glGenTextures(3, color_tex);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    for (int i = 0; i < 3; ++i) {
+      glBindTexture(GL_TEXTURE_2D, color_tex[i]);
+      glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, w, h);
+      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + i, GL_TEXTURE_2D,
+                             color_tex[i], 0);
+    }
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      throw Error("OpenGL", "framebuffer", "RGBA32F render target is not supported");
+    }
+    fbo_width = w;
+    fbo_height = h;
+  }
+
+  static GLuint MakeFloatTexture(GLenum internal, GLenum format, int w, int h, const float* data,
+                                 GLenum filter, GLenum wrap_s) {
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glBindTexture(GL_TEXTURE_2D, tex);
+    glTexStorage2D(GL_TEXTURE_2D, 1, internal, w, h);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, w, h, format, GL_FLOAT, data);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, wrap_s);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return tex;
+  }
+
+  void BindEnvironment(GLuint program, const Scene& scene, ModelId model,
+                       const std::vector<double>& params) {
+    auto loc = [&](const char* n) { return glGetUniformLocation(program, n); };
+    const int index = scene.EnvironmentLight();
+    glUniform1i(loc("u_env_mode"), 0);
+    if (index < 0) return;
+    const Light& light = scene.lights[index];
+    glUniform1i(loc("u_env_count"), light.samples);
+    glUniform1f(loc("u_lobe_alpha"),
+                static_cast<float>(SpecularLobeAlpha(model, params.data())));
+    if (light.type == Light::Type::kUniform) {
+      glUniform1i(loc("u_env_mode"), 1);
+      glUniform3f(loc("u_env_radiance"), light.value.x, light.value.y, light.value.z);
+      return;
+    }
+    auto map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
+    if (map != env || env_samples != light.samples) {
+      GLuint old[3] = {env_tex, env_pdf_tex, env_samples_tex};
+      glDeleteTextures(3, old);
+      env = map;
+      env_samples = light.samples;
+      const Image& rad = map->radiance();
+      env_tex = MakeFloatTexture(GL_RGB32F, GL_RGB, rad.width, rad.height, rad.data.data(),
+                                 GL_LINEAR, GL_REPEAT);
+      const Image& pdf = map->pdf_image();
+      env_pdf_tex = MakeFloatTexture(GL_R32F, GL_RED, pdf.width, pdf.height, pdf.data.data(),
+                                     GL_NEAREST, GL_REPEAT);
+      const std::vector<float> samples = map->SampleSetMapSpace(light.samples);
+      env_samples_tex = MakeFloatTexture(GL_RGBA32F, GL_RGBA, light.samples, 1, samples.data(),
+                                         GL_NEAREST, GL_CLAMP_TO_EDGE);
+    }
+    glUniform1i(loc("u_env_mode"), 2);
+    glUniform1f(loc("u_env_strength"), static_cast<float>(light.strength));
+    float m[9];
+    for (int i = 0; i < 9; ++i) m[i] = static_cast<float>(map->world_to_map()[i]);
+    glUniformMatrix3fv(loc("u_env_world_to_map"), 1, GL_TRUE, m);  // Row-major.
+    const GLuint textures[3] = {env_tex, env_pdf_tex, env_samples_tex};
+    const char* names[3] = {"u_env_map", "u_env_pdf", "u_env_samples"};
+    for (int i = 0; i < 3; ++i) {
+      glActiveTexture(GL_TEXTURE0 + i);
+      glBindTexture(GL_TEXTURE_2D, textures[i]);
+      glUniform1i(loc(names[i]), i);
+    }
+  }
+
+  void BindScene(GLuint program, const Scene& scene) {
+    auto loc = [&](const std::string& n) { return glGetUniformLocation(program, n.c_str()); };
+    const Camera& cam = scene.camera;
+    Vec3d right, up, forward;
+    cam.Basis(&right, &up, &forward);
+    auto set3 = [&](const std::string& n, const Vec3d& v) {
+      glUniform3f(loc(n), static_cast<float>(v.x), static_cast<float>(v.y),
+                  static_cast<float>(v.z));
+    };
+    glUniform1i(loc("u_cam_ortho"), cam.type == Camera::Type::kOrthographic);
+    set3("u_cam_pos", cam.position);
+    set3("u_cam_right", right);
+    set3("u_cam_up", up);
+    set3("u_cam_forward", forward);
+    const double scale = cam.type == Camera::Type::kPerspective
+                             ? std::tan(0.5 * cam.fov_y_deg * kPi / 180.0)
+                             : 0.5 * cam.height;
+    glUniform1f(loc("u_cam_scale"), static_cast<float>(scale));
+    glUniform2f(loc("u_resolution"), static_cast<float>(cam.width),
+                static_cast<float>(cam.height_px));
+    glUniform1i(loc("u_supersample"), cam.supersample);
+    glUniform1i(loc("u_num_objects"), static_cast<int>(scene.objects.size()));
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+      const SceneObject& o = scene.objects[i];
+      const std::string idx = fmt::format("[{}]", i);
+      glUniform1i(loc("u_obj_type" + idx), o.type == SceneObject::Type::kSphere ? 0 : 1);
+      if (o.type == SceneObject::Type::kSphere) {
+        glUniform4f(loc("u_obj_a" + idx), o.center.x, o.center.y, o.center.z, o.radius);
+      } else {
+        Vec3d u, v;
+        o.PlaneTangents(&u, &v);
+        glUniform4f(loc("u_obj_a" + idx), o.point.x, o.point.y, o.point.z, 0.0f);
+        glUniform4f(loc("u_obj_b" + idx), o.normal.x, o.normal.y, o.normal.z, o.half_u);
+        glUniform4f(loc("u_obj_c" + idx), u.x, u.y, u.z, o.half_v);
+      }
+    }
+    int n = 0;
+    Vec3d ambient{0, 0, 0};
+    for (const Light& light : scene.lights) {
+      if (light.type == Light::Type::kAmbient) ambient += light.value;
+      if (light.type != Light::Type::kPoint && light.type != Light::Type::kDirectional) continue;
+      const std::string idx = fmt::format("[{}]", n++);
+      glUniform1i(loc("u_light_type" + idx), light.type == Light::Type::kPoint ? 0 : 1);
+      set3("u_light_pos" + idx,
+           light.type == Light::Type::kPoint ? light.position : -light.direction);
+      set3("u_light_value" + idx, light.value);
+    }
+    glUniform1i(loc("u_num_lights"), n);
+    set3("u_ambient", ambient);
+    glUniform1i(loc("u_transparent"), scene.background.transparent ? 1 : 0);
+    set3("u_background", scene.background.color);
+  }
+
+  void Draw(int w, int h, int attachments) {
+    EnsureTargets(w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+    glDrawBuffers(attachments, bufs);
+    glViewport(0, 0, w, h);
+    glBindVertexArray(vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+
+  Image Read(int attachment, int w, int h) {
+    Image img(w, h, 4);
+    glReadBuffer(GL_COLOR_ATTACHMENT0 + attachment);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    std::vector<float> raw(static_cast<std::size_t>(w) * h * 4);
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, raw.data());
+    // GL rows start at the bottom; ours at the top.
+    const std::size_t row = static_cast<std::size_t>(w) * 4;
+    for (int y = 0; y < h; ++y) {
+      std::copy_n(&raw[(h - 1 - y) * row], row, &img.data[y * row]);
+    }
+    return img;
+  }
+};
+
+Renderer::Renderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
+Renderer::~Renderer() = default;
+
+Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<double>& params) {
+  const ModelInfo& info = GetModel(model);
+  if (static_cast<int>(params.size()) != info.ParamCount() || info.ParamCount() > kMaxParams) {
+    throw Error("", "params", fmt::format("model {} takes {} parameters, got {}", info.name,
+                                          info.ParamCount(), params.size()));
+  }
+  GLuint program = impl_->Program(model, false);
+  glUseProgram(program);
+  impl_->BindScene(program, scene);
+  impl_->BindEnvironment(program, scene, model, params);
+  float p[kMaxParams] = {0};
+  for (std::size_t i = 0; i < params.size(); ++i) p[i] = static_cast<float>(params[i]);
+  glUniform1fv(glGetUniformLocation(program, "u_params"), kMaxParams, p);
+  const int w = scene.camera.width, h = scene.camera.height_px;
+  impl_->Draw(w, h, 1);
+  return impl_->Read(0, w, h);
+}
+
+GBuffer Renderer::RenderGBuffer(const Scene& scene) {
+  GLuint program = impl_->Program(ModelId::kLambert, true);
+  glUseProgram(program);
+  impl_->BindScene(program, scene);
+  const int w = scene.camera.width, h = scene.camera.height_px;
+  impl_->Draw(w, h, 3);
+  GBuffer g;
+  g.width = w;
+  g.height = h;
+  g.position = impl_->Read(0, w, h);
+  g.normal = impl_->Read(1, w, h);
+  g.view = impl_->Read(2, w, h);
+  return g;
+}
+
+}  // namespace shadefit

@@ -1,0 +1,393 @@
+#include "shadefit/render/scene.h"
+
+#include <fmt/format.h>
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "shadefit/render/error.h"
+
+namespace shadefit {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Reads typed, validated values out of one TOML table, naming file, line and key on error.
+class TableReader {
+ public:
+  TableReader(const toml::table& table, std::string file, std::string prefix)
+      : table_(table), file_(std::move(file)), prefix_(std::move(prefix)) {}
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& problem,
+                         const toml::node* node = nullptr) const {
+    const auto& src = node ? node->source() : table_.source();
+    const std::string where =
+        src.begin.line > 0 ? fmt::format("{}:{}", file_, src.begin.line) : file_;
+    throw Error(where, prefix_ + key, problem);
+  }
+
+  void CheckKeys(const std::set<std::string>& allowed) const {
+    for (const auto& [key, node] : table_) {
+      if (!allowed.count(std::string(key.str()))) {
+        Fail(std::string(key.str()), "unknown key", &node);
+      }
+    }
+  }
+
+  bool Has(const std::string& key) const { return table_.contains(key); }
+
+  double Number(const std::string& key, double def, double min, double max,
+                bool required = false) const {
+    const toml::node* node = table_.get(key);
+    if (!node) {
+      if (required) Fail(key, "missing");
+      return def;
+    }
+    const auto v = node->value<double>();
+    if (!v) Fail(key, "expected a number", node);
+    if (!std::isfinite(*v) || *v < min || *v > max) {
+      Fail(key, fmt::format("value {} outside [{}, {}]", *v, min, max), node);
+    }
+    return *v;
+  }
+
+  int Integer(const std::string& key, int def, int min, int max) const {
+    const toml::node* node = table_.get(key);
+    if (!node) return def;
+    const auto v = node->value<int64_t>();
+    if (!v || !node->is_integer()) Fail(key, "expected an integer", node);
+    if (*v < min || *v > max) Fail(key, fmt::format("value {} outside [{}, {}]", *v, min, max), node);
+    return static_cast<int>(*v);
+  }
+
+  bool Bool(const std::string& key, bool def) const {
+    const toml::node* node = table_.get(key);
+    if (!node) return def;
+    const auto v = node->value<bool>();
+    if (!v) Fail(key, "expected true or false", node);
+    return *v;
+  }
+
+  std::string String(const std::string& key, const std::string& def, bool required = false) const {
+    const toml::node* node = table_.get(key);
+    if (!node) {
+      if (required) Fail(key, "missing");
+      return def;
+    }
+    const auto v = node->value<std::string>();
+    if (!v) Fail(key, "expected a string", node);
+    return *v;
+  }
+
+  // A 3-vector; with allow_scalar a single number fills all three (colours, powers).
+  Vec3d Vector(const std::string& key, const Vec3d& def, bool required = false,
+               bool allow_scalar = false, double min = -1e30) const {
+    const toml::node* node = table_.get(key);
+    if (!node) {
+      if (required) Fail(key, "missing");
+      return def;
+    }
+    Vec3d out;
+    if (allow_scalar && node->is_number()) {
+      const double v = *node->value<double>();
+      out = {v, v, v};
+    } else {
+      const toml::array* arr = node->as_array();
+      if (!arr || arr->size() != 3) {
+        Fail(key, allow_scalar ? "expected a number or an array of 3 numbers"
+                               : "expected an array of 3 numbers", node);
+      }
+      for (int i = 0; i < 3; ++i) {
+        const auto v = (*arr)[i].value<double>();
+        if (!v) Fail(key, "expected an array of 3 numbers", node);
+        out[i] = *v;
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      if (!std::isfinite(out[i]) || out[i] < min) {
+        Fail(key, fmt::format("component {} = {} is not allowed (minimum {})", i, out[i], min),
+             node);
+      }
+    }
+    return out;
+  }
+
+  const toml::table& table() const { return table_; }
+
+ private:
+  const toml::table& table_;
+  std::string file_;
+  std::string prefix_;
+};
+
+Vec3d UnitOrFail(const TableReader& r, const std::string& key, const Vec3d& v) {
+  const double len = Length(v);
+  if (!(len > 1e-12)) r.Fail(key, "must not be the zero vector");
+  return v / len;
+}
+
+void ParseCamera(const TableReader& r, Camera* cam) {
+  r.CheckKeys({"type", "position", "look_at", "up", "fov_y", "height", "resolution",
+               "supersample"});
+  const std::string type = r.String("type", "perspective");
+  if (type == "perspective") {
+    cam->type = Camera::Type::kPerspective;
+  } else if (type == "orthographic") {
+    cam->type = Camera::Type::kOrthographic;
+  } else {
+    r.Fail("type", "expected \"perspective\" or \"orthographic\"");
+  }
+  cam->position = r.Vector("position", cam->position, true);
+  cam->look_at = r.Vector("look_at", cam->look_at, true);
+  cam->up = r.Vector("up", cam->up);
+  cam->fov_y_deg = r.Number("fov_y", cam->fov_y_deg, 0.1, 179.0);
+  cam->height = r.Number("height", cam->height, 1e-6, 1e6);
+  if (r.Has("resolution")) {
+    const toml::node* node = r.table().get("resolution");
+    const toml::array* arr = node->as_array();
+    if (!arr || arr->size() != 2 || !(*arr)[0].is_integer() || !(*arr)[1].is_integer()) {
+      r.Fail("resolution", "expected [width, height] integers", node);
+    }
+    const int64_t w = *(*arr)[0].value<int64_t>();
+    const int64_t h = *(*arr)[1].value<int64_t>();
+    if (w < 1 || h < 1 || w > 8192 || h > 8192) r.Fail("resolution", "must be 1..8192", node);
+    cam->width = static_cast<int>(w);
+    cam->height_px = static_cast<int>(h);
+  }
+  cam->supersample = r.Integer("supersample", 1, 1, 16);
+  const Vec3d forward = cam->look_at - cam->position;
+  if (!(Length(forward) > 1e-9)) r.Fail("look_at", "equals position");
+  if (!(Length(Cross(Normalize(forward), UnitOrFail(r, "up", cam->up))) > 1e-6)) {
+    r.Fail("up", "is parallel to the view direction");
+  }
+}
+
+SceneObject ParseObject(const TableReader& r) {
+  SceneObject o;
+  const std::string type = r.String("type", "", true);
+  if (type == "sphere") {
+    r.CheckKeys({"type", "center", "radius"});
+    o.type = SceneObject::Type::kSphere;
+    o.center = r.Vector("center", o.center);
+    o.radius = r.Number("radius", 1.0, 1e-9, 1e9);
+  } else if (type == "plane") {
+    r.CheckKeys({"type", "point", "normal", "half_size"});
+    o.type = SceneObject::Type::kPlane;
+    o.point = r.Vector("point", o.point);
+    o.normal = UnitOrFail(r, "normal", r.Vector("normal", o.normal, true));
+    if (r.Has("half_size")) {
+      const toml::node* node = r.table().get("half_size");
+      const toml::array* arr = node->as_array();
+      if (!arr || arr->size() != 2 || !(*arr)[0].value<double>() || !(*arr)[1].value<double>()) {
+        r.Fail("half_size", "expected [half_u, half_v] numbers", node);
+      }
+      o.half_u = *(*arr)[0].value<double>();
+      o.half_v = *(*arr)[1].value<double>();
+      if (!(o.half_u > 0) || !(o.half_v > 0)) r.Fail("half_size", "must be positive", node);
+    }
+  } else {
+    r.Fail("type", "expected \"sphere\" or \"plane\"");
+  }
+  return o;
+}
+
+Light ParseLight(const TableReader& r, const std::string& scene_dir) {
+  Light l;
+  const std::string type = r.String("type", "", true);
+  constexpr double kInv4Pi = 1.0 / (4.0 * 3.14159265358979323846);
+  if (type == "point") {
+    r.CheckKeys({"type", "position", "power", "intensity"});
+    l.type = Light::Type::kPoint;
+    l.position = r.Vector("position", l.position, true);
+    if (r.Has("power") == r.Has("intensity")) {
+      r.Fail("power", "give exactly one of power (W) or intensity (W/sr)");
+    }
+    // Cycles: a point light of power P and radius 0 has intensity P / (4 pi) W/sr.
+    l.value = r.Has("power") ? r.Vector("power", {}, true, true, 0.0) * kInv4Pi
+                             : r.Vector("intensity", {}, true, true, 0.0);
+  } else if (type == "directional") {
+    r.CheckKeys({"type", "direction", "irradiance"});
+    l.type = Light::Type::kDirectional;
+    l.direction = UnitOrFail(r, "direction", r.Vector("direction", {}, true));
+    l.value = r.Vector("irradiance", {}, true, true, 0.0);
+  } else if (type == "ambient") {
+    r.CheckKeys({"type", "radiance"});
+    l.type = Light::Type::kAmbient;
+    l.value = r.Vector("radiance", {}, true, true, 0.0);
+  } else if (type == "environment") {
+    r.CheckKeys({"type", "file", "strength", "rotation_z", "samples"});
+    l.type = Light::Type::kEnvironment;
+    fs::path file = r.String("file", "", true);
+    if (file.is_relative()) file = fs::path(scene_dir) / file;
+    if (!fs::exists(file)) {
+      r.Fail("file", fmt::format("'{}' not found (the Blender maps come with Debian's "
+                                 "blender-data package)", file.string()));
+    }
+    l.file = file.string();
+    l.strength = r.Number("strength", 1.0, 0.0, 1e9);
+    l.rotation_z_deg = r.Number("rotation_z", 0.0, -1e4, 1e4);
+    l.samples = r.Integer("samples", 256, 1, 65536);
+  } else if (type == "uniform") {
+    r.CheckKeys({"type", "radiance", "samples"});
+    l.type = Light::Type::kUniform;
+    l.value = r.Vector("radiance", {}, true, true, 0.0);
+    l.samples = r.Integer("samples", 256, 1, 65536);
+  } else {
+    r.Fail("type", "expected point, directional, ambient, environment or uniform");
+  }
+  return l;
+}
+
+}  // namespace
+
+void Camera::Basis(Vec3d* right, Vec3d* true_up, Vec3d* forward) const {
+  *forward = Normalize(look_at - position);
+  *right = Normalize(Cross(*forward, up));
+  *true_up = Cross(*right, *forward);
+}
+
+void SceneObject::PlaneTangents(Vec3d* u, Vec3d* v) const {
+  const Vec3d ref = std::abs(normal.x) > 0.9 ? Vec3d{0, 1, 0} : Vec3d{1, 0, 0};
+  *u = Normalize(Cross(normal, ref));
+  *v = Cross(normal, *u);
+}
+
+int Scene::EnvironmentLight() const {
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    if (lights[i].type == Light::Type::kEnvironment || lights[i].type == Light::Type::kUniform) {
+      return static_cast<int>(i);
+    }
+  }
+  return -1;
+}
+
+Scene ParseScene(const std::string& text, const std::string& name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw Error(fmt::format("{}:{}", name, e.source().begin.line), "",
+                fmt::format("malformed TOML: {}", e.description()));
+  }
+  Scene scene;
+  scene.path = name;
+  scene.source_text = text;
+  const std::string dir = fs::path(name).parent_path().string();
+  TableReader top(root, name, "");
+  top.CheckKeys({"camera", "objects", "lights", "background"});
+
+  const toml::table* cam = root["camera"].as_table();
+  if (!cam) top.Fail("camera", "missing [camera] table");
+  ParseCamera(TableReader(*cam, name, "camera."), &scene.camera);
+
+  auto for_each_table = [&](const char* key, auto&& fn) {
+    const toml::node* node = root.get(key);
+    if (!node) return;
+    const toml::array* arr = node->as_array();
+    if (!arr) top.Fail(key, fmt::format("expected [[{}]] tables", key), node);
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      const toml::table* t = (*arr)[i].as_table();
+      if (!t) top.Fail(key, fmt::format("expected [[{}]] tables", key), node);
+      fn(TableReader(*t, name, fmt::format("{}[{}].", key, i)));
+    }
+  };
+  for_each_table("objects", [&](const TableReader& r) {
+    scene.objects.push_back(ParseObject(r));
+  });
+  for_each_table("lights", [&](const TableReader& r) {
+    scene.lights.push_back(ParseLight(r, dir));
+    const Light::Type t = scene.lights.back().type;
+    if ((t == Light::Type::kEnvironment || t == Light::Type::kUniform) &&
+        scene.EnvironmentLight() != static_cast<int>(scene.lights.size()) - 1) {
+      r.Fail("type", "only one environment or uniform light per scene");
+    }
+  });
+  if (scene.objects.empty()) top.Fail("objects", "the scene has no [[objects]]");
+  if (scene.objects.size() > 8) top.Fail("objects", "at most 8 objects");
+  if (scene.lights.size() > 8) top.Fail("lights", "at most 8 lights");
+
+  if (const toml::table* bg = root["background"].as_table()) {
+    TableReader r(*bg, name, "background.");
+    r.CheckKeys({"transparent", "color"});
+    scene.background.transparent = r.Bool("transparent", true);
+    scene.background.color = r.Vector("color", {0, 0, 0}, false, true, 0.0);
+  }
+  return scene;
+}
+
+Scene LoadScene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "", "scene file not found or unreadable");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ParseScene(ss.str(), path);
+}
+
+Ray CameraRay(const Camera& cam, double px, double py) {
+  Vec3d right, up, forward;
+  cam.Basis(&right, &up, &forward);
+  const double aspect = static_cast<double>(cam.width) / cam.height_px;
+  // Normalised device coordinates, +y up; row 0 is the top of the picture.
+  const double nx = 2.0 * px / cam.width - 1.0;
+  const double ny = 1.0 - 2.0 * py / cam.height_px;
+  Ray ray;
+  if (cam.type == Camera::Type::kPerspective) {
+    const double t = std::tan(0.5 * cam.fov_y_deg * 3.14159265358979323846 / 180.0);
+    ray.origin = cam.position;
+    ray.direction = Normalize(forward + right * (nx * t * aspect) + up * (ny * t));
+  } else {
+    const double h = 0.5 * cam.height;
+    ray.origin = cam.position + right * (nx * h * aspect) + up * (ny * h);
+    ray.direction = forward;
+  }
+  return ray;
+}
+
+bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, Hit* hit) {
+  bool found = false;
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const SceneObject& o = scene.objects[i];
+    double t = -1;
+    if (o.type == SceneObject::Type::kSphere) {
+      const Vec3d oc = ray.origin - o.center;
+      const double b = Dot(oc, ray.direction);
+      const double c = Dot(oc, oc) - o.radius * o.radius;
+      const double disc = b * b - c;
+      if (disc < 0) continue;
+      const double s = std::sqrt(disc);
+      t = -b - s;
+      if (t <= t_min) t = -b + s;
+    } else {
+      const double denom = Dot(o.normal, ray.direction);
+      if (std::abs(denom) < 1e-12) continue;
+      t = Dot(o.point - ray.origin, o.normal) / denom;
+      if (o.half_u > 0) {
+        Vec3d u, v;
+        o.PlaneTangents(&u, &v);
+        const Vec3d q = ray.origin + ray.direction * t - o.point;
+        if (std::abs(Dot(q, u)) > o.half_u || std::abs(Dot(q, v)) > o.half_v) continue;
+      }
+    }
+    if (t <= t_min || t >= t_max) continue;
+    t_max = t;
+    found = true;
+    if (hit) {
+      hit->t = t;
+      hit->object = static_cast<int>(i);
+      hit->position = ray.origin + ray.direction * t;
+      if (o.type == SceneObject::Type::kSphere) {
+        hit->normal = (hit->position - o.center) / o.radius;
+      } else {
+        hit->normal = Dot(o.normal, ray.direction) < 0 ? o.normal : -o.normal;
+      }
+    }
+  }
+  return found;
+}
+
+}  // namespace shadefit

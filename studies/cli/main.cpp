@@ -1,0 +1,34 @@
+// shadefit: fits shading models to reference images and measures which effects they reproduce.
+#include <cstdio>
+#include <exception>
+
+#include "commands.h"
+#include "shadefit/render/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"shadefit: fit Blinn-Phong and microfacet shading models to reference images"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", SHADEFIT_VERSION_STRING);
+  using namespace shadefit::cli;
+  RegisterInfoCommand(app);
+  RegisterModelsCommand(app);
+  RegisterRenderCommand(app);
+  RegisterMetricsCommand(app);
+  RegisterFitCommand(app);
+  RegisterRefsCommand(app);
+  RegisterProbeCommand(app);
+  RegisterStudyCommand(app);
+  RegisterReportCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const shadefit::Error& e) {
+    std::fprintf(stderr, "shadefit: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "shadefit: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
