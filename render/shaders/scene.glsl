@@ -38,14 +38,21 @@ int Intersect(vec3 origin, vec3 dir, float t_min, float t_max, out float t_hit, 
     float t = -1.0;
     vec3 nrm;
     if (u_obj_type[i] == 0) {
+      // Haines et al. 2019, "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing
+      // Gems, ch. 7): the discriminant from the closest-approach vector, and the two roots
+      // without cancellation, so that float normals stay accurate up to the silhouette.
+      float r = u_obj_a[i].w;
       vec3 oc = origin - u_obj_a[i].xyz;
       float b = dot(oc, dir);
-      float c = dot(oc, oc) - u_obj_a[i].w * u_obj_a[i].w;
-      float disc = b * b - c;
+      vec3 qc = oc - b * dir;
+      float disc = r * r - dot(qc, qc);
       if (disc < 0.0) continue;
-      float s = sqrt(disc);
-      t = -b - s;
-      if (t <= t_min) t = -b + s;
+      float c = dot(oc, oc) - r * r;
+      float q = b > 0.0 ? -b - sqrt(disc) : -b + sqrt(disc);
+      float t0 = c / q, t1 = q;
+      if (t0 > t1) { float tmp = t0; t0 = t1; t1 = tmp; }
+      t = t0;
+      if (t <= t_min) t = t1;
       nrm = (origin + dir * t - u_obj_a[i].xyz) / u_obj_a[i].w;
     } else {
       vec3 pn = u_obj_b[i].xyz;

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "shadefit/render/error.h"
 
@@ -354,14 +355,19 @@ bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, H
     const SceneObject& o = scene.objects[i];
     double t = -1;
     if (o.type == SceneObject::Type::kSphere) {
+      // Same robust form as render/shaders/scene.glsl (Haines et al. 2019).
+      const double r = o.radius;
       const Vec3d oc = ray.origin - o.center;
       const double b = Dot(oc, ray.direction);
-      const double c = Dot(oc, oc) - o.radius * o.radius;
-      const double disc = b * b - c;
+      const Vec3d qc = oc - ray.direction * b;
+      const double disc = r * r - Dot(qc, qc);
       if (disc < 0) continue;
-      const double s = std::sqrt(disc);
-      t = -b - s;
-      if (t <= t_min) t = -b + s;
+      const double c = Dot(oc, oc) - r * r;
+      const double q = b > 0 ? -b - std::sqrt(disc) : -b + std::sqrt(disc);
+      double t0 = c / q, t1 = q;
+      if (t0 > t1) std::swap(t0, t1);
+      t = t0;
+      if (t <= t_min) t = t1;
     } else {
       const double denom = Dot(o.normal, ray.direction);
       if (std::abs(denom) < 1e-12) continue;
