@@ -23,8 +23,10 @@ std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
       sp.x = x;
       sp.y = y;
       const Vec3d p{g.position.at(x, y, 0), g.position.at(x, y, 1), g.position.at(x, y, 2)};
-      sp.n = {g.normal.at(x, y, 0), g.normal.at(x, y, 1), g.normal.at(x, y, 2)};
-      sp.v = {g.view.at(x, y, 0), g.view.at(x, y, 1), g.view.at(x, y, 2)};
+      // Renormalised in double: float storage leaves |n| = 1 +- 1e-7, which a Blinn-Phong
+      // exponent of 10^4 would turn into a 1e-3 error.
+      sp.n = Normalize(Vec3d{g.normal.at(x, y, 0), g.normal.at(x, y, 1), g.normal.at(x, y, 2)});
+      sp.v = Normalize(Vec3d{g.view.at(x, y, 0), g.view.at(x, y, 1), g.view.at(x, y, 2)});
       sp.ambient = ambient;
       for (const Light& light : scene.lights) {
         PixelLight pl;

@@ -22,25 +22,35 @@ namespace {
 const char* const kFragmentFiles[] = {"brdf.glsl", "models.glsl", "scene.glsl",
                                       "environment.glsl", "render.frag"};
 
+// Each file starts at line k * kLineBase + 1, so an error's line number alone says which file
+// it is in, whatever a driver does with #line's source-string number (Mesa prints 0).
+constexpr int kLineBase = 100000;
+
 std::string JoinSources(const std::string& preamble, const std::vector<std::string>& files) {
   std::string out = preamble;
   for (std::size_t k = 0; k < files.size(); ++k) {
-    out += fmt::format("#line 1 {}\n", k + 1);
+    out += fmt::format("#line {}\n", (k + 1) * kLineBase + 1);
     out += internal::ShaderSources().at(files[k]);
     out += "\n";
   }
   return out;
 }
 
-// Mesa and NVIDIA print "<source>:<line>(<col>)" or "<source>(<line>)"; put file names back.
-std::string NameSources(std::string log, const std::vector<std::string>& files) {
-  for (std::size_t k = 0; k < files.size(); ++k) {
-    log = std::regex_replace(log, std::regex(fmt::format(R"(\b{}:(\d+)\()", k + 1)),
-                             files[k] + ":$1(");
-    log = std::regex_replace(log, std::regex(fmt::format(R"(\b{}\((\d+)\))", k + 1)),
-                             files[k] + "($1)");
+// Rewrites "<n>:<line>(<col>)" (Mesa) and "<n>(<line>)" (NVIDIA) locations as "<file>:<line>".
+std::string NameSources(const std::string& log, const std::vector<std::string>& files) {
+  static const std::regex kLocation(R"((\d+)[:(](\d+)\)?(\(\d+\))?)");
+  std::string out;
+  auto begin = std::sregex_iterator(log.begin(), log.end(), kLocation);
+  std::size_t last = 0;
+  for (auto it = begin; it != std::sregex_iterator(); ++it) {
+    const long line = std::stol((*it)[2].str());
+    const std::size_t k = static_cast<std::size_t>(line / kLineBase);
+    if (k < 1 || k > files.size()) continue;
+    out += log.substr(last, it->position() - last);
+    out += fmt::format("{}:{}", files[k - 1], line % kLineBase);
+    last = it->position() + it->length();
   }
-  return log;
+  return out + log.substr(last);
 }
 
 GLuint CompileShader(GLenum type, const std::string& source,
