@@ -75,6 +75,9 @@ GLuint CompileShader(GLenum type, const std::string& source,
 }
 
 constexpr int kMaxParams = 16;  // u_params[16] in models.glsl.
+// Texture unit used only to create textures, so that doing so never disturbs the units 0-2 the
+// environment samplers are bound to.
+constexpr int kScratchTextureUnit = 15;
 
 }  // namespace
 
@@ -138,6 +141,7 @@ struct Renderer::Impl {
     if (w == fbo_width && h == fbo_height) return;
     glDeleteTextures(3, color_tex);
     glGenTextures(3, color_tex);
+    glActiveTexture(GL_TEXTURE0 + kScratchTextureUnit);
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     for (int i = 0; i < 3; ++i) {
       glBindTexture(GL_TEXTURE_2D, color_tex[i]);
@@ -156,6 +160,7 @@ struct Renderer::Impl {
                                  GLenum filter, GLenum wrap_s) {
     GLuint tex = 0;
     glGenTextures(1, &tex);
+    glActiveTexture(GL_TEXTURE0 + kScratchTextureUnit);
     glBindTexture(GL_TEXTURE_2D, tex);
     glTexStorage2D(GL_TEXTURE_2D, 1, internal, w, h);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
