@@ -7,7 +7,8 @@
 //      (Walter et al. 2007, eqs. 35-36), which keep sharp highlights converged.
 // docs/environment.md states the error against a brute-force reference; a test holds it.
 
-uniform int u_env_mode;            // 0 none, 1 uniform radiance, 2 equirectangular map
+// SHADEFIT_ENV_MODE (compile-time): 0 none, 1 uniform radiance, 2 equirectangular map.
+const int u_env_mode = SHADEFIT_ENV_MODE;
 uniform vec3 u_env_radiance;       // uniform mode
 uniform sampler2D u_env_map;       // linear RGB, row 0 = top of the map (v = 1)
 uniform sampler2D u_env_pdf;       // R: density over the unit (u, v) square, same layout

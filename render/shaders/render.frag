@@ -1,13 +1,14 @@
 // Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_MODEL,
-// SHADEFIT_GBUFFER, then brdf.glsl, models.glsl, scene.glsl, environment.glsl.
+// SHADEFIT_GBUFFER, SHADEFIT_NUM_OBJECTS, SHADEFIT_NUM_LIGHTS, SHADEFIT_SUPERSAMPLE,
+// SHADEFIT_ENV_MODE, then brdf.glsl, models.glsl, scene.glsl, environment.glsl.
 
 const int kMaxLights = 8;
-uniform int u_num_lights;
+const int u_num_lights = SHADEFIT_NUM_LIGHTS;  // Point and directional lights.
 uniform int u_light_type[kMaxLights];   // 0 point, 1 directional (ambient/env handled apart).
 uniform vec3 u_light_pos[kMaxLights];   // point: position; directional: direction to the light.
 uniform vec3 u_light_value[kMaxLights]; // point: intensity W/sr; directional: irradiance.
 uniform vec3 u_ambient;                 // ambient radiance (classic ka term)
-uniform int u_supersample;
+const int u_supersample = SHADEFIT_SUPERSAMPLE;
 uniform int u_transparent;
 uniform vec3 u_background;
 

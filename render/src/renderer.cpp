@@ -87,7 +87,9 @@ struct Renderer::Impl {
   GLuint fbo = 0;
   int fbo_width = 0, fbo_height = 0;
   GLuint color_tex[3] = {0, 0, 0};
-  std::map<std::pair<int, bool>, GLuint> programs;  // (model, gbuffer) -> program
+  // Programs are specialised on the model and on the scene's shape (counts of objects and
+  // lights, supersampling, environment kind), which the shader takes as compile-time constants.
+  std::map<std::string, GLuint> programs;
   // Environment textures, rebuilt when the light changes.
   std::shared_ptr<const EnvironmentMap> env;
   int env_samples = 0;
@@ -107,13 +109,22 @@ struct Renderer::Impl {
     glDeleteVertexArrays(1, &vao);
   }
 
-  GLuint Program(ModelId model, bool gbuffer) {
-    const auto key = std::make_pair(static_cast<int>(model), gbuffer);
-    auto it = programs.find(key);
+  GLuint Program(ModelId model, bool gbuffer, const Scene& scene) {
+    int num_lights = 0;
+    for (const Light& light : scene.lights) {
+      num_lights += light.type == Light::Type::kPoint || light.type == Light::Type::kDirectional;
+    }
+    const int env = scene.EnvironmentLight();
+    const int env_mode =
+        env < 0 ? 0 : (scene.lights[env].type == Light::Type::kUniform ? 1 : 2);
+    const std::string preamble = fmt::format(
+        "#version 430 core\n#define SHADEFIT_MODEL {}\n#define SHADEFIT_GBUFFER {}\n"
+        "#define SHADEFIT_NUM_OBJECTS {}\n#define SHADEFIT_NUM_LIGHTS {}\n"
+        "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n",
+        static_cast<int>(model), gbuffer ? 1 : 0, scene.objects.size(), num_lights,
+        scene.camera.supersample, gbuffer ? 0 : env_mode);
+    auto it = programs.find(preamble);
     if (it != programs.end()) return it->second;
-    const std::string preamble =
-        fmt::format("#version 430 core\n#define SHADEFIT_MODEL {}\n#define SHADEFIT_GBUFFER {}\n",
-                    static_cast<int>(model), gbuffer ? 1 : 0);
     const std::vector<std::string> vfiles = {"fullscreen.vert"};
     const std::vector<std::string> ffiles(std::begin(kFragmentFiles), std::end(kFragmentFiles));
     GLuint vs = CompileShader(GL_VERTEX_SHADER, JoinSources("#version 430 core\n", vfiles), vfiles);
@@ -133,7 +144,7 @@ struct Renderer::Impl {
       std::string line(log);
       throw Error("GLSL", "link", line.substr(0, line.find('\n')));
     }
-    programs[key] = program;
+    programs[preamble] = program;
     return program;
   }
 
@@ -176,14 +187,12 @@ struct Renderer::Impl {
                        const std::vector<double>& params) {
     auto loc = [&](const char* n) { return glGetUniformLocation(program, n); };
     const int index = scene.EnvironmentLight();
-    glUniform1i(loc("u_env_mode"), 0);
     if (index < 0) return;
     const Light& light = scene.lights[index];
     glUniform1i(loc("u_env_count"), light.samples);
     glUniform1f(loc("u_lobe_alpha"),
                 static_cast<float>(SpecularLobeAlpha(model, params.data())));
     if (light.type == Light::Type::kUniform) {
-      glUniform1i(loc("u_env_mode"), 1);
       glUniform3f(loc("u_env_radiance"), light.value.x, light.value.y, light.value.z);
       return;
     }
@@ -203,7 +212,6 @@ struct Renderer::Impl {
       env_samples_tex = MakeFloatTexture(GL_RGBA32F, GL_RGBA, light.samples, 1, samples.data(),
                                          GL_NEAREST, GL_CLAMP_TO_EDGE);
     }
-    glUniform1i(loc("u_env_mode"), 2);
     glUniform1f(loc("u_env_strength"), static_cast<float>(light.strength));
     float m[9];
     for (int i = 0; i < 9; ++i) m[i] = static_cast<float>(map->world_to_map()[i]);
@@ -237,8 +245,6 @@ struct Renderer::Impl {
     glUniform1f(loc("u_cam_scale"), static_cast<float>(scale));
     glUniform2f(loc("u_resolution"), static_cast<float>(cam.width),
                 static_cast<float>(cam.height_px));
-    glUniform1i(loc("u_supersample"), cam.supersample);
-    glUniform1i(loc("u_num_objects"), static_cast<int>(scene.objects.size()));
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
       const SceneObject& o = scene.objects[i];
       const std::string idx = fmt::format("[{}]", i);
@@ -264,7 +270,6 @@ struct Renderer::Impl {
            light.type == Light::Type::kPoint ? light.position : -light.direction);
       set3("u_light_value" + idx, light.value);
     }
-    glUniform1i(loc("u_num_lights"), n);
     set3("u_ambient", ambient);
     glUniform1i(loc("u_transparent"), scene.background.transparent ? 1 : 0);
     set3("u_background", scene.background.color);
@@ -304,7 +309,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
     throw Error("", "params", fmt::format("model {} takes {} parameters, got {}", info.name,
                                           info.ParamCount(), params.size()));
   }
-  GLuint program = impl_->Program(model, false);
+  GLuint program = impl_->Program(model, false, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
   impl_->BindEnvironment(program, scene, model, params);
@@ -317,7 +322,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
 }
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
-  GLuint program = impl_->Program(ModelId::kLambert, true);
+  GLuint program = impl_->Program(ModelId::kLambert, true, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
   const int w = scene.camera.width, h = scene.camera.height_px;
