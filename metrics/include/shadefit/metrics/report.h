@@ -1,0 +1,73 @@
+// All metrics between two images in one call, their JSON form and their map files.
+// Every field is documented in docs/metrics.md.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "shadefit/metrics/ciede2000.h"
+#include "shadefit/metrics/common.h"
+#include "shadefit/metrics/flip.h"
+#include "shadefit/metrics/ssim.h"
+#include "shadefit/render/image.h"
+
+namespace shadefit::metrics {
+
+struct MetricsParameters {
+  // Exposure (stops) of the display transform used by PSNR, SSIM, MS-SSIM, CIEDE2000, LDR-FLIP.
+  float exposure_stops = 0.0f;
+  // FLIP observer pixels per degree.
+  double ppd = 67.0;
+  // eps of the relative error (linear units).
+  float relative_epsilon = 0.01f;
+  // Names used in error messages (the CLI passes file paths).
+  InputNames names;
+};
+
+struct MetricsReport {
+  int width = 0;
+  int height = 0;
+  std::size_t valid_pixels = 0;  // Pixels inside the mask (all pixels without one).
+  bool masked = false;
+  float exposure_stops = 0.0f;
+  double ppd = 67.0;
+  float relative_epsilon = 0.01f;
+  // Linear HDR RGB.
+  double rmse = 0.0;
+  double relative_rmse = 0.0;
+  double log_rmse = 0.0;
+  double mae = 0.0;
+  // Display transform.
+  double psnr = 0.0;
+  SsimResult ssim_luminance;
+  SsimResult ssim_rgb;
+  MsSsimResult ms_ssim;  // On display-encoded luminance.
+  DeltaE2000Result ciede2000;
+  FlipResult flip_ldr;  // On the display-referred (exposed, clipped) linear images.
+  FlipResult flip_hdr;  // On the linear HDR images.
+};
+
+// One-channel maps, same size as the inputs (NaN where masked out for the point-wise ones).
+struct MetricsMaps {
+  Image absolute_error;  // Mean over RGB of |t - r|, linear units.
+  Image relative_error;  // Mean over RGB of |t - r| / (|r| + eps).
+  Image ssim;            // Luminance SSIM map.
+  Image ciede2000;       // Delta E_00.
+  Image flip_ldr;        // LDR-FLIP.
+  Image flip_hdr;        // HDR-FLIP.
+};
+
+// Checks the inputs (ValidateInputs with 3 channels and p.names) and computes every metric.
+// reference, test: linear HDR RGB (alpha ignored); mask: optional, single channel.
+MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Image* mask,
+                             const MetricsParameters& p = {}, MetricsMaps* maps = nullptr);
+
+// The report as JSON (schema "shadefit.metrics/1", fields in docs/metrics.md). Non-finite
+// numbers (PSNR of identical images) are written as null.
+nlohmann::json MetricsToJson(const MetricsReport& report);
+
+// Writes abs_error.png, rel_error.png (viridis), flip_ldr.png, flip_hdr.png (magma, fixed range
+// [0, 1]), ssim.png (viridis, [0, 1]) and ciede2000.png into an existing directory.
+void WriteMetricMaps(const MetricsMaps& maps, const std::string& directory);
+
+}  // namespace shadefit::metrics

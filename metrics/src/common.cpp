@@ -1,0 +1,105 @@
+#include "shadefit/metrics/common.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "shadefit/render/error.h"
+
+namespace shadefit::metrics {
+namespace {
+
+std::string SizeString(const Image& image) {
+  return std::to_string(image.width) + "x" + std::to_string(image.height);
+}
+
+void CheckFinite(const Image& image, const std::string& name) {
+  for (std::size_t i = 0; i < image.data.size(); ++i) {
+    if (!std::isfinite(image.data[i])) {
+      const std::size_t pixel = i / image.channels;
+      throw Error(name, "pixels",
+                  std::string(std::isnan(image.data[i]) ? "NaN" : "infinite") + " value at (" +
+                      std::to_string(pixel % image.width) + ", " +
+                      std::to_string(pixel / image.width) + ") channel " +
+                      std::to_string(i % image.channels));
+    }
+  }
+}
+
+}  // namespace
+
+void ValidateInputs(const Image& reference, const Image& test, const Image* mask,
+                    int min_channels, const InputNames& names) {
+  if (reference.empty()) throw Error(names.reference, "resolution", "image has no pixels");
+  if (test.empty()) throw Error(names.test, "resolution", "image has no pixels");
+  if (test.width != reference.width || test.height != reference.height) {
+    throw Error(names.test, "resolution",
+                SizeString(test) + " differs from the reference's " + SizeString(reference) +
+                    " (" + names.reference + ")");
+  }
+  if (reference.channels < min_channels) {
+    throw Error(names.reference, "channels",
+                "has " + std::to_string(reference.channels) + ", needs at least " +
+                    std::to_string(min_channels));
+  }
+  if (test.channels < min_channels) {
+    throw Error(names.test, "channels",
+                "has " + std::to_string(test.channels) + ", needs at least " +
+                    std::to_string(min_channels));
+  }
+  if (min_channels == 0 && test.channels != reference.channels) {
+    throw Error(names.test, "channels",
+                "has " + std::to_string(test.channels) + ", the reference has " +
+                    std::to_string(reference.channels));
+  }
+  CheckFinite(reference, names.reference);
+  CheckFinite(test, names.test);
+  if (mask == nullptr) return;
+  if (mask->empty()) throw Error(names.mask, "resolution", "mask has no pixels");
+  if (mask->width != reference.width || mask->height != reference.height) {
+    throw Error(names.mask, "resolution",
+                SizeString(*mask) + " differs from the reference's " + SizeString(reference));
+  }
+  if (mask->channels != 1) {
+    throw Error(names.mask, "channels",
+                "mask must have 1 channel, has " + std::to_string(mask->channels));
+  }
+  CheckFinite(*mask, names.mask);
+  if (CountValidPixels(mask, mask->width, mask->height) == 0) {
+    throw Error(names.mask, "pixels", "empty mask (no pixel > 0.5)");
+  }
+}
+
+std::size_t CountValidPixels(const Image* mask, int width, int height) {
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  if (mask == nullptr) return n;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) count += mask->data[i] > 0.5f ? 1 : 0;
+  return count;
+}
+
+Image Luminance(const Image& linear_rgb) {
+  Image out(linear_rgb.width, linear_rgb.height, 1);
+  const int c = linear_rgb.channels;
+  for (std::size_t i = 0; i < out.PixelCount(); ++i) {
+    const float* p = &linear_rgb.data[i * c];
+    // Rec. 709 / sRGB luminance weights (the Y row of the RGB -> XYZ matrix).
+    out.data[i] = 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
+  }
+  return out;
+}
+
+Image DisplayEncode(const Image& linear, float exposure_stops) {
+  const float scale = std::exp2(exposure_stops);
+  Image out = linear;
+  for (float& v : out.data) v = std::min(1.0f, SrgbOetf(v * scale));  // OETF maps <= 0 to 0.
+  return out;
+}
+
+Image ExposeAndClip(const Image& linear_rgb, float exposure_stops) {
+  const float scale = std::exp2(exposure_stops);
+  Image out = linear_rgb.channels == 3 ? linear_rgb : linear_rgb.Channels(0, 3);
+  for (float& v : out.data) v = std::clamp(v * scale, 0.0f, 1.0f);
+  return out;
+}
+
+}  // namespace shadefit::metrics

@@ -1,0 +1,72 @@
+// Helpers shared by the metric sources (not installed).
+#pragma once
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cmath>
+#include <cstddef>
+#include <thread>
+#include <vector>
+
+#include "shadefit/render/image.h"
+
+namespace shadefit::metrics::internal {
+
+// Runs body(begin_row, end_row) over [0, rows) split into contiguous blocks, one per hardware
+// thread (the rows of a filter pass are independent). Small jobs run inline.
+template <typename Body>
+void ParallelRows(int rows, Body body) {
+  const int threads =
+      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+  if (threads == 1 || rows < 64) {
+    body(0, rows);
+    return;
+  }
+  std::vector<std::thread> pool;
+  const int block = (rows + threads - 1) / threads;
+  for (int t = 1; t < threads; ++t) {
+    const int begin = t * block;
+    const int end = std::min(rows, begin + block);
+    if (begin < end) pool.emplace_back([=] { body(begin, end); });
+  }
+  body(0, std::min(rows, block));
+  for (auto& thread : pool) thread.join();
+}
+
+inline bool IsValid(const Image* mask, std::size_t pixel) {
+  return mask == nullptr || mask->data[pixel] > 0.5f;
+}
+
+// Sorts non-negative floats ascending (LSD radix sort on the bit patterns, which order like the
+// values when the sign bit is clear): O(n), several times faster than std::sort on FLIP maps.
+// Values with the sign bit set (negative, -0) fall back to std::sort.
+inline void SortNonNegative(std::vector<float>& values) {
+  std::vector<std::uint32_t> keys(values.size()), tmp(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    keys[i] = std::bit_cast<std::uint32_t>(values[i]);
+    if (keys[i] >> 31) {
+      std::sort(values.begin(), values.end());
+      return;
+    }
+  }
+  for (int shift = 0; shift < 32; shift += 11) {  // Three passes of 11 bits.
+    std::vector<std::size_t> count(2049, 0);
+    for (std::uint32_t k : keys) ++count[((k >> shift) & 2047u) + 1];
+    for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
+    for (std::uint32_t k : keys) tmp[count[(k >> shift) & 2047u]++] = k;
+    keys.swap(tmp);
+  }
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = std::bit_cast<float>(keys[i]);
+}
+
+// Nearest-rank percentile (rank ceil(q n), 1-based) of values sorted ascending. q in [0, 1].
+inline double NearestRankSorted(const std::vector<float>& sorted, double q) {
+  if (sorted.empty()) return 0.0;
+  const double rank = std::ceil(q * static_cast<double>(sorted.size()));
+  const std::size_t index =
+      std::min(sorted.size() - 1, static_cast<std::size_t>(std::max(1.0, rank)) - 1);
+  return sorted[index];
+}
+
+}  // namespace shadefit::metrics::internal

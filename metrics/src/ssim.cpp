@@ -1,0 +1,290 @@
+#include "shadefit/metrics/ssim.h"
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "internal.h"
+#include "shadefit/metrics/common.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::metrics {
+namespace {
+
+using Plane = std::vector<double>;
+
+// Normalised 1-D Gaussian taps exp(-x^2 / (2 sigma^2)), x in [-radius, radius]. The 2-D window
+// of Wang et al. 2004 (11 x 11, sigma 1.5, sum 1) is their outer product.
+std::vector<double> GaussianTaps(double sigma, int radius) {
+  std::vector<double> taps(2 * radius + 1);
+  double sum = 0.0;
+  for (int i = -radius; i <= radius; ++i) {
+    taps[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
+    sum += taps[i + radius];
+  }
+  for (double& t : taps) t /= sum;
+  return taps;
+}
+
+// Mirror index "d c b a | a b c d" (the edge sample is repeated); valid while radius <= n.
+inline int Reflect(int i, int n) { return i < 0 ? -i - 1 : (i >= n ? 2 * n - i - 1 : i); }
+
+// Pixels pooled into the mean: whole window inside the image and inside the mask.
+std::vector<std::uint8_t> PoolMask(const std::vector<std::uint8_t>& valid, int w, int h, int r) {
+  // Integral image of invalid pixels: a window is usable when it holds none.
+  std::vector<int> integral(static_cast<std::size_t>(w + 1) * (h + 1), 0);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y + 1) * (w + 1) + x + 1;
+      integral[i] = (valid[static_cast<std::size_t>(y) * w + x] ? 0 : 1) + integral[i - 1] +
+                    integral[i - (w + 1)] - integral[i - (w + 1) - 1];
+    }
+  }
+  std::vector<std::uint8_t> pool(static_cast<std::size_t>(w) * h, 0);
+  for (int y = r; y < h - r; ++y) {
+    for (int x = r; x < w - r; ++x) {
+      const auto at = [&](int xx, int yy) {
+        return integral[static_cast<std::size_t>(yy) * (w + 1) + xx];
+      };
+      const int invalid = at(x + r + 1, y + r + 1) - at(x - r, y + r + 1) -
+                          at(x + r + 1, y - r) + at(x - r, y - r);
+      pool[static_cast<std::size_t>(y) * w + x] = invalid == 0 ? 1 : 0;
+    }
+  }
+  return pool;
+}
+
+struct PlaneStats {
+  double ssim = 0.0;       // Mean SSIM over pooled pixels.
+  double cs = 0.0;         // Mean contrast-structure term.
+  double luminance = 0.0;  // Mean luminance term.
+};
+
+// SSIM of one plane pair. map (optional) receives SSIM at every pixel with the given stride.
+PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
+                     const std::vector<std::uint8_t>& pool, std::size_t pooled,
+                     const SsimParameters& p, float* map, int map_stride) {
+  const int r = p.radius;
+  const std::vector<double> taps = GaussianTaps(p.sigma, r);
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  // Horizontal pass of the five moments x, y, x^2, y^2, xy.
+  std::vector<Plane> horizontal(5, Plane(n));
+  internal::ParallelRows(h, [&](int row_begin, int row_end) {
+    std::vector<Plane> padded(5, Plane(w + 2 * r));
+    for (int row = row_begin; row < row_end; ++row) {
+      const double* xr = &x[static_cast<std::size_t>(row) * w];
+      const double* yr = &y[static_cast<std::size_t>(row) * w];
+      for (int i = -r; i < w + r; ++i) {
+        const int s = Reflect(i, w);
+        padded[0][i + r] = xr[s];
+        padded[1][i + r] = yr[s];
+        padded[2][i + r] = xr[s] * xr[s];
+        padded[3][i + r] = yr[s] * yr[s];
+        padded[4][i + r] = xr[s] * yr[s];
+      }
+      for (int f = 0; f < 5; ++f) {
+        double* out = &horizontal[f][static_cast<std::size_t>(row) * w];
+        const double* in = padded[f].data();
+        std::fill(out, out + w, 0.0);
+        for (int k = 0; k <= 2 * r; ++k) {  // Tap-outer: the x loop vectorises.
+          const double t = taps[k];
+          for (int i = 0; i < w; ++i) out[i] += t * in[i + k];
+        }
+      }
+    }
+  });
+  // Vertical pass and the SSIM terms, accumulated per row block.
+  const double c1 = (p.k1 * p.data_range) * (p.k1 * p.data_range);
+  const double c2 = (p.k2 * p.data_range) * (p.k2 * p.data_range);
+  std::vector<double> row_ssim(h, 0.0), row_cs(h, 0.0), row_l(h, 0.0);
+  internal::ParallelRows(h, [&](int row_begin, int row_end) {
+    std::vector<Plane> m(5, Plane(w));
+    for (int row = row_begin; row < row_end; ++row) {
+      for (auto& plane : m) std::fill(plane.begin(), plane.end(), 0.0);
+      for (int k = -r; k <= r; ++k) {
+        const std::size_t offset = static_cast<std::size_t>(Reflect(row + k, h)) * w;
+        const double t = taps[k + r];
+        for (int f = 0; f < 5; ++f) {
+          const double* in = &horizontal[f][offset];
+          double* out = m[f].data();
+          for (int i = 0; i < w; ++i) out[i] += t * in[i];
+        }
+      }
+      double sum_ssim = 0.0, sum_cs = 0.0, sum_l = 0.0;
+      for (int i = 0; i < w; ++i) {
+        const double mx = m[0][i], my = m[1][i];
+        const double vx = m[2][i] - mx * mx;  // Population (biased) moments: skimage's
+        const double vy = m[3][i] - my * my;  // use_sample_covariance=False, Wang's code.
+        const double cxy = m[4][i] - mx * my;
+        const double l = (2.0 * mx * my + c1) / (mx * mx + my * my + c1);  // Eq. 6
+        const double cs = (2.0 * cxy + c2) / (vx + vy + c2);  // Eq. 9 and 10 with C3 = C2 / 2
+        const double s = l * cs;
+        const std::size_t index = static_cast<std::size_t>(row) * w + i;
+        if (map) map[index * map_stride] = static_cast<float>(s);
+        if (pool[index]) {
+          sum_ssim += s;
+          sum_cs += cs;
+          sum_l += l;
+        }
+      }
+      row_ssim[row] = sum_ssim;
+      row_cs[row] = sum_cs;
+      row_l[row] = sum_l;
+    }
+  });
+  PlaneStats stats;
+  for (int row = 0; row < h; ++row) {
+    stats.ssim += row_ssim[row];
+    stats.cs += row_cs[row];
+    stats.luminance += row_l[row];
+  }
+  stats.ssim /= static_cast<double>(pooled);
+  stats.cs /= static_cast<double>(pooled);
+  stats.luminance /= static_cast<double>(pooled);
+  return stats;
+}
+
+std::vector<Plane> SplitPlanes(const Image& image) {
+  std::vector<Plane> planes(image.channels, Plane(image.PixelCount()));
+  for (std::size_t i = 0; i < image.PixelCount(); ++i) {
+    for (int c = 0; c < image.channels; ++c) planes[c][i] = image.data[i * image.channels + c];
+  }
+  return planes;
+}
+
+std::vector<std::uint8_t> ValidPixels(const Image* mask, std::size_t n) {
+  std::vector<std::uint8_t> valid(n, 1);
+  if (mask) {
+    for (std::size_t i = 0; i < n; ++i) valid[i] = mask->data[i] > 0.5f ? 1 : 0;
+  }
+  return valid;
+}
+
+void CheckWindowFits(int w, int h, const SsimParameters& p) {
+  const int window = 2 * p.radius + 1;
+  if (w < window || h < window) {
+    throw Error("reference", "resolution",
+                std::to_string(w) + "x" + std::to_string(h) + " is smaller than the " +
+                    std::to_string(window) + "x" + std::to_string(window) + " SSIM window");
+  }
+}
+
+std::size_t CountPooled(const std::vector<std::uint8_t>& pool, const SsimParameters& p) {
+  std::size_t pooled = 0;
+  for (auto v : pool) pooled += v;
+  if (pooled == 0) {
+    const std::string window = std::to_string(2 * p.radius + 1);
+    throw Error("mask", "pixels",
+                "no pixel whose " + window + "x" + window + " SSIM window lies inside the mask");
+  }
+  return pooled;
+}
+
+// 2 x 2 box filter and subsampling by 2 (Wang et al. 2003, Sec. 3.1); odd edges dropped.
+Plane Downsample(const Plane& in, int w, int h) {
+  const int w2 = w / 2, h2 = h / 2;
+  Plane out(static_cast<std::size_t>(w2) * h2);
+  for (int y = 0; y < h2; ++y) {
+    for (int x = 0; x < w2; ++x) {
+      const std::size_t i = static_cast<std::size_t>(2 * y) * w + 2 * x;
+      out[static_cast<std::size_t>(y) * w2 + x] = 0.25 * (in[i] + in[i + 1] + in[i + w] + in[i + w + 1]);
+    }
+  }
+  return out;
+}
+
+std::vector<std::uint8_t> DownsampleValid(const std::vector<std::uint8_t>& in, int w, int h) {
+  const int w2 = w / 2, h2 = h / 2;
+  std::vector<std::uint8_t> out(static_cast<std::size_t>(w2) * h2);
+  for (int y = 0; y < h2; ++y) {
+    for (int x = 0; x < w2; ++x) {
+      const std::size_t i = static_cast<std::size_t>(2 * y) * w + 2 * x;
+      out[static_cast<std::size_t>(y) * w2 + x] = in[i] & in[i + 1] & in[i + w] & in[i + w + 1];
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+SsimResult Ssim(const Image& reference, const Image& test, const SsimParameters& p,
+                Image* ssim_map) {
+  ValidateInputs(reference, test, p.mask, 0);
+  const int w = reference.width, h = reference.height;
+  CheckWindowFits(w, h, p);
+  const std::vector<std::uint8_t> pool =
+      PoolMask(ValidPixels(p.mask, reference.PixelCount()), w, h, p.radius);
+  SsimResult result;
+  result.pooled_pixels = CountPooled(pool, p);
+  const std::vector<Plane> x = SplitPlanes(reference);
+  const std::vector<Plane> y = SplitPlanes(test);
+  if (ssim_map) *ssim_map = Image(w, h, reference.channels);
+  for (int c = 0; c < reference.channels; ++c) {
+    float* map = ssim_map ? ssim_map->data.data() + c : nullptr;
+    const PlaneStats stats =
+        SsimPlane(x[c], y[c], w, h, pool, result.pooled_pixels, p, map, reference.channels);
+    result.channel_means.push_back(stats.ssim);
+    result.mean += stats.ssim / reference.channels;
+  }
+  return result;
+}
+
+MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParameters& p) {
+  ValidateInputs(reference, test, p.ssim.mask, 0);
+  int w = reference.width, h = reference.height;
+  CheckWindowFits(w, h, p.ssim);
+  // Number of scales whose shorter side still holds a window.
+  const int window = 2 * p.ssim.radius + 1;
+  int scales = 1;
+  while (scales < static_cast<int>(p.weights.size()) && std::min(w, h) >> scales >= window) {
+    ++scales;
+  }
+  double weight_sum = 0.0;
+  for (int j = 0; j < scales; ++j) weight_sum += p.weights[j];
+
+  std::vector<Plane> x = SplitPlanes(reference);
+  std::vector<Plane> y = SplitPlanes(test);
+  std::vector<std::uint8_t> valid = ValidPixels(p.ssim.mask, reference.PixelCount());
+  const int channels = reference.channels;
+  MsSsimResult result;
+  result.scales_used = scales;
+  std::vector<double> log_value(channels, 0.0);  // Sum of w_j log(term), per channel.
+  std::vector<bool> zero(channels, false);
+  for (int j = 0; j < scales; ++j) {
+    const std::vector<std::uint8_t> pool = PoolMask(valid, w, h, p.ssim.radius);
+    const std::size_t pooled = CountPooled(pool, p.ssim);
+    const double weight = p.weights[j] / weight_sum;
+    double cs_mean = 0.0, l_mean = 0.0;
+    for (int c = 0; c < channels; ++c) {
+      const PlaneStats stats = SsimPlane(x[c], y[c], w, h, pool, pooled, p.ssim, nullptr, 1);
+      cs_mean += stats.cs / channels;
+      l_mean += stats.luminance / channels;
+      // Clamp negative means to 0: a fractional power of a negative number is undefined.
+      double term = std::max(0.0, stats.cs);
+      if (j == scales - 1) term *= std::max(0.0, stats.luminance);  // l_M at the last scale.
+      if (term <= 0.0) {
+        zero[c] = true;
+      } else {
+        log_value[c] += weight * std::log(term);
+      }
+    }
+    result.contrast_structure.push_back(cs_mean);
+    if (j == scales - 1) {
+      result.luminance = l_mean;
+      break;
+    }
+    for (int c = 0; c < channels; ++c) {
+      x[c] = Downsample(x[c], w, h);
+      y[c] = Downsample(y[c], w, h);
+    }
+    valid = DownsampleValid(valid, w, h);
+    w /= 2;
+    h /= 2;
+  }
+  for (int c = 0; c < channels; ++c) {
+    result.value += (zero[c] ? 0.0 : std::exp(log_value[c])) / channels;
+  }
+  return result;
+}
+
+}  // namespace shadefit::metrics
