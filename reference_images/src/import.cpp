@@ -1,0 +1,300 @@
+#include "shadefit/refs/import.h"
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "shadefit/refs/files.h"
+#include "shadefit/refs/render_measured.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::refs {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string StripPrefix(const std::string& message, const std::string& path) {
+  const std::string prefix = path + ": ";
+  return message.rfind(prefix, 0) == 0 ? message.substr(prefix.size()) : message;
+}
+
+// libjpeg (through OpenImageIO) fills a JPEG cut short with grey and only warns, and PNG
+// decoders may stop at the last complete row: check that the file ends the way the format says.
+void CheckComplete(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  auto find_last = [&](unsigned char a, unsigned char b) -> long long {
+    for (long long i = static_cast<long long>(bytes.size()) - 2; i >= 0; --i) {
+      if (bytes[i] == a && bytes[i + 1] == b) return i;
+    }
+    return -1;
+  };
+  if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
+    // JPEG (ITU T.81, B.2): entropy-coded data never holds FF D9 (FF is stuffed), so the image
+    // is complete only if an EOI marker follows the last start-of-scan marker.
+    const long long sos = find_last(0xFF, 0xDA), eoi = find_last(0xFF, 0xD9);
+    if (sos < 0 || eoi < sos) {
+      throw Error(path, "pixels", "truncated JPEG: no end-of-image marker after the last scan");
+    }
+  } else if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' &&
+             bytes[3] == 'G') {
+    // PNG (ISO/IEC 15948, 5.6): the last chunk is IEND.
+    const std::string tail(bytes.end() - std::min<std::size_t>(bytes.size(), 64), bytes.end());
+    if (tail.find("IEND") == std::string::npos) {
+      throw Error(path, "pixels", "truncated PNG: no IEND chunk at the end");
+    }
+  }
+}
+
+nlohmann::json FileRecord(const std::string& path) {
+  return {{"path", fs::absolute(path).lexically_normal().string()}, {"sha256", Sha256File(path)}};
+}
+
+}  // namespace
+
+Encoding ParseEncoding(const std::string& name) {
+  if (name == "auto") return Encoding::kAuto;
+  if (name == "srgb") return Encoding::kSrgb;
+  if (name == "linear") return Encoding::kLinear;
+  throw Error("", "encoding", "\"" + name + "\": expected auto, srgb or linear");
+}
+
+std::string EncodingName(Encoding e) {
+  return e == Encoding::kSrgb ? "srgb" : e == Encoding::kLinear ? "linear" : "auto";
+}
+
+LoadedImage LoadImageForImport(const std::string& path) {
+  if (!fs::exists(path)) throw Error(path, "image", "file not found");
+  if (!fs::is_regular_file(path)) throw Error(path, "image", "not a regular file");
+  LoadedImage out;
+  {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw Error(path, "image", "cannot read image: " + OneLine(OIIO::geterror()));
+    const OIIO::ImageSpec& spec = in->spec();
+    out.is_float = spec.format.is_floating_point();
+    out.format = std::string(in->format_name()) + " " + spec.format.c_str();
+    out.file_channels = spec.nchannels;
+    in->close();
+  }
+  if (out.file_channels != 1 && out.file_channels != 3 && out.file_channels != 4) {
+    throw Error(path, "channels",
+                fmt::format("{} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA, alpha ignored)",
+                            out.file_channels));
+  }
+  CheckComplete(path);
+  Image raw;
+  try {
+    raw = ReadImage(path);
+  } catch (const Error& e) {
+    // Keep ReadImage's field when it names one ("pixels" for truncated data).
+    const std::string rest = OneLine(StripPrefix(e.what(), path));
+    if (rest.rfind("pixels: ", 0) == 0) throw Error(path, "pixels", rest.substr(8));
+    throw Error(path, "image", rest);
+  }
+  out.rgb = Image(raw.width, raw.height, 3);
+  for (int y = 0; y < raw.height; ++y) {
+    for (int x = 0; x < raw.width; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float v = raw.at(x, y, raw.channels == 1 ? 0 : c);
+        if (!std::isfinite(v)) {
+          throw Error(path, "pixels",
+                      fmt::format("{} at pixel ({}, {}) channel {}", std::isnan(v) ? "NaN" : "Inf",
+                                  x, y, c));
+        }
+        out.rgb.at(x, y, c) = v;
+      }
+    }
+  }
+  return out;
+}
+
+ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
+  // --- Validate the request before touching any input.
+  if (options.output.empty()) throw Error("", "output", "no output file given");
+  if (fs::path(options.output).extension() != ".exr") {
+    throw Error(options.output, "output", "the output must be an .exr file");
+  }
+  const fs::path out_dir = fs::path(options.output).parent_path();
+  if (!out_dir.empty() && !fs::is_directory(out_dir)) {
+    throw Error(options.output, "output", "output directory does not exist");
+  }
+  if (options.auto_sphere == !options.scene_path.empty()) {
+    throw Error("", "scene", "give exactly one of --scene and --auto-sphere");
+  }
+  if (options.clip_threshold < 1 || options.clip_threshold > 256) {
+    throw Error(
+        "", "clip-threshold",
+        fmt::format("{} is outside [1, 256] (256 disables clipping)", options.clip_threshold));
+  }
+  if (!options.scene_path.empty() && !fs::exists(options.scene_path)) {
+    throw Error(options.scene_path, "scene", "file not found");
+  }
+  if (!options.mask_path.empty() && !fs::exists(options.mask_path)) {
+    throw Error(options.mask_path, "mask", "file not found");
+  }
+
+  // --- Inputs.
+  const LoadedImage loaded = LoadImageForImport(options.image_path);
+  const Image& raw = loaded.rgb;
+  ImportResult result;
+  result.encoding = options.encoding != Encoding::kAuto
+                        ? options.encoding
+                        : (loaded.is_float ? Encoding::kLinear : Encoding::kSrgb);
+  Image linear = raw;
+  if (result.encoding == Encoding::kSrgb) {
+    for (float& v : linear.data) v = SrgbToLinear(v);
+  }
+  Image mask;
+  if (!options.mask_path.empty()) {
+    try {
+      mask = ReadImage(options.mask_path);
+    } catch (const Error& e) {
+      throw Error(options.mask_path, "mask", OneLine(StripPrefix(e.what(), options.mask_path)));
+    }
+    if (mask.width != raw.width || mask.height != raw.height) {
+      throw Error(options.mask_path, "resolution",
+                  fmt::format("mask is {}x{}, the image {} is {}x{}", mask.width, mask.height,
+                              options.image_path, raw.width, raw.height));
+    }
+  }
+
+  Scene scene;
+  std::string scene_toml_text;
+  if (options.auto_sphere) {
+    // Integer files are already display-referred: full scale is 1. Float files: a high
+    // percentile of luminance stands for white so that a few hot pixels do not darken the rest.
+    double white = 1.0;
+    if (loaded.is_float) {
+      std::vector<float> lum(linear.PixelCount());
+      for (std::size_t i = 0; i < lum.size(); ++i) {
+        lum[i] = 0.2126f * linear.data[3 * i] + 0.7152f * linear.data[3 * i + 1] +
+                 0.0722f * linear.data[3 * i + 2];
+      }
+      const std::size_t k = lum.size() * 995 / 1000;
+      std::nth_element(lum.begin(), lum.begin() + k, lum.end());
+      white = std::max(1e-12, static_cast<double>(lum[k]));
+    }
+    result.sphere = DetectSphere(linear, white, options.image_path);
+    result.has_sphere = true;
+    result.scene_path = fs::path(options.output).replace_extension(".toml").string();
+    scene_toml_text = OrthographicSphereSceneToml(result.sphere, raw.width, raw.height,
+                                                  fs::path(options.image_path).filename().string());
+    scene = ParseScene(scene_toml_text, result.scene_path);
+    scene.path = result.scene_path;
+  } else {
+    scene = LoadScene(options.scene_path);
+    result.scene_path = options.scene_path;
+  }
+  if (scene.camera.width != raw.width || scene.camera.height_px != raw.height) {
+    throw Error(options.image_path, "resolution",
+                fmt::format("image is {}x{}, the camera of {} is {}x{}", raw.width, raw.height,
+                            result.scene_path, scene.camera.width, scene.camera.height_px));
+  }
+  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+
+  // --- Validity, coverage, counts.
+  ImportCounts& n = result.counts;
+  result.image = Image(raw.width, raw.height, 4);
+  const bool clip_rule = !loaded.is_float && options.clip_threshold <= 255;
+  // The decoded value of code c is c / 255 (16-bit files: c / 65535, compared on the same scale).
+  const double clip_level = options.clip_threshold / 255.0 - 0.25 / 255.0;
+  for (int y = 0; y < raw.height; ++y) {
+    for (int x = 0; x < raw.width; ++x) {
+      ++n.total;
+      bool valid = true;
+      if (!mask.empty() && !(mask.at(x, y, 0) > 0.5f)) {
+        ++n.masked_out;
+        valid = false;
+      }
+      if (valid && clip_rule) {
+        for (int c = 0; c < 3; ++c) {
+          if (raw.at(x, y, c) >= clip_level) valid = false;
+        }
+        if (!valid) ++n.clipped;
+      }
+      const float coverage = gbuffer.Coverage(x, y);
+      if (coverage > 0) ++n.covered;
+      if (valid) {
+        ++n.valid;
+        if (coverage > 0) ++n.valid_covered;
+        for (int c = 0; c < 3; ++c) result.image.at(x, y, c) = linear.at(x, y, c);
+        result.image.at(x, y, 3) = coverage;
+      }
+    }
+  }
+  if (n.valid_covered == 0) {
+    throw Error(options.image_path, "pixels",
+                "no valid pixel on the object (all masked out, clipped or off the object)");
+  }
+
+  // --- Sidecar.
+  nlohmann::json sidecar;
+  sidecar["kind"] = "imported";
+  sidecar["generator"] = "shadefit refs import";
+  sidecar["source"] = FileRecord(options.image_path);
+  sidecar["source"]["format"] = loaded.format;
+  sidecar["source"]["channels"] = loaded.file_channels;
+  sidecar["encoding"] = EncodingName(result.encoding);
+  sidecar["clip_threshold"] = options.clip_threshold;
+  sidecar["clip_rule"] = clip_rule ? fmt::format("a pixel is excluded when any channel >= {}/255",
+                                                 options.clip_threshold)
+                                   : std::string("not applied (float input or threshold 256)");
+  sidecar["mask"] =
+      options.mask_path.empty() ? nlohmann::json(nullptr) : FileRecord(options.mask_path);
+  sidecar["scene_file"] = fs::absolute(result.scene_path).lexically_normal().string();
+  sidecar["scene_sha256"] = Sha256String(scene.source_text);
+  sidecar["counts"] = {{"total", n.total},     {"masked_out", n.masked_out},
+                       {"clipped", n.clipped}, {"valid", n.valid},
+                       {"covered", n.covered}, {"valid_covered", n.valid_covered}};
+  sidecar["exposure"] = "unknown";
+  sidecar["notes"] =
+      "Exposure and white balance of the source are unknown: a fit must free a global scale. "
+      "RGB = linear value where valid (0 elsewhere); A = validity x G-buffer coverage.";
+  if (result.has_sphere) {
+    const SphereEstimate& s = result.sphere;
+    sidecar["auto_sphere"] = {
+        {"center_px", {s.center_x, s.center_y}},
+        {"radius_px", s.radius},
+        {"contour_points_used", s.contour_points_used},
+        {"fit_rms_px", s.fit_rms_px},
+        {"light_found", s.light_found},
+        {"highlight_px", {s.highlight_x, s.highlight_y}},
+        {"light_direction_to_light",
+         {s.light_direction.x, s.light_direction.y, s.light_direction.z}},
+        {"assumptions",
+         "one sphere, dark background, orthographic view; the light is the "
+         "mirror of the view about the normal at the highlight (initial guess)"}};
+  }
+
+  // --- Write: each file atomically; on a later failure remove the earlier ones.
+  ImageMetadata meta{{"shadefit:kind", "imported"},
+                     {"shadefit:source", fs::path(options.image_path).filename().string()},
+                     {"shadefit:encoding", EncodingName(result.encoding)},
+                     {"shadefit:exposure", "unknown"},
+                     {"shadefit:scene", scene.source_text}};
+  std::vector<std::string> written;
+  try {
+    if (result.has_sphere) {
+      WriteTextAtomic(result.scene_path, scene_toml_text);
+      written.push_back(result.scene_path);
+    }
+    WriteExr(options.output, result.image, meta);
+    written.push_back(options.output);
+    WriteTextAtomic(SidecarPath(options.output), sidecar.dump(1) + "\n");
+  } catch (...) {
+    std::error_code ec;
+    for (const std::string& p : written) fs::remove(p, ec);
+    throw;
+  }
+  return result;
+}
+
+}  // namespace shadefit::refs

@@ -1,0 +1,358 @@
+#include "shadefit/refs/render_measured.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "shadefit/refs/files.h"
+#include "shadefit/render/brdf.h"
+#include "shadefit/render/environment.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::refs {
+namespace {
+
+// Same offset as kRayEpsilon in render/shaders/render.frag and gbuffer_shading.cpp.
+constexpr double kRayEpsilon = 1e-4;
+
+// SplitMix64 (Steele, Lea, Flood 2014, "Fast Splittable Pseudorandom Number Generators"): one
+// independent stream per pixel, seeded from (seed, pixel index), so results do not depend on
+// which thread shades which pixel.
+class PixelRng {
+ public:
+  PixelRng(std::uint64_t seed, std::uint64_t pixel)
+      : state_(seed ^ (pixel * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull)) {
+    Next();
+  }
+  std::uint64_t Next() {
+    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }  // [0, 1)
+
+ private:
+  std::uint64_t state_;
+};
+
+// Orthonormal frame around n (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+// The tangent's azimuth is arbitrary: every BRDF here is isotropic.
+struct Frame {
+  Vec3d t, b, n;
+  explicit Frame(const Vec3d& normal) : n(normal) {
+    const double sign = std::copysign(1.0, n.z);
+    const double a = -1.0 / (sign + n.z);
+    const double bb = n.x * n.y * a;
+    t = {1.0 + sign * n.x * n.x * a, sign * bb, -sign * n.x};
+    b = {bb, sign + n.y * n.y * a, -n.y};
+  }
+  Vec3d ToLocal(const Vec3d& v) const { return {Dot(v, t), Dot(v, b), Dot(v, n)}; }
+  Vec3d ToWorld(const Vec3d& v) const { return t * v.x + b * v.y + n * v.z; }
+};
+
+// The distant light integrated by Monte Carlo: an environment map or a uniform radiance.
+struct DistantLight {
+  std::shared_ptr<const EnvironmentMap> map;  // null: uniform
+  Vec3d uniform{0, 0, 0};
+  Vec3d Radiance(const Vec3d& d) const { return map ? map->Radiance(d) : uniform; }
+  double Pdf(const Vec3d& d) const { return map ? map->Pdf(d) : 1.0 / (4.0 * kPi); }
+  Vec3d Sample(double u1, double u2) const {
+    if (map) return map->Sample(u1, u2);
+    const double z = 1.0 - 2.0 * u1, r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = 2.0 * kPi * u2;
+    return {r * std::cos(phi), r * std::sin(phi), z};
+  }
+};
+
+// GGX distribution of normals (Walter et al. 2007, eq. 33), cos theta_h = h.z.
+double D_GGX(double alpha, double NoH) {
+  const double a2 = alpha * alpha;
+  const double d = NoH * NoH * (a2 - 1.0) + 1.0;
+  return a2 / (kPi * d * d);
+}
+
+// Density over solid angle of wi when h is drawn from D(h) cos(theta_h) and wi is wo reflected
+// about h: p(h) / (4 |wo.h|) (Walter et al. 2007, eqs. 14 and 38).
+double LobePdf(double alpha, const Vec3d& wi, const Vec3d& wo) {
+  const Vec3d h = Normalize(wi + wo);
+  const double woh = std::abs(Dot(wo, h));
+  if (h.z <= 0 || woh <= 0) return 0.0;
+  return D_GGX(alpha, h.z) * h.z / (4.0 * woh);
+}
+
+// wi for one draw of h ~ D(h) cos(theta_h): tan^2 theta_h = alpha^2 u1 / (1 - u1) (Walter et al.
+// 2007, eqs. 35 and 36).
+Vec3d SampleLobe(double alpha, const Vec3d& wo, double u1, double u2) {
+  const double tan2 = alpha * alpha * u1 / std::max(1.0 - u1, 1e-12);
+  const double cos_t = 1.0 / std::sqrt(1.0 + tan2),
+               sin_t = std::sqrt(std::max(0.0, 1 - cos_t * cos_t));
+  const double phi = 2.0 * kPi * u2;
+  const Vec3d h{sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+  return h * (2.0 * Dot(wo, h)) - wo;
+}
+
+}  // namespace
+
+double EstimateLobeAlpha(const MeasuredBrdf& brdf) {
+  // Luminance of f along theta_h at theta_d = 0.1 rad, phi_d = 0 (off the exact retro direction).
+  auto lum = [&](double theta_h) {
+    Vec3d wi, wo;
+    FromHalfDiff(theta_h, 0.1, 0.0, &wi, &wo);
+    const Vec3d f = brdf.Eval(wi, wo);
+    return 0.2126 * f.x + 0.7152 * f.y + 0.0722 * f.z;
+  };
+  const double peak = lum(0.0), far = lum(kPi / 3);
+  if (!(peak > 4.0 * far) || !(peak > 0)) return 0.0;  // no specular peak worth sampling
+  // For GGX, D(theta_h) falls to half of D(0) at tan^2 theta = (sqrt(2) - 1) alpha^2, i.e.
+  // theta_half = 0.644 alpha for small alpha: alpha = theta_half / 0.644.
+  const double half = far + 0.5 * (peak - far);
+  for (double t = 0.0005; t < kPi / 3; t *= 1.05) {
+    if (lum(t) <= half) return std::clamp(t / 0.644, 0.005, 1.0);
+  }
+  return 1.0;
+}
+
+std::string SidecarPath(const std::string& exr_path) {
+  return std::filesystem::path(exr_path).replace_extension(".json").string();
+}
+
+Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer& g,
+                     const RenderMeasuredOptions& options, Image* standard_error,
+                     RenderMeasuredStats* stats_out) {
+  const auto start = std::chrono::steady_clock::now();
+  RenderMeasuredStats stats;
+  const std::vector<ShadingPoint> points = PrepareShading(scene, g, 0.0f);
+  for (const Light& light : scene.lights) {
+    if (light.type == Light::Type::kAmbient) stats.ambient_ignored = true;
+  }
+  DistantLight distant;
+  const int env_index = scene.EnvironmentLight();
+  if (env_index >= 0) {
+    const Light& light = scene.lights[env_index];
+    stats.environment = true;
+    if (light.type == Light::Type::kEnvironment) {
+      distant.map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
+    } else {
+      distant.uniform = light.value;
+    }
+    stats.samples_per_technique = options.samples > 0 ? options.samples : light.samples;
+    if (stats.samples_per_technique < 2) {
+      throw Error(scene.path, "samples", "need at least 2 samples per technique (noise estimate)");
+    }
+  }
+  const int n_samples = stats.samples_per_technique;
+  const double lobe_alpha = !stats.environment        ? 0.0
+                            : options.lobe_alpha >= 0 ? options.lobe_alpha
+                                                      : EstimateLobeAlpha(brdf);
+  stats.lobe_alpha = lobe_alpha;
+  const bool occlusion = scene.objects.size() > 1;
+
+  Image out(g.width, g.height, 4);
+  Image error(g.width, g.height, 3);
+  // Background of uncovered pixels (and of partly covered ones, weighted by 1 - coverage).
+  if (!scene.background.transparent) {
+    for (int y = 0; y < g.height; ++y) {
+      for (int x = 0; x < g.width; ++x) {
+        const Ray ray = CameraRay(scene.camera, x + 0.5, y + 0.5);
+        const Vec3d bg = distant.map      ? distant.map->Radiance(ray.direction)
+                         : env_index >= 0 ? distant.uniform
+                                          : scene.background.color;
+        const double w = 1.0 - g.Coverage(x, y);
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(bg[c] * w);
+        out.at(x, y, 3) = 1.0f;
+      }
+    }
+  }
+
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t idx = next++; idx < points.size(); idx = next++) {
+      const ShadingPoint& sp = points[idx];
+      const Frame frame(sp.n);
+      const Vec3d wo = frame.ToLocal(sp.v);
+      Vec3d radiance{0, 0, 0};
+      // Point and directional lights: exact. PrepareShading already dropped lights below the
+      // surface or occluded; E is the irradiance at normal incidence, so the cosine is applied.
+      for (const PixelLight& light : sp.lights) {
+        const Vec3d wi = frame.ToLocal(light.l);
+        const Vec3d f = brdf.Eval(wi, wo);
+        for (int c = 0; c < 3; ++c) radiance[c] += f[c] * light.irradiance[c] * wi.z;
+      }
+      Vec3d se{0, 0, 0};
+      if (n_samples > 0) {
+        const Vec3d p{g.position.at(sp.x, sp.y, 0), g.position.at(sp.x, sp.y, 1),
+                      g.position.at(sp.x, sp.y, 2)};
+        PixelRng rng(options.seed, static_cast<std::uint64_t>(sp.y) * g.width + sp.x);
+        // One MIS sample of a world direction. With equal sample counts the balance heuristic
+        // (Veach 1997, eq. 9.13) weights a sample by its pdf over the sum of all techniques'
+        // pdfs, so each technique's weighted estimate is f L cos / (p_env + p_cos [+ p_lobe]).
+        auto contribution = [&](const Vec3d& dir) -> Vec3d {
+          const Vec3d wi = frame.ToLocal(dir);
+          if (wi.z <= 0 || wo.z <= 0) return {0, 0, 0};
+          double pdf = distant.Pdf(dir) + wi.z / kPi;
+          if (lobe_alpha > 0) pdf += LobePdf(lobe_alpha, wi, wo);
+          if (!(pdf > 0)) return {0, 0, 0};
+          if (occlusion &&
+              Intersect(scene, Ray{p + sp.n * kRayEpsilon, dir}, 1e-4, 1e30, nullptr)) {
+            return {0, 0, 0};
+          }
+          const Vec3d f = brdf.Eval(wi, wo);
+          const Vec3d l = distant.Radiance(dir);
+          return {f.x * l.x * wi.z / pdf, f.y * l.y * wi.z / pdf, f.z * l.z * wi.z / pdf};
+        };
+        // Welford running mean and variance of the per-pair estimate X_j (one sample of each
+        // technique); the standard error of the mean is sqrt(var / N).
+        double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0};
+        for (int j = 0; j < n_samples; ++j) {
+          const Vec3d d_env = distant.Sample(rng.Uniform(), rng.Uniform());
+          // Cosine-weighted hemisphere (Malley's method).
+          const double u1 = rng.Uniform(), u2 = rng.Uniform();
+          const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+          const Vec3d d_cos = frame.ToWorld(
+              {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1.0 - u1))});
+          Vec3d x = contribution(d_env) + contribution(d_cos);
+          if (lobe_alpha > 0) {
+            const Vec3d wi = SampleLobe(lobe_alpha, wo, rng.Uniform(), rng.Uniform());
+            if (wi.z > 0) x += contribution(frame.ToWorld(wi));
+          }
+          for (int c = 0; c < 3; ++c) {
+            const double delta = x[c] - mean[c];
+            mean[c] += delta / (j + 1);
+            m2[c] += delta * (x[c] - mean[c]);
+          }
+        }
+        for (int c = 0; c < 3; ++c) {
+          radiance[c] += mean[c];
+          se[c] = std::sqrt(m2[c] / (n_samples - 1) / n_samples);
+        }
+      }
+      const float coverage = g.Coverage(sp.x, sp.y);
+      for (int c = 0; c < 3; ++c) {
+        out.at(sp.x, sp.y, c) += static_cast<float>(radiance[c] * coverage);
+        error.at(sp.x, sp.y, c) = static_cast<float>(se[c] * coverage);
+      }
+      out.at(sp.x, sp.y, 3) = scene.background.transparent ? coverage : 1.0f;
+    }
+  };
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 256);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+
+  stats.threads = threads;
+  stats.shaded_pixels = static_cast<int>(points.size());
+  if (stats.environment && !points.empty()) {
+    double mean_value = 0;
+    for (const ShadingPoint& sp : points) {
+      for (int c = 0; c < 3; ++c) {
+        stats.mean_standard_error[c] += error.at(sp.x, sp.y, c) / points.size();
+        mean_value += out.at(sp.x, sp.y, c) / (3.0 * points.size());
+      }
+    }
+    const double mean_se = (stats.mean_standard_error[0] + stats.mean_standard_error[1] +
+                            stats.mean_standard_error[2]) /
+                           3.0;
+    stats.relative_standard_error = mean_value > 0 ? mean_se / mean_value : 0.0;
+  }
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (standard_error) *standard_error = std::move(error);
+  if (stats_out) *stats_out = stats;
+  return out;
+}
+
+RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& request,
+                                          Renderer& renderer) {
+  namespace fs = std::filesystem;
+  const auto start = std::chrono::steady_clock::now();
+  for (const std::string* path : {&request.output, &request.noise_output}) {
+    if (path->empty()) continue;
+    if (fs::path(*path).extension() != ".exr") {
+      throw Error(*path, "output", "the output must be an .exr file");
+    }
+    const fs::path parent = fs::path(*path).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent)) {
+      throw Error(*path, "output", "output directory does not exist");
+    }
+  }
+  if (request.output.empty()) throw Error("", "output", "no output file given");
+  const std::unique_ptr<MeasuredBrdf> brdf = LoadMeasuredBrdf(request.brdf_path);
+  const Scene scene = LoadScene(request.scene_path);
+  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+  Image noise;
+  RenderMeasuredStats stats;
+  const Image image = RenderMeasured(*brdf, scene, gbuffer, request.options, &noise, &stats);
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  nlohmann::json sidecar;
+  sidecar["kind"] = "measured-brdf";
+  sidecar["generator"] = "shadefit refs measured";
+  sidecar["brdf"]["format"] = brdf->Format();
+  if (brdf->Format() == "merl-binary") {
+    sidecar["brdf"]["lookup"] = "trilinear in (sqrt theta_h index, theta_d, phi_d)";
+  }
+  for (const std::string& file : brdf->SourceFiles()) {
+    sidecar["brdf"]["files"].push_back(
+        {{"path", fs::absolute(file).lexically_normal().string()}, {"sha256", Sha256File(file)}});
+  }
+  sidecar["scene_file"] = fs::absolute(request.scene_path).lexically_normal().string();
+  sidecar["scene_sha256"] = Sha256String(scene.source_text);
+  sidecar["scene_toml"] = scene.source_text;
+  sidecar["resolution"] = {image.width, image.height};
+  sidecar["lights"]["point_directional"] = "exact per pixel";
+  if (stats.environment) {
+    sidecar["lights"]["environment"] =
+        stats.lobe_alpha > 0
+            ? "Monte Carlo: environment importance sampling + cosine hemisphere + GGX lobe "
+              "sampling (alpha " +
+                  fmt::format("{:.4g}", stats.lobe_alpha) + "), balance heuristic"
+            : "Monte Carlo: environment importance sampling + cosine hemisphere, balance "
+              "heuristic";
+    sidecar["lobe_alpha"] = stats.lobe_alpha;
+  }
+  if (stats.ambient_ignored) sidecar["lights"]["ambient"] = "ignored (no ka for measured BRDFs)";
+  sidecar["samples"] = stats.samples_per_technique;
+  sidecar["seed"] = request.options.seed;
+  sidecar["noise"]["mean_standard_error_rgb"] = {
+      stats.mean_standard_error[0], stats.mean_standard_error[1], stats.mean_standard_error[2]};
+  sidecar["noise"]["relative_standard_error"] = stats.relative_standard_error;
+  sidecar["noise"]["over"] = "pixels with a G-buffer hit";
+  sidecar["shaded_pixels"] = stats.shaded_pixels;
+  sidecar["threads"] = stats.threads;
+  sidecar["render_seconds"] = stats.seconds;
+  sidecar["pixel_value"] = "RGB radiance at the pixel centre x coverage; A = coverage";
+
+  ImageMetadata meta{{"shadefit:kind", "measured-brdf"},
+                     {"shadefit:brdf", fs::path(request.brdf_path).filename().string()},
+                     {"shadefit:scene", scene.source_text},
+                     {"shadefit:samples", std::to_string(stats.samples_per_technique)}};
+  // Each write is atomic (temporary sibling + rename); when a later one fails, the earlier ones
+  // are removed, so a failure leaves none of the outputs.
+  const std::string sidecar_path = SidecarPath(request.output);
+  WriteExr(request.output, image, meta);
+  try {
+    if (!request.noise_output.empty()) {
+      WriteExr(request.noise_output, noise, meta, {"R", "G", "B"});
+    }
+    WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(request.output, ec);
+    if (!request.noise_output.empty()) fs::remove(request.noise_output, ec);
+    throw;
+  }
+  return stats;
+}
+
+}  // namespace shadefit::refs
