@@ -13,7 +13,6 @@ void Pending(CLI::App& app, const char* name, const char* what) {
 }  // namespace
 
 void RegisterFitCommand(CLI::App& app) { Pending(app, "fit", "Fit a model to references"); }
-void RegisterRefsCommand(CLI::App& app) { Pending(app, "refs", "Make reference images"); }
 void RegisterProbeCommand(CLI::App& app) { Pending(app, "probe", "Phenomenon probes"); }
 void RegisterStudyCommand(CLI::App& app) { Pending(app, "study", "Run a study"); }
 void RegisterReportCommand(CLI::App& app) { Pending(app, "report", "Make a study's report"); }

@@ -1,0 +1,208 @@
+// refs: make reference images that are not plain model renders.
+//   refs measured  a measured BRDF (MERL .binary or Neural-BRDF .h5 + .json) over a scene
+//   refs import    a photograph or published image, with validity mask and counts
+//   refs cycles    the Cycles references, through Blender (reference_images/cycles/gen.py)
+#include <fmt/format.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "shadefit/refs/import.h"
+#include "shadefit/refs/render_measured.h"
+#include "shadefit/render/error.h"
+#include "shadefit/render/gl_context.h"
+#include "shadefit/render/renderer.h"
+
+extern char** environ;
+
+namespace shadefit::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The repository root: where reference_images/cycles lives. The build may pass it in; otherwise
+// the working directory (run from the repository root).
+fs::path RepositoryRoot() {
+  if (const char* env = std::getenv("SHADEFIT_SOURCE_DIR")) return env;
+#ifdef SHADEFIT_SOURCE_DIR
+  return SHADEFIT_SOURCE_DIR;
+#else
+  return fs::current_path();
+#endif
+}
+
+// Finds an executable by name on PATH (or the path itself when it contains a slash).
+std::string FindExecutable(const std::string& name) {
+  if (name.find('/') != std::string::npos) {
+    return access(name.c_str(), X_OK) == 0 ? name : std::string();
+  }
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "";
+  std::size_t start = 0;
+  while (start <= dirs.size()) {
+    const std::size_t end = std::min(dirs.find(':', start), dirs.size());
+    const fs::path candidate = fs::path(dirs.substr(start, end - start)) / name;
+    if (end > start && access(candidate.c_str(), X_OK) == 0) return candidate.string();
+    start = end + 1;
+  }
+  return {};
+}
+
+void AddMeasured(CLI::App& refs) {
+  auto* cmd =
+      refs.add_subcommand("measured",
+                          "Render a measured BRDF (MERL .binary, or Neural-BRDF .h5 with its .json "
+                          "beside it) over a scene's G-buffer");
+  auto req = std::make_shared<refs::MeasuredReferenceRequest>();
+  cmd->add_option("--brdf", req->brdf_path, "MERL .binary or Neural-BRDF .h5")->required();
+  cmd->add_option("--scene", req->scene_path, "Scene TOML file")->required();
+  cmd->add_option("-o,--output", req->output, "Output EXR (sidecar: same name, .json)")->required();
+  cmd->add_option("--samples", req->options.samples,
+                  "Environment samples per technique per pixel (default: the light's `samples`)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--lobe-alpha", req->options.lobe_alpha,
+                  "GGX width of the third (BRDF lobe) sampling technique; -1 estimates it from "
+                  "the BRDF, 0 turns it off");
+  cmd->add_option("--seed", req->options.seed, "Random seed (fixed by default)");
+  cmd->add_option("--threads", req->options.threads, "Worker threads (default: all cores)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--noise-exr", req->noise_output, "Also write the per-pixel standard error");
+  cmd->callback([req] {
+    GlContext context;
+    Renderer renderer(context);
+    const refs::RenderMeasuredStats s = refs::MakeMeasuredReference(*req, renderer);
+    fmt::print(
+        "wrote {} and {} ({} pixels, {} samples/technique, mean standard error "
+        "({:.3g}, {:.3g}, {:.3g}), {:.1f} s)\n",
+        req->output, refs::SidecarPath(req->output), s.shaded_pixels, s.samples_per_technique,
+        s.mean_standard_error[0], s.mean_standard_error[1], s.mean_standard_error[2], s.seconds);
+  });
+}
+
+void AddImport(CLI::App& refs) {
+  auto* cmd = refs.add_subcommand(
+      "import", "Import a photograph or published image (PNG, JPEG, EXR) as a reference");
+  auto opt = std::make_shared<refs::ImportOptions>();
+  auto encoding = std::make_shared<std::string>("auto");
+  cmd->add_option("image", opt->image_path, "Image file (PNG, JPEG, EXR, ...)")->required();
+  auto* scene = cmd->add_option("--scene", opt->scene_path, "Scene TOML matching the image");
+  auto* autos = cmd->add_flag("--auto-sphere", opt->auto_sphere,
+                              "Find one sphere on a dark background (orthographic view), write "
+                              "the scene beside the output and estimate the light");
+  scene->excludes(autos);
+  cmd->add_option("--mask", opt->mask_path, "Validity mask (non-zero = use the pixel)");
+  cmd->add_option("--encoding", *encoding, "auto | srgb | linear (auto: sRGB for 8/16-bit files)")
+      ->check(CLI::IsMember({"auto", "srgb", "linear"}));
+  cmd->add_option("--clip-threshold", opt->clip_threshold,
+                  "8-bit code at or above which a channel counts as clipped (256: off)");
+  cmd->add_option("-o,--output", opt->output, "Output EXR (sidecar: same name, .json)")->required();
+  cmd->callback([opt, encoding] {
+    opt->encoding = refs::ParseEncoding(*encoding);
+    GlContext context;
+    Renderer renderer(context);
+    const refs::ImportResult r = refs::ImportReference(*opt, renderer);
+    const refs::ImportCounts& n = r.counts;
+    fmt::print(
+        "wrote {} and {} (encoding {}; {} pixels: {} masked out, {} clipped, {} valid, "
+        "{} valid on the object; exposure unknown)\n",
+        opt->output, refs::SidecarPath(opt->output), refs::EncodingName(r.encoding), n.total,
+        n.masked_out, n.clipped, n.valid, n.valid_covered);
+    if (r.has_sphere) {
+      const refs::SphereEstimate& s = r.sphere;
+      fmt::print("sphere: centre ({:.2f}, {:.2f}) px, radius {:.2f} px -> {}\n", s.center_x,
+                 s.center_y, s.radius, r.scene_path);
+      if (s.light_found) {
+        fmt::print(
+            "light (initial guess, towards the light): ({:.4f}, {:.4f}, {:.4f}) from the "
+            "highlight at ({:.1f}, {:.1f}) px\n",
+            s.light_direction.x, s.light_direction.y, s.light_direction.z, s.highlight_x,
+            s.highlight_y);
+      }
+    }
+  });
+}
+
+void AddCycles(CLI::App& refs) {
+  auto* cmd = refs.add_subcommand(
+      "cycles", "Render the Cycles references with Blender (reference_images/cycles/gen.py)");
+  struct Options {
+    std::string manifest, out, blender = "blender";
+    std::vector<std::string> only;
+    bool overwrite = false;
+  };
+  auto opt = std::make_shared<Options>();
+  cmd->add_option("--manifest", opt->manifest,
+                  "Manifest (default: reference_images/cycles/manifest.toml)");
+  cmd->add_option("--out", opt->out, "Output folder (default: reference_images/cycles)");
+  cmd->add_flag("--overwrite", opt->overwrite, "Re-render references that exist");
+  cmd->add_option("--only", opt->only, "Render only these reference names");
+  cmd->add_option("--blender", opt->blender, "Blender executable (default: blender on PATH)");
+  cmd->callback([opt] {
+    const fs::path root = RepositoryRoot();
+    const fs::path script = root / "reference_images/cycles/gen.py";
+    if (!fs::exists(script)) {
+      throw Error(script.string(), "cycles",
+                  "generator script not found (run from the repository root or set "
+                  "SHADEFIT_SOURCE_DIR)");
+    }
+    const std::string manifest = opt->manifest.empty()
+                                     ? (root / "reference_images/cycles/manifest.toml").string()
+                                     : opt->manifest;
+    const std::string out =
+        opt->out.empty() ? (root / "reference_images/cycles").string() : opt->out;
+    if (!fs::exists(manifest)) throw Error(manifest, "manifest", "file not found");
+    const std::string blender = FindExecutable(opt->blender);
+    if (blender.empty()) {
+      throw Error("", "blender",
+                  "'" + opt->blender +
+                      "' not found on PATH: install Blender (3.4, as recorded "
+                      "in the references' sidecars) or pass --blender /path/to/blender");
+    }
+    std::vector<std::string> args = {blender,         "-b", "--factory-startup", "--python",
+                                     script.string(), "--", "--manifest",        manifest,
+                                     "--out",         out};
+    if (opt->overwrite) args.push_back("--overwrite");
+    if (!opt->only.empty()) {
+      args.push_back("--only");
+      args.insert(args.end(), opt->only.begin(), opt->only.end());
+    }
+    std::string shown;
+    for (const std::string& a : args) shown += (shown.empty() ? "" : " ") + a;
+    fmt::print("running: {}\n", shown);
+    std::fflush(stdout);
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    if (posix_spawn(&pid, blender.c_str(), nullptr, nullptr, argv.data(), environ) != 0) {
+      throw Error(blender, "blender", "cannot start Blender");
+    }
+    int status = 0;
+    if (waitpid(pid, &status, 0) < 0) throw Error(blender, "blender", "lost the Blender process");
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      throw Error(script.string(), "cycles",
+                  WIFEXITED(status)
+                      ? fmt::format("Blender exited with status {}", WEXITSTATUS(status))
+                      : std::string("Blender was killed by a signal"));
+    }
+  });
+}
+
+}  // namespace
+
+void RegisterRefsCommand(CLI::App& app) {
+  auto* refs = app.add_subcommand("refs", "Make reference images: measured, import, cycles");
+  refs->require_subcommand(1);
+  AddMeasured(*refs);
+  AddImport(*refs);
+  AddCycles(*refs);
+}
+
+}  // namespace shadefit::cli
