@@ -11,7 +11,7 @@
 //    position (our double-precision CPU twin agrees with the GL render to 1e-6 there, so the
 //    difference is Cycles' own float ray set-up). For those references the test requires the
 //    peak pixels (radiance above half the image maximum) to be at most 16 and within 20%, and
-//    every other pixel to meet the 1% bound. Measured: 6 of 44 references take this branch; the
+//    every other pixel to meet the 1% bound. Measured: 4 of 42 references take this branch; the
 //    worst is silver-mirror-mirror85 (grazing plane: 16 peak pixels, worst 15.9%, rest 0.04%).
 // The material comes from each reference's sidecar JSON; the scene from its scene TOML.
 #include <gtest/gtest.h>
