@@ -74,3 +74,27 @@ TEST(AnalyticScene, SupersamplingGivesCoverage) {
 
 }  // namespace
 }  // namespace shadefit
+
+namespace shadefit {
+namespace {
+
+// Orthographic camera: `height` is the full vertical extent (Cycles' ortho_scale with vertical
+// sensor fit), so a unit sphere seen with height 2.4 on 240 rows has a radius of 100 pixels.
+TEST(AnalyticScene, OrthographicCameraScale) {
+  const Scene scene = ParseScene(
+      "[camera]\ntype = \"orthographic\"\nposition = [0.0, -6.0, 0.0]\nlook_at = [0.0, 0.0, 0.0]\n"
+      "up = [0.0, 0.0, 1.0]\nheight = 2.4\nresolution = [320, 240]\nsupersample = 4\n"
+      "[[objects]]\ntype = \"sphere\"\n"
+      "[[lights]]\ntype = \"directional\"\ndirection = [0.0, 1.0, 0.0]\nirradiance = 1.0\n",
+      "ortho.toml");
+  const Image image = testing::SharedRenderer().Render(scene, ModelId::kLambert, {1, 1, 1});
+  double covered = 0;
+  for (std::size_t i = 0; i < image.PixelCount(); ++i) covered += image.data[4 * i + 3];
+  EXPECT_NEAR(covered, kPi * 100.0 * 100.0, 0.002 * kPi * 1e4);  // Area of the disc in pixels.
+  // The disc is centred: coverage is symmetric about the image centre (160, 120).
+  EXPECT_FLOAT_EQ(image.at(60, 120, 3), image.at(259, 120, 3));
+  EXPECT_FLOAT_EQ(image.at(160, 20, 3), image.at(160, 219, 3));
+}
+
+}  // namespace
+}  // namespace shadefit
