@@ -1,0 +1,145 @@
+// Phenomenon probes: measurements of one physical effect each (Fresnel rim, highlight shape,
+// energy conservation, portability across lighting) on references and on models rendered under
+// the references' scenes (docs/probes.md).
+//
+// Inputs: references are RGBA linear radiance (HDR), alpha = coverage, premultiplied, with the
+// scene and G-buffer that made them. Models are rendered with the GL renderer (times exposure)
+// when ProbeInputs::renderer is set, otherwise with the C++ twin (point/directional/ambient
+// lights only). Scalars over colour use linear luminance Y = 0.2126 R + 0.7152 G + 0.0722 B
+// (ITU-R BT.709). Bad input throws shadefit::Error "<reference or label>: <field>: <problem>".
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "shadefit/render/gbuffer.h"
+#include "shadefit/render/image.h"
+#include "shadefit/render/renderer.h"
+#include "shadefit/render/scene.h"
+
+namespace shadefit::probes {
+
+struct ProbeReference {  // one image of the material under one lighting
+  std::string name;      // e.g. "gold-key"
+  std::string lighting;  // e.g. "key", "camera", "side", "rim", "env", "mirror75"
+  Image image;           // RGBA linear radiance, alpha = coverage (premultiplied)
+  Scene scene;
+  GBuffer gbuffer;  // from Renderer::RenderGBuffer(scene)
+};
+
+struct ModelUnderTest {                 // a model with parameters: a fit, or the truth
+  std::string label;                    // "ggx", "blinn-phong", "truth", ...
+  std::string model;                    // name from `shadefit models`
+  std::vector<double> params;           // flattened, natural units
+  double exposure = 1.0;                // global scale applied to renders
+  std::vector<std::string> trained_on;  // reference names used to fit it (portability)
+};
+
+struct ProbeInputs {
+  std::vector<ProbeReference> references;
+  std::vector<ModelUnderTest> models;
+  std::optional<ModelUnderTest> truth;  // the true BRDF as one of our models when known
+  Renderer* renderer = nullptr;         // GL context current on the calling thread
+};
+
+struct ProbeResult {
+  std::string probe;       // "fresnel", "highlight", "energy", "portability"
+  nlohmann::json numbers;  // {"reference": {...}, "<label>": {...}, ...} named scalars
+  nlohmann::json curves;   // {"<series label>": {"x": [...], "y": [...], "x_label": "...",
+                           //   "y_label": "..."}} (+ optional "y_scale": "log",
+                           //   "x_scale": "log", "x_ticks": [names])
+  nlohmann::json notes;    // strings: what was measured, assumptions, skipped inputs
+};
+
+// ---------------------------------------------------------------------------------------------
+// Fresnel rim. Per pixel (coverage >= min_coverage, twin-supported scenes only): specular
+// luminance = image - diffuse estimate. The diffuse estimate is the truth's diffuse term for the
+// reference (when ProbeInputs::truth is set), the model's own diffuse term for a model, and
+// otherwise a Lambert fit kd * S(x) with S the Lambert shading of the scene for kd = 1 and kd the
+// diffuse_percentile-th percentile of Y / S (robust to a highlight that covers few pixels).
+// Curves: mean specular luminance per theta_v = acos(n.v) bin, per reference; and the effective
+// Fresnel F(theta_d) = sum(specular) / sum(unit-Fresnel lobe) per theta_d = acos(l.h) bin,
+// pooled over references, where the lobe is the same BRDF's specular term with F = 1 (its
+// own for a model, the truth's for the reference; skipped without truth).
+struct FresnelOptions {
+  double bin_width_deg = 5.0;          // Width of the theta_v and theta_d bins (degrees), 0..90.
+  double centre_max_deg = 20.0;        // "Centre" band: theta <= this (degrees).
+  double rim_min_deg = 70.0;           // "Rim" band: theta >= this (degrees).
+  double min_coverage = 0.999;         // Pixels with lower coverage (edges) are skipped.
+  double lobe_min_fraction = 0.05;     // theta_d bins use pixels whose unit-Fresnel lobe is at
+                                       // least this fraction of the image's largest lobe value.
+  double diffuse_percentile = 25.0;    // No truth: kd = this percentile of Y / S (see above).
+  std::vector<std::string> lightings;  // Use only these lightings; empty = every reference
+                                       // whose scene the twin supports (env is skipped).
+};
+
+// ---------------------------------------------------------------------------------------------
+// Highlight shape, per reference (twin-supported scenes) and per image (reference, models):
+// specular luminance s(x) as in the Fresnel probe; theta_h = acos(n.h) for the pixel's dominant
+// light. Mirror pixel: smallest theta_h. Peak: largest s. Half-max region: 4-connected pixels
+// with s >= peak / 2 around the peak; area, equivalent FWHM in pixels 2 sqrt(area / pi), and
+// the s-weighted second moments of the region (ellipse aspect >= 1, orientation in degrees from
+// +x, counter-clockwise, y up). Radial falloff: mean s / peak per theta_h bin (log scale);
+// HWHM = theta_h where it first falls to 1/2 (linear interpolation); tail fraction = sum of s
+// over theta_h > tail_hwhm_multiple * HWHM over the sum of s (pixel sums, image space).
+struct HighlightOptions {
+  double falloff_bin_deg = 0.5;        // theta_h bin width of the radial falloff (degrees).
+  double falloff_max_deg = 60.0;       // Falloff curve range: theta_h in [0, this).
+  double tail_hwhm_multiple = 2.0;     // Tail = theta_h beyond this many HWHM.
+  double min_coverage = 0.999;         // Pixels with lower coverage (edges) are skipped.
+  double diffuse_percentile = 25.0;    // No truth: Lambert-fit diffuse estimate (FresnelOptions).
+  std::vector<std::string> lightings;  // Use only these lightings; empty = every twin-supported.
+};
+
+// ---------------------------------------------------------------------------------------------
+// Energy. Directional albedo E(theta_o) of every model (and the truth) by DirectionalAlbedo;
+// strata are doubled until every channel's std error is <= target_std_error (or
+// max_strata_per_axis). Verdict: "conserves" when max albedo (over angles and channels) <=
+// 1 + 3 sigma, else "violates". White furnace: a unit sphere under a uniform light of radiance 1
+// rendered with GL (skipped without renderer). Sweep: specular-only albedo at normal view of
+// classic Blinn-Phong (ks = 1), normalised Blinn-Phong (ks = 1) and GGX (f0 = 1, roughness from
+// n = 2 / alpha^2 - 2, Walter et al. 2007 sec. 5.2) over the shininess list.
+struct EnergyOptions {
+  std::vector<double> view_angles_deg = {0, 10, 20, 30, 40, 50, 60, 70, 80, 85, 89};  // theta_o.
+  int strata_per_axis = 128;       // Starting strata per axis (samples = strata^2 per
+                                   // technique, two techniques).
+  int max_strata_per_axis = 512;   // Upper limit of the doubling.
+  double target_std_error = 1e-3;  // Per channel and angle (one sigma).
+  double sigma_multiple = 3.0;     // Verdict threshold 1 + sigma_multiple * sigma.
+  int furnace_resolution = 64;     // White-furnace render, pixels per side.
+  int furnace_samples = 256;       // Uniform-light samples per technique per pixel.
+  std::vector<double> sweep_shininess = {1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 5000};
+  int sweep_strata_per_axis = 256;  // Strata of the sweep's albedo estimates.
+};
+
+// ---------------------------------------------------------------------------------------------
+// Portability across lighting. Every model with a non-empty trained_on is rendered under every
+// reference's scene (times exposure); RMSE (linear radiance, RGB) over pixels with coverage >=
+// min_coverage in both the reference and the render. Train = references named in trained_on,
+// test = the others; pooled RMSE over each set's pixels and their ratio test / train. The truth,
+// when given, is evaluated on every reference as the noise floor.
+struct PortabilityOptions {
+  double min_coverage = 0.999;  // "Coverage 1 in both" with float tolerance.
+};
+
+ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& options = {});
+ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& options = {});
+ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& options = {});
+ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions& options = {});
+
+// {"probe": ..., "numbers": ..., "curves": ..., "notes": ...}; non-finite numbers are null.
+nlohmann::json ProbeResultToJson(const ProbeResult& result);
+
+// Writes <dir>/<probe>.json (atomic) and <dir>/<probe>.png, a plot of the curves (one panel per
+// distinct (x_label, y_label), drawn by /usr/bin/python3 with matplotlib). Both are written to
+// temporary files and renamed only when both succeeded. Throws shadefit::Error naming the path.
+void WriteProbeOutputs(const ProbeResult& result, const std::string& dir);
+
+// Checks one reference: non-empty RGBA image, its size equals the G-buffer's and the scene
+// camera's, finite pixels, at least one pixel with coverage >= min_coverage. Throws
+// shadefit::Error "<name>: <field>: <problem>".
+void ValidateReference(const ProbeReference& reference, double min_coverage);
+
+}  // namespace shadefit::probes

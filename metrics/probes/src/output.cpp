@@ -1,0 +1,121 @@
+// Probe outputs: JSON and a plot of the curves, written atomically (temporary files + rename).
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "probe_common.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::probes {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Groups curves by (x_label, y_label) into panels; honours y_scale/x_scale "log" and x_ticks.
+constexpr const char* kPlotScript = R"PY(
+import json, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+d = json.load(open(sys.argv[1]))
+groups = {}
+for name, c in d.get("curves", {}).items():
+    groups.setdefault((c.get("x_label", ""), c.get("y_label", "")), []).append((name, c))
+n = max(1, len(groups))
+cols = min(2, n)
+rows = (n + cols - 1) // cols
+fig, axes = plt.subplots(rows, cols, figsize=(6.4 * cols, 4.6 * rows), squeeze=False)
+for ax in list(axes.flat)[n:]:
+    ax.axis("off")
+if not groups:
+    axes[0][0].text(0.5, 0.5, "no curves", ha="center", va="center")
+for ax, ((xl, yl), items) in zip(axes.flat, groups.items()):
+    for name, c in items:
+        log_y = c.get("y_scale") == "log"
+        pts = [(x, y) for x, y in zip(c["x"], c["y"]) if x is not None and y is not None]
+        if log_y:
+            pts = [(x, y) for x, y in pts if y > 0]
+        if not pts:
+            continue
+        xs, ys = zip(*pts)
+        ax.plot(xs, ys, marker="o" if len(xs) < 30 else None, ms=3, lw=1.2, label=name)
+        if log_y:
+            ax.set_yscale("log")
+        if c.get("x_scale") == "log":
+            ax.set_xscale("log")
+        ticks = c.get("x_ticks")
+        if ticks:
+            ax.set_xticks(range(len(ticks)))
+            ax.set_xticklabels(ticks, rotation=40, ha="right", fontsize=7)
+    ax.set_xlabel(xl)
+    ax.set_ylabel(yl)
+    ax.grid(True, alpha=0.3)
+    if items:
+        ax.legend(fontsize=6 if len(items) <= 10 else 5, ncol=1 if len(items) <= 10 else 2)
+fig.suptitle(d.get("probe", "") + " probe")
+fig.tight_layout()
+fig.savefig(sys.argv[2], format="png", dpi=90)
+)PY";
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f << text;
+  f.close();
+  if (!f) throw Error(path.string(), "", "cannot write file");
+}
+
+}  // namespace
+
+nlohmann::json ProbeResultToJson(const ProbeResult& result) {
+  nlohmann::json j;
+  j["probe"] = result.probe;
+  j["numbers"] = result.numbers.is_null() ? nlohmann::json::object() : result.numbers;
+  j["curves"] = result.curves.is_null() ? nlohmann::json::object() : result.curves;
+  j["notes"] = result.notes.is_null() ? nlohmann::json::array() : result.notes;
+  return j;
+}
+
+void WriteProbeOutputs(const ProbeResult& result, const std::string& dir) {
+  if (result.probe.empty()) throw Error(dir, "probe", "result has no probe name");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) throw Error(dir, "", "output directory cannot be created");
+  const fs::path base(dir);
+  const std::string tag = fmt::format(".{}.{}.tmp", result.probe, ::getpid());
+  const fs::path json_tmp = base / (tag + ".json");
+  const fs::path png_tmp = base / (tag + ".png");
+  const fs::path script = base / (tag + ".py");
+  const fs::path log = base / (tag + ".log");
+  auto cleanup = [&] {
+    for (const fs::path& p : {json_tmp, png_tmp, script, log}) fs::remove(p, ec);
+  };
+  try {
+    WriteText(json_tmp, ProbeResultToJson(result).dump(1) + "\n");
+    WriteText(script, kPlotScript);
+    const std::string cmd =
+        fmt::format("/usr/bin/python3 '{}' '{}' '{}' > '{}' 2>&1", script.string(),
+                    json_tmp.string(), png_tmp.string(), log.string());
+    const int rc = std::system(cmd.c_str());
+    if (rc != 0 || !fs::exists(png_tmp)) {
+      std::ifstream lf(log);
+      std::string last, line;
+      while (std::getline(lf, line)) {
+        if (!line.empty()) last = line;
+      }
+      throw Error((base / (result.probe + ".png")).string(), "",
+                  "plot failed (/usr/bin/python3 with matplotlib): " + last);
+    }
+    fs::rename(json_tmp, base / (result.probe + ".json"));
+    fs::rename(png_tmp, base / (result.probe + ".png"));
+  } catch (...) {
+    cleanup();
+    throw;
+  }
+  cleanup();
+}
+
+}  // namespace shadefit::probes

@@ -1,0 +1,319 @@
+#include "probe_common.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "shadefit/render/brdf.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::probes {
+
+void ValidateReference(const ProbeReference& reference, double min_coverage) {
+  const std::string& name = reference.name.empty() ? std::string("reference") : reference.name;
+  const Image& image = reference.image;
+  if (image.empty()) throw Error(name, "image", "empty image");
+  if (image.channels < 4) {
+    throw Error(name, "image",
+                fmt::format("expected RGBA (alpha = coverage), got {} channel(s)", image.channels));
+  }
+  const GBuffer& g = reference.gbuffer;
+  if (g.width <= 0 || g.height <= 0 || g.normal.empty() || g.position.empty() || g.view.empty()) {
+    throw Error(name, "gbuffer", "empty G-buffer (render it with Renderer::RenderGBuffer)");
+  }
+  if (image.width != g.width || image.height != g.height) {
+    throw Error(name, "image",
+                fmt::format("size {}x{} differs from the G-buffer's {}x{}", image.width,
+                            image.height, g.width, g.height));
+  }
+  const Camera& c = reference.scene.camera;
+  if (image.width != c.width || image.height != c.height_px) {
+    throw Error(name, "scene.camera.resolution",
+                fmt::format("{}x{} differs from the image's {}x{}", c.width, c.height_px,
+                            image.width, image.height));
+  }
+  std::size_t valid = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      for (int ch = 0; ch < image.channels; ++ch) {
+        if (!std::isfinite(image.at(x, y, ch))) {
+          throw Error(name, "image",
+                      fmt::format("non-finite value at pixel ({}, {}) channel {}", x, y, ch));
+        }
+      }
+      if (image.at(x, y, 3) >= min_coverage && g.Hit(x, y)) ++valid;
+    }
+  }
+  if (valid == 0) {
+    throw Error(name, "image",
+                fmt::format("empty mask: no pixel with coverage >= {} on an object", min_coverage));
+  }
+}
+
+namespace internal {
+
+const ModelInfo& ValidateModel(const ModelUnderTest& model) {
+  const std::string& label = model.label.empty() ? std::string("model") : model.label;
+  if (model.label.empty()) throw Error(label, "label", "empty label");
+  const ModelInfo* info = nullptr;
+  try {
+    info = &FindModel(model.model);
+  } catch (const Error& e) {
+    throw Error(label, "model", fmt::format("unknown model '{}'", model.model));
+  }
+  if (static_cast<int>(model.params.size()) != info->ParamCount()) {
+    throw Error(label, "params",
+                fmt::format("model {} takes {} values, got {}", info->name, info->ParamCount(),
+                            model.params.size()));
+  }
+  for (int i = 0; i < info->ParamCount(); ++i) {
+    const double v = model.params[i];
+    const ParamSpec& spec = info->SpecOfEntry(i);
+    if (!std::isfinite(v) || v < spec.min || v > spec.max) {
+      throw Error(label, "params." + info->EntryName(i),
+                  fmt::format("value {} outside [{}, {}]", v, spec.min, spec.max));
+    }
+  }
+  if (!std::isfinite(model.exposure) || model.exposure <= 0) {
+    throw Error(label, "exposure", fmt::format("must be finite and > 0, got {}", model.exposure));
+  }
+  return *info;
+}
+
+Image RenderModel(const ProbeInputs& inputs, const ModelUnderTest& model,
+                  const ProbeReference& reference) {
+  const ModelInfo& info = ValidateModel(model);
+  Image image;
+  if (inputs.renderer != nullptr) {
+    image = inputs.renderer->Render(reference.scene, info.id, model.params);
+  } else {
+    if (!TwinSupportsScene(reference.scene)) {
+      throw Error(model.label, "renderer",
+                  fmt::format("reference {} has environment/uniform light: needs the GL renderer",
+                              reference.name));
+    }
+    image = ShadeGBuffer(reference.scene, reference.gbuffer, info.id, model.params);
+  }
+  const int rgb = std::min(image.channels, 3);
+  for (std::size_t i = 0; i < image.PixelCount(); ++i) {
+    for (int c = 0; c < rgb; ++c) {
+      image.data[i * image.channels + c] *= static_cast<float>(model.exposure);
+    }
+  }
+  return image;
+}
+
+void DiffuseAndLobe(ModelId id, const double* p, const ShadingPoint& point, double diffuse_rgb[3],
+                    std::vector<double>* lobe_per_light) {
+  using shadefit::internal::ComputeDots;
+  using shadefit::internal::Distribution;
+  using shadefit::internal::SpecularDV;
+  using shadefit::internal::Visibility;
+  double ka[3];
+  AmbientReflectance(id, p, ka);
+  for (int c = 0; c < 3; ++c) diffuse_rgb[c] = ka[c] * point.ambient[c];
+  lobe_per_light->assign(point.lights.size(), 0.0);
+  const Vec3d& n = point.n;
+  const Vec3d& v = point.v;
+  const double NoV = Dot(n, v);
+  for (std::size_t i = 0; i < point.lights.size(); ++i) {
+    const PixelLight& light = point.lights[i];
+    const double NoL = Dot(n, light.l);
+    if (!(NoL > 0) || !(NoV > 0)) continue;  // Reflect() is 0 there too.
+    const auto d = ComputeDots(n, light.l, v);
+    double fd[3] = {0, 0, 0};  // diffuse coefficient per channel, without NoL
+    double lobe = 0;           // specular term with F = 1, unit coefficient, with NoL
+    auto microfacet = [&](Distribution dist, Visibility vis, double alpha) {
+      return SpecularDV(dist, vis, d, alpha) * NoL;
+    };
+    switch (id) {
+      case ModelId::kLambert:
+        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
+        break;
+      case ModelId::kPhong:
+      case ModelId::kBlinnPhong: {
+        // Classic lobes are not multiplied by NoL (models_inl.h): ks (r.v)^n or ks (n.h)^n.
+        const double cos_lobe = id == ModelId::kPhong ? Dot(n * (2.0 * NoL) - light.l, v) : d.NoH;
+        for (int c = 0; c < 3; ++c) fd[c] = p[3 + c];
+        lobe = cos_lobe > 0 ? std::pow(cos_lobe, p[9]) : 0.0;
+        break;
+      }
+      case ModelId::kBlinnPhongNormalized:
+        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
+        lobe = d.NoH > 0 ? (p[6] + 8.0) / (8.0 * kPi) * std::pow(d.NoH, p[6]) * NoL : 0.0;
+        break;
+      case ModelId::kGgx:
+      case ModelId::kGgxSeparable:
+      case ModelId::kGgxBurley:
+      case ModelId::kBeckmann: {
+        const double r = p[6];
+        const bool burley = id == ModelId::kGgxBurley;
+        for (int c = 0; c < 3; ++c) {
+          fd[c] = p[c] * (burley ? Fd_Burley(d.NoV, d.NoL, d.LoH, r) : kInvPi);
+        }
+        const Distribution dist =
+            id == ModelId::kBeckmann ? Distribution::kBeckmann : Distribution::kGgx;
+        const Visibility vis = id == ModelId::kBeckmann       ? Visibility::kSmithBeckmannSeparable
+                               : id == ModelId::kGgxSeparable ? Visibility::kSmithGgxSeparable
+                                                              : Visibility::kSmithGgxCorrelated;
+        lobe = microfacet(dist, vis, r * r);
+        break;
+      }
+      case ModelId::kGgxMetallic:
+        for (int c = 0; c < 3; ++c) fd[c] = p[c] * (1.0 - p[3]) * kInvPi;
+        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[4] * p[4]);
+        break;
+      case ModelId::kGgxDielectric:
+        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
+        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[4] * p[4]);
+        break;
+      case ModelId::kGgxConductor:
+        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[6] * p[6]);
+        break;
+      case ModelId::kCyclesPrincipled:
+        for (int c = 0; c < 3; ++c) {
+          fd[c] = p[c] * (1.0 - p[3]) * Fd_Burley(d.NoV, d.NoL, d.LoH, p[5]);
+        }
+        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxSeparable, p[5] * p[5]);
+        break;
+    }
+    for (int c = 0; c < 3; ++c) diffuse_rgb[c] += fd[c] * NoL * light.irradiance[c];
+    (*lobe_per_light)[i] =
+        lobe * Luma(light.irradiance[0], light.irradiance[1], light.irradiance[2]);
+  }
+}
+
+namespace {
+
+double AcosDeg(double c) { return std::acos(std::clamp(c, -1.0, 1.0)) * kRadToDeg; }
+
+}  // namespace
+
+Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& image,
+                        const ModelUnderTest* known, double min_coverage,
+                        double diffuse_percentile) {
+  Decomposition out;
+  out.has_lobe = known != nullptr;
+  const ModelInfo* info = known ? &ValidateModel(*known) : nullptr;
+  std::vector<double> lambert_shading;  // S(x) for kd = 1, unknown BRDF only
+  std::vector<double> lobes;
+  for (const ShadingPoint& pt : points) {
+    if (image.channels >= 4 && image.at(pt.x, pt.y, 3) < min_coverage) continue;
+    PixelTerms t;
+    t.x = pt.x;
+    t.y = pt.y;
+    t.total = Luma(image.at(pt.x, pt.y, 0), image.at(pt.x, pt.y, 1), image.at(pt.x, pt.y, 2));
+    t.theta_v_deg = AcosDeg(Dot(pt.n, pt.v));
+    int dominant = -1;
+    double best = 0;
+    double shading = 0;
+    for (std::size_t i = 0; i < pt.lights.size(); ++i) {
+      const PixelLight& l = pt.lights[i];
+      const double e =
+          std::max(0.0, Dot(pt.n, l.l)) * Luma(l.irradiance[0], l.irradiance[1], l.irradiance[2]);
+      shading += e * kInvPi;
+      if (!known && e > best) {
+        best = e;
+        dominant = static_cast<int>(i);
+      }
+    }
+    if (known) {
+      double d[3];
+      DiffuseAndLobe(info->id, known->params.data(), pt, d, &lobes);
+      t.diffuse = Luma(d[0], d[1], d[2]) * known->exposure;
+      for (std::size_t i = 0; i < lobes.size(); ++i) {
+        t.lobe += lobes[i];
+        if (lobes[i] > best) {
+          best = lobes[i];
+          dominant = static_cast<int>(i);
+        }
+      }
+      if (dominant < 0) {  // No lobe anywhere (Lambert): take the strongest light.
+        for (std::size_t i = 0; i < pt.lights.size(); ++i) {
+          const double e = std::max(0.0, Dot(pt.n, pt.lights[i].l));
+          if (e > best) {
+            best = e;
+            dominant = static_cast<int>(i);
+          }
+        }
+      }
+    }
+    if (dominant >= 0) {
+      const Vec3d& l = pt.lights[dominant].l;
+      const Vec3d h = Normalize(l + pt.v);
+      t.theta_h_deg = AcosDeg(Dot(pt.n, h));
+      t.theta_d_deg = AcosDeg(Dot(l, h));
+    }
+    out.pixels.push_back(t);
+    lambert_shading.push_back(shading);
+  }
+  if (known) {
+    out.diffuse_source = known->label;
+  } else {
+    double max_s = 0;
+    for (double s : lambert_shading) max_s = std::max(max_s, s);
+    std::vector<double> ratios;
+    for (std::size_t i = 0; i < out.pixels.size(); ++i) {
+      if (lambert_shading[i] >= 0.05 * max_s && lambert_shading[i] > 0) {
+        ratios.push_back(out.pixels[i].total / lambert_shading[i]);
+      }
+    }
+    double kd = ratios.empty() ? 0.0 : std::max(0.0, Percentile(ratios, diffuse_percentile));
+    for (std::size_t i = 0; i < out.pixels.size(); ++i) {
+      out.pixels[i].diffuse = kd * lambert_shading[i];
+    }
+    out.diffuse_source =
+        fmt::format("lambert-percentile (p{:g} of Y / S: kd_Y = {:.4g})", diffuse_percentile, kd);
+  }
+  for (PixelTerms& t : out.pixels) t.specular = t.total - t.diffuse;
+  return out;
+}
+
+std::vector<const ProbeReference*> SelectTwinReferences(const ProbeInputs& inputs,
+                                                        const std::vector<std::string>& lightings,
+                                                        nlohmann::json* notes) {
+  std::vector<const ProbeReference*> out;
+  for (const ProbeReference& r : inputs.references) {
+    if (!lightings.empty() &&
+        std::find(lightings.begin(), lightings.end(), r.lighting) == lightings.end()) {
+      notes->push_back(fmt::format("skipped {}: lighting '{}' not selected", r.name, r.lighting));
+      continue;
+    }
+    if (!TwinSupportsScene(r.scene)) {
+      notes->push_back(fmt::format(
+          "skipped {}: environment/uniform lighting has no per-pixel light direction", r.name));
+      continue;
+    }
+    out.push_back(&r);
+  }
+  return out;
+}
+
+double Percentile(std::vector<double> values, double p) {
+  if (values.empty()) return std::nan("");
+  std::sort(values.begin(), values.end());
+  const double pos = std::clamp(p, 0.0, 100.0) / 100.0 * (values.size() - 1);
+  const std::size_t lo = static_cast<std::size_t>(std::floor(pos));
+  const std::size_t hi = std::min(values.size() - 1, lo + 1);
+  return values[lo] + (values[hi] - values[lo]) * (pos - lo);
+}
+
+nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json Curve(const std::vector<double>& x, const std::vector<double>& y,
+                     const std::string& x_label, const std::string& y_label) {
+  nlohmann::json c;
+  c["x"] = nlohmann::json::array();
+  c["y"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    c["x"].push_back(Num(x[i]));
+    c["y"].push_back(Num(y[i]));
+  }
+  c["x_label"] = x_label;
+  c["y_label"] = y_label;
+  return c;
+}
+
+}  // namespace internal
+}  // namespace shadefit::probes

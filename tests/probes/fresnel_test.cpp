@@ -1,0 +1,97 @@
+// Fresnel probe on synthetic renders with known BRDFs (docs/probes.md, "Validation").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "probe_test_util.h"
+
+namespace shadefit::testing {
+namespace {
+
+using probes::FresnelProbe;
+using probes::ProbeInputs;
+
+double Schlick(double f0, double theta_deg) {
+  return f0 + (1 - f0) * std::pow(1 - std::cos(theta_deg * kPi / 180.0), 5);
+}
+
+ProbeInputs GgxInputs() {
+  ProbeInputs in;
+  in.renderer = &SharedRenderer();
+  in.truth = MakeModel("ggx", "ggx", {"kd=0.3", "f0=0.04", "roughness=0.3"});
+  for (const char* l : {"camera", "side", "rim", "mirror60", "mirror75", "mirror85"}) {
+    in.references.push_back(MakeReference(*in.truth, l));
+  }
+  in.models.push_back(*in.truth);
+  in.models.back().label = "ggx-truth";
+  in.models.push_back(
+      MakeModel("blinn-phong", "blinn-phong", {"kd=0.3", "ks=0.3", "shininess=40"}));
+  return in;
+}
+
+// A Schlick GGX render returns F0 at normal incidence and the Schlick curve in theta_d.
+TEST(FresnelProbe, SchlickGgxGivesF0AndSchlickCurve) {
+  const ProbeInputs in = GgxInputs();
+  const probes::ProbeResult r = FresnelProbe(in);
+  const double f_centre = r.numbers["reference"]["F_centre"].get<double>();
+  std::printf("[ fresnel ] reference F_centre %.5f (F0 0.04), F_rim %.4f, rim/centre %.3f\n",
+              f_centre, r.numbers["reference"]["F_rim"].get<double>(),
+              r.numbers["reference"]["rim_to_centre"].get<double>());
+  EXPECT_NEAR(f_centre, 0.04, 1e-3);
+  const auto pts = CurvePoints(r.curves.at("reference: F vs theta_d"));
+  ASSERT_GE(pts.size(), 4u);
+  double worst = 0;
+  for (const auto& [x, y] : pts) {
+    // x is the lobe-weighted mean theta_d of a 5 deg bin; F is the lobe-weighted mean of a
+    // convex curve over the bin, so allow a quarter of Schlick's change across +-2.5 deg.
+    const double tol =
+        0.25 * std::abs(Schlick(0.04, std::min(90.0, x + 2.5)) - Schlick(0.04, x - 2.5)) + 1e-3;
+    EXPECT_NEAR(y, Schlick(0.04, x), tol) << "theta_d " << x;
+    worst = std::max(worst, std::abs(y - Schlick(0.04, x)) / tol);
+    std::printf("[ fresnel ] theta_d %5.1f  F %.5f  Schlick %.5f\n", x, y, Schlick(0.04, x));
+  }
+  EXPECT_LT(r.numbers["ggx-truth"]["curve_rmse_theta_d"].get<double>(), 1e-3);
+  EXPECT_LT(r.numbers["ggx-truth"]["curve_rmse_theta_v"].get<double>(), 1e-3);
+  // Grazing reflectance rises: F(85) / F0 > 5 (Schlick: 0.04 -> 0.40 at 85 deg).
+  EXPECT_GT(r.numbers["reference"]["rim_to_centre"].get<double>(), 5.0);
+}
+
+// Classic Blinn-Phong has no Fresnel factor: its effective Fresnel is ks at every angle.
+TEST(FresnelProbe, BlinnPhongCurveIsFlat) {
+  const ProbeInputs in = GgxInputs();
+  const probes::ProbeResult r = FresnelProbe(in);
+  const auto pts = CurvePoints(r.curves.at("blinn-phong: F vs theta_d"));
+  ASSERT_GE(pts.size(), 4u);
+  for (const auto& [x, y] : pts) EXPECT_NEAR(y, 0.3, 2e-3) << "theta_d " << x;
+  EXPECT_NEAR(r.numbers["blinn-phong"]["rim_to_centre"].get<double>(), 1.0, 0.01);
+  // It cannot follow the reference's rise: a large curve error against the Schlick reference.
+  EXPECT_GT(r.numbers["blinn-phong"]["curve_rmse_theta_d"].get<double>(), 0.1);
+}
+
+// Without a truth the reference's diffuse part is estimated by the Lambert percentile fit: a
+// pure Lambert image leaves no specular residual, and F(theta_d) is reported as unknown.
+TEST(FresnelProbe, LambertPercentileEstimateLeavesNoSpecular) {
+  ProbeInputs in;
+  in.renderer = &SharedRenderer();
+  const auto lambert = MakeModel("lambert", "lambert", {"kd=0.6"});
+  in.references.push_back(MakeReference(lambert, "key"));
+  in.references.push_back(MakeReference(lambert, "side"));
+  const probes::ProbeResult r = FresnelProbe(in);
+  EXPECT_TRUE(r.numbers["reference"]["F_centre"].is_null());
+  for (const auto& [name, curve] : r.curves.items()) {
+    for (const auto& [x, y] : CurvePoints(curve)) EXPECT_NEAR(y, 0.0, 2e-4) << name << " " << x;
+  }
+}
+
+TEST(FresnelProbe, TwinPathMatchesGlPath) {
+  ProbeInputs in = GgxInputs();
+  const probes::ProbeResult gl = FresnelProbe(in);
+  in.renderer = nullptr;  // models by the C++ twin
+  const probes::ProbeResult twin = FresnelProbe(in);
+  EXPECT_NEAR(gl.numbers["blinn-phong"]["F_rim"].get<double>(),
+              twin.numbers["blinn-phong"]["F_rim"].get<double>(), 1e-4);
+}
+
+}  // namespace
+}  // namespace shadefit::testing

@@ -1,0 +1,108 @@
+// Bad input to the probes (one-line shadefit::Error naming the reference/label and the field)
+// and the output files (JSON + PNG, atomic).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "probe_test_util.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::testing {
+namespace {
+
+probes::ProbeInputs Inputs() {
+  probes::ProbeInputs in;
+  in.renderer = &SharedRenderer();
+  in.truth = MakeModel("ggx", "ggx", {"kd=0.3", "f0=0.04", "roughness=0.3"});
+  in.references.push_back(MakeReference(*in.truth, "key", 32));
+  return in;
+}
+
+std::string ErrorOf(const probes::ProbeInputs& in) {
+  try {
+    probes::FresnelProbe(in);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(ProbeInputs, SizeMismatch) {
+  auto in = Inputs();
+  in.references[0].image = Image(16, 32, 4, 0.5f);
+  EXPECT_EQ(ErrorOf(in), "ggx-key: image: size 16x32 differs from the G-buffer's 32x32");
+}
+
+TEST(ProbeInputs, NaNPixel) {
+  auto in = Inputs();
+  in.references[0].image.at(3, 4, 1) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(ErrorOf(in), "ggx-key: image: non-finite value at pixel (3, 4) channel 1");
+}
+
+TEST(ProbeInputs, EmptyMask) {
+  auto in = Inputs();
+  for (std::size_t i = 0; i < in.references[0].image.PixelCount(); ++i) {
+    in.references[0].image.data[i * 4 + 3] = 0.0f;
+  }
+  EXPECT_EQ(ErrorOf(in),
+            "ggx-key: image: empty mask: no pixel with coverage >= 0.999 on an object");
+}
+
+TEST(ProbeInputs, NotRgba) {
+  auto in = Inputs();
+  in.references[0].image = in.references[0].image.Channels(0, 3);
+  EXPECT_EQ(ErrorOf(in), "ggx-key: image: expected RGBA (alpha = coverage), got 3 channel(s)");
+}
+
+TEST(ProbeInputs, BadModels) {
+  auto in = Inputs();
+  in.models.push_back(MakeModel("m", "ggx", {}));
+  in.models.back().model = "gxx";
+  EXPECT_EQ(ErrorOf(in), "m: model: unknown model 'gxx'");
+  in.models.back().model = "lambert";
+  EXPECT_EQ(ErrorOf(in), "m: params: model lambert takes 3 values, got 7");
+  in.models.back() = MakeModel("m", "ggx", {});
+  in.models.back().params[6] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(ErrorOf(in), "m: params.roughness: value nan outside [0.01, 1]");
+}
+
+TEST(ProbeInputs, NoReferences) {
+  probes::ProbeInputs in;
+  EXPECT_EQ(ErrorOf(in), "fresnel: references: no reference given");
+}
+
+TEST(ProbeOutputs, WritesJsonAndPngAtomically) {
+  const auto in = Inputs();
+  const auto result = probes::FresnelProbe(in);
+  const std::string dir = TestOutputDir("probes/outputs");
+  probes::WriteProbeOutputs(result, dir);
+  namespace fs = std::filesystem;
+  ASSERT_TRUE(fs::exists(fs::path(dir) / "fresnel.json"));
+  ASSERT_TRUE(fs::exists(fs::path(dir) / "fresnel.png"));
+  EXPECT_GT(fs::file_size(fs::path(dir) / "fresnel.png"), 1000u);
+  std::ifstream f(fs::path(dir) / "fresnel.json");
+  const auto j = nlohmann::json::parse(f);
+  EXPECT_EQ(j["probe"], "fresnel");
+  EXPECT_TRUE(j["curves"].is_object());
+  for (const auto& e : fs::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  }
+}
+
+TEST(ProbeOutputs, UnwritableDirectoryIsAnError) {
+  const std::string dir = TestOutputDir("probes");
+  { std::ofstream(dir + "/a_file") << "x"; }
+  probes::ProbeResult r;
+  r.probe = "energy";
+  try {
+    probes::WriteProbeOutputs(r, dir + "/a_file/sub");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("a_file/sub"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace shadefit::testing
