@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "shadefit/refs/files.h"
+#include "shadefit/render/files.h"
 #include "shadefit/refs/render_measured.h"
 #include "shadefit/render/error.h"
 

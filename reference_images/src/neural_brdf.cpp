@@ -10,7 +10,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
-#include "shadefit/refs/files.h"
+#include "shadefit/render/files.h"
 #include "shadefit/refs/measured_brdf.h"
 #include "shadefit/render/error.h"
 

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "shadefit/refs/files.h"
+#include "shadefit/render/files.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
 #include "shadefit/render/error.h"

@@ -1,4 +1,4 @@
-#include "shadefit/refs/files.h"
+#include "shadefit/render/files.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -12,7 +12,7 @@
 
 #include "shadefit/render/error.h"
 
-namespace shadefit::refs {
+namespace shadefit {
 namespace {
 
 namespace fs = std::filesystem;
@@ -168,4 +168,4 @@ std::string OneLine(const std::string& text) {
   return out;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit

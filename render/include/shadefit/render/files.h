@@ -1,10 +1,10 @@
-// Small file utilities shared by the reference writers: content hashes for provenance, atomic
+// Small file utilities shared by every writer: content hashes for provenance, atomic
 // text writes, and one-line error text.
 #pragma once
 
 #include <string>
 
-namespace shadefit::refs {
+namespace shadefit {
 
 // SHA-256 (FIPS 180-4) of a file's bytes / of a string, as 64 lowercase hex digits. The file
 // variant throws shadefit::Error naming the file when it cannot be read.
@@ -19,4 +19,4 @@ void WriteTextAtomic(const std::string& path, const std::string& text);
 // one-line error format of shadefit::Error.
 std::string OneLine(const std::string& text);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit
