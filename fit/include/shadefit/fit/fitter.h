@@ -1,0 +1,211 @@
+// Fitting a shading model to reference images with Ceres (docs/fitting.md).
+//
+// One material, one or more references: every reference brings its image (linear radiance,
+// RGBA with alpha = coverage, premultiplied), its scene and an optional mask, and all of them are
+// fitted JOINTLY with one set of material parameters (plus an optional global exposure scale).
+// Residuals are per valid pixel and per channel, in linear radiance or a compressed version of it
+// (Loss). Two derivative paths evaluate the same residuals:
+//   kGBuffer: GL renders each reference's G-buffer once; the residuals run on the templated C++
+//             twin of the shading code (ShadePoint<ceres::Jet>): exact derivatives by AutoDiff,
+//             multi-threaded. Valid when every scene has only point/directional/ambient lights.
+//   kGl:      Ceres drives the GL renderer; the Jacobian comes from forward differences of GL
+//             renders (one render per free parameter and evaluation point, shared by every
+//             residual block through a cache). Needed for environment lighting.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "shadefit/render/image.h"
+#include "shadefit/render/renderer.h"
+#include "shadefit/render/scene.h"
+
+namespace shadefit::fit {
+
+// How a pixel's residual is formed from the prediction x and the reference y (per channel).
+enum class Loss {
+  kL2,        // r = x - y: linear radiance; highlights dominate.
+  kLog,       // r = log(1 + x) - log(1 + y): compresses values above ~1.
+  kCubeRoot,  // r = cbrt(x + eps) - cbrt(y + eps), eps = kCubeRootEpsilon (Fores et al. 2012).
+  kHuber,     // r = x - y per channel, ceres::HuberLoss(scale) on each pixel's RGB norm^2.
+  kCauchy,    // r = x - y per channel, ceres::CauchyLoss(scale) on each pixel's RGB norm^2.
+};
+
+// Offset inside the cube root: keeps the Jet derivative 1 / (3 (x + eps)^(2/3)) finite at x = 0
+// (bounded by 155) while changing values above ~0.01 radiance by under 1%.
+inline constexpr double kCubeRootEpsilon = 1e-4;
+
+enum class DerivativePath { kAuto, kGBuffer, kGl };
+enum class Exposure { kFixed, kFree };
+
+Loss ParseLoss(const std::string& name);               // Throws shadefit::Error on unknown names.
+std::string LossName(Loss loss);                       // "l2", "log", "cuberoot", ...
+DerivativePath ParsePath(const std::string& name);     // "auto", "gbuffer", "gl".
+std::string PathName(DerivativePath path);
+Exposure ParseExposure(const std::string& name);       // "fixed", "free".
+
+// The scale of the robust losses when FitOptions::loss_scale is 0, as a fraction of the
+// reference's 99th-percentile value over valid pixels (RGB norm): residual norms above
+// 0.05 * p99 count as outliers (Huber: linear growth; Cauchy: logarithmic).
+inline constexpr double kRobustScaleFraction = 0.05;
+
+// One reference with everything the fitter needs. LoadReference() fills it from files; tests and
+// the study runner may fill it in memory (image_path etc. then only name outputs).
+struct FitReference {
+  std::string name;          // Short name used in outputs ("<json stem>.<name>.fit.exr").
+  std::string image_path;    // "" for in-memory references.
+  std::string sidecar_path;  // "" when none was read.
+  std::string scene_path;
+  std::string mask_path;     // "" when no mask.
+  Image image;               // RGB or RGBA (alpha = coverage), linear radiance.
+  Scene scene;
+  Image mask;                // Empty, or same size: channel 0 > 0.5 marks pixels to use.
+  // Pixels with any channel >= clip_level (linear) are excluded: saturated LDR pixels.
+  float clip_level = std::numeric_limits<float>::infinity();
+  // SHA-256 (hex) of the bytes of every input file read, keyed by role: image, sidecar, scene,
+  // mask.
+  std::map<std::string, std::string> sha256;
+};
+
+// Reads a reference as the CLI does. The image: EXR/HDR are linear radiance; any other format
+// (PNG, JPEG, TIFF: display images) is decoded from sRGB, and pixels with a channel >= 254/255
+// before decoding are excluded as clipped. The scene: `scene_override` if not empty, else the
+// sidecar `<image path without extension>.json` field "scene_file" (or "scene" when it is a
+// string), resolved relative to the sidecar. Mask: optional image, channel 0 > 0.5 = use.
+// Throws shadefit::Error naming the file and field on missing files, bad JSON, a missing scene
+// field, or a size mismatch between image, scene resolution and mask.
+FitReference LoadReference(const std::string& image_path, const std::string& scene_override = "",
+                           const std::string& mask_path = "");
+
+struct FitProblem {
+  std::string model;                     // Name as listed by `shadefit models`.
+  std::vector<FitReference> references;  // Fitted jointly with one parameter set.
+  // Held constant: "name=value" or "name=r,g,b" (the --set syntax of `shadefit render`).
+  std::vector<std::string> fixed;
+};
+
+struct FitOptions {
+  Loss loss = Loss::kL2;
+  double loss_scale = 0.0;           // Huber/Cauchy scale a (radiance units); 0 = automatic
+                                     // (kRobustScaleFraction of the references' p99).
+  int starts = 1;                    // Start 0 = table defaults; 1.. = scrambled Halton points.
+  std::uint64_t seed = 1;            // Scrambles the Halton starts (Cranley-Patterson shift).
+  Exposure exposure = Exposure::kFixed;  // kFree: fit a global scale exp(e).
+  DerivativePath path = DerivativePath::kAuto;
+  int max_iterations = 100;          // Per start.
+  int num_threads = 2;               // Ceres threads (G-buffer path; the GL path uses 1).
+  int pixels_per_block = 128;        // Pixels per residual block (non-robust losses).
+  double function_tolerance = 1e-9;   // Ceres' convergence tests (relative cost change,
+  double gradient_tolerance = 1e-10;  // max-norm of the gradient, relative step): far below
+  double parameter_tolerance = 1e-8;  // the 1% the acceptance tests ask of parameters.
+  // GL path: forward-difference step in the internal (reparametrised) coordinates; see
+  // docs/fitting.md for why 1e-3 (float shading: ~1e-6 relative noise).
+  double fd_step = 1e-3;
+  bool central_differences = false;  // GL path: central differences (2 renders per parameter).
+  int environment_samples = 0;       // GL path: override the scenes' environment sample count
+                                     // (0 = keep). Renders cost ~linear in samples.
+  bool compute_covariance = true;
+  // G-buffer path with > 16384 valid pixels: run every start on a ~4096-pixel subsample (all
+  // highlight pixels + a stride through the rest), then polish the best ones on all pixels.
+  bool coarse_to_fine = true;
+  bool render_outputs = true;        // Fill ReferenceResult::prediction/abs_error (GL renders).
+  // A renderer whose GL context is current on the calling thread. nullptr: Fit creates a
+  // context and renderer of its own for the duration of the call.
+  Renderer* renderer = nullptr;
+};
+
+struct ParameterEstimate {
+  std::string name;    // Flattened entry name: "kd.r", "roughness".
+  double value = 0;    // Natural units (after undoing the log reparametrisation).
+  double std_error = std::numeric_limits<double>::quiet_NaN();  // NaN: fixed or undetermined.
+  bool fixed = false;
+  bool undetermined = false;  // In the numerical null space of the Jacobian at the optimum.
+  bool at_bound = false;      // On a box bound: the std error is not meaningful there.
+  // Among the starts that reached the best cost: min, max, standard deviation.
+  double spread_min = 0, spread_max = 0, spread_std = 0;
+};
+
+struct StartResult {
+  std::vector<double> start;   // Natural units, flattened.
+  std::vector<double> params;  // Natural units, flattened.
+  double exposure = 1.0;
+  double initial_cost = 0, final_cost = 0;
+  int iterations = 0;
+  std::string termination;     // ceres::TerminationTypeToString.
+  bool converged = false;
+  bool reached_best = false;
+  // Coarse-to-fine (FitOptions::coarse_to_fine): the cost on the pixel subsample, and whether the
+  // start was polished on all pixels (only those near the best coarse cost are; the others have
+  // final_cost NaN and params from the coarse stage).
+  double coarse_cost = std::numeric_limits<double>::quiet_NaN();
+  bool polished = false;
+};
+
+struct ReferenceResult {
+  std::string name;
+  int pixels = 0;       // Valid pixels used.
+  double rmse = 0;      // Linear radiance, over valid pixels and channels, at the best fit.
+  Image prediction;     // GL render of the fit times exposure (when render_outputs).
+  Image abs_error;      // |prediction - reference|, RGB + alpha = validity (when render_outputs).
+};
+
+struct FitResult {
+  std::string model;
+  std::string loss;
+  double loss_scale = 0;           // 0 for losses without a scale.
+  DerivativePath path = DerivativePath::kGBuffer;  // The path that ran (never kAuto).
+  std::vector<ParameterEstimate> parameters;
+  std::vector<double> values;      // Natural units, flattened (for Renderer::Render).
+  bool exposure_free = false;
+  double exposure = 1.0;
+  double exposure_std_error = std::numeric_limits<double>::quiet_NaN();
+  double initial_cost = 0, final_cost = 0;  // Best start, Ceres' 0.5 * sum rho(r^2).
+  double rmse = 0;                  // Over all references' valid pixels, linear radiance.
+  std::vector<ReferenceResult> references;
+  int iterations = 0;
+  std::string termination;
+  bool converged = false;
+  std::string solver_message;
+  double seconds = 0;               // Wall time of Fit().
+  int starts = 1;
+  std::uint64_t seed = 1;
+  int starts_reached_best = 0;
+  bool coarse_to_fine = false;      // Whether the coarse stage ran.
+  std::vector<StartResult> start_results;
+  std::string covariance_status;    // "ok", "rank deficient", "failed: ...", "skipped".
+  long renders = 0;                 // GL renders of the model (not counting G-buffers/outputs).
+  long gbuffer_renders = 0;
+  long residual_evaluations = 0;    // Ceres evaluations without Jacobian (whole problem).
+  long jacobian_evaluations = 0;    // Ceres evaluations with Jacobian (whole problem).
+  nlohmann::json inputs;            // Paths and SHA-256 of every file read.
+};
+
+// Fits problem.model to problem.references. Throws shadefit::Error on bad input (unknown model
+// or parameter, a reference with no fittable pixel or only black ones, non-finite reference
+// pixels, size mismatches). A fit that does not converge is returned with converged = false.
+FitResult Fit(const FitProblem& problem, const FitOptions& options = {});
+
+nlohmann::json FitResultToJson(const FitResult& result);
+
+// Writes the JSON (atomically: temporary file + rename) and, per reference, next to it:
+// <stem>.<ref>.fit.exr (fitted render), <stem>.<ref>.error.exr (|error|, alpha = validity) and
+// <stem>.<ref>.error.png (preview). Returns the paths written.
+std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path);
+
+// Renders `model` with `params` (natural units, flattened) under the reference's scene with GL,
+// times `exposure`, and returns the RMSE (linear radiance) over the reference's valid pixels.
+// `renderer` as in FitOptions; `prediction` receives the render when not null.
+double EvaluateModelOnReference(const FitReference& reference, const std::string& model,
+                                const std::vector<double>& params, double exposure = 1.0,
+                                Renderer* renderer = nullptr, Image* prediction = nullptr);
+
+// SHA-256 (FIPS 180-4) of a file's bytes, lowercase hex. Throws shadefit::Error if unreadable.
+std::string Sha256File(const std::string& path);
+std::string Sha256(const std::string& bytes);
+
+}  // namespace shadefit::fit

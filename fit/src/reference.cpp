@@ -1,0 +1,116 @@
+// Reading a reference from files: image, sidecar JSON, scene TOML, optional mask.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "shadefit/fit/fitter.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::fit {
+namespace fs = std::filesystem;
+namespace {
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+// EXR and Radiance HDR hold linear radiance; every other format is a display image.
+bool IsLinearFormat(const std::string& path) {
+  const std::string ext = Lower(fs::path(path).extension().string());
+  return ext == ".exr" || ext == ".hdr";
+}
+
+// 8-bit code values >= 254 count as clipped: 255 is certainly saturated, and 254 can be a
+// rounded saturated value after a camera's or encoder's tone curve.
+constexpr float kClippedCode = 254.0f / 255.0f;
+
+}  // namespace
+
+FitReference LoadReference(const std::string& image_path, const std::string& scene_override,
+                           const std::string& mask_path) {
+  FitReference ref;
+  ref.image_path = image_path;
+  ref.name = fs::path(image_path).stem().string();
+  if (!fs::exists(image_path)) throw Error(image_path, "", "reference image does not exist");
+  ref.image = ReadImage(image_path);
+  ref.sha256["image"] = Sha256File(image_path);
+  if (ref.image.channels < 3) {
+    throw Error(image_path, "channels",
+                fmt::format("expected RGB or RGBA, got {} channel(s)", ref.image.channels));
+  }
+  if (!IsLinearFormat(image_path)) {
+    // Display image: decode the sRGB transfer function; remember the clip level (linear).
+    for (int y = 0; y < ref.image.height; ++y) {
+      for (int x = 0; x < ref.image.width; ++x) {
+        for (int c = 0; c < 3; ++c) ref.image.at(x, y, c) = SrgbToLinear(ref.image.at(x, y, c));
+      }
+    }
+    ref.clip_level = SrgbToLinear(kClippedCode) * (1.0f - 1e-6f);
+  }
+
+  // The scene: --scene, else the sidecar's scene_file resolved relative to the sidecar.
+  const fs::path sidecar = fs::path(image_path).replace_extension(".json");
+  if (!scene_override.empty()) {
+    ref.scene_path = scene_override;
+  } else {
+    if (!fs::exists(sidecar)) {
+      throw Error(sidecar.string(), "",
+                  "missing sidecar JSON (it names the reference's scene; or give --scene)");
+    }
+    ref.sidecar_path = sidecar.string();
+    nlohmann::json meta;
+    try {
+      std::ifstream in(sidecar);
+      meta = nlohmann::json::parse(in);
+    } catch (const std::exception& e) {
+      throw Error(sidecar.string(), "json", fmt::format("cannot parse: {}", e.what()));
+    }
+    ref.sha256["sidecar"] = Sha256File(sidecar.string());
+    std::string scene_field;
+    if (meta.contains("scene_file") && meta["scene_file"].is_string()) {
+      scene_field = meta["scene_file"].get<std::string>();
+    } else if (meta.contains("scene") && meta["scene"].is_string()) {
+      scene_field = meta["scene"].get<std::string>();
+    } else {
+      throw Error(sidecar.string(), "scene_file",
+                  "missing: the sidecar must name the scene TOML (or give --scene)");
+    }
+    fs::path scene_path(scene_field);
+    if (scene_path.is_relative()) scene_path = sidecar.parent_path() / scene_path;
+    if (!fs::exists(scene_path)) {
+      throw Error(sidecar.string(), "scene_file",
+                  fmt::format("scene '{}' does not exist", scene_path.string()));
+    }
+    ref.scene_path = scene_path.lexically_normal().string();
+  }
+  if (!fs::exists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
+  ref.scene = LoadScene(ref.scene_path);
+  ref.sha256["scene"] = Sha256File(ref.scene_path);
+  if (ref.scene.camera.width != ref.image.width ||
+      ref.scene.camera.height_px != ref.image.height) {
+    throw Error(image_path, "resolution",
+                fmt::format("image is {}x{} but scene {} renders {}x{}", ref.image.width,
+                            ref.image.height, ref.scene_path, ref.scene.camera.width,
+                            ref.scene.camera.height_px));
+  }
+
+  if (!mask_path.empty()) {
+    if (!fs::exists(mask_path)) throw Error(mask_path, "", "mask does not exist");
+    ref.mask_path = mask_path;
+    ref.mask = ReadImage(mask_path);
+    ref.sha256["mask"] = Sha256File(mask_path);
+    if (ref.mask.width != ref.image.width || ref.mask.height != ref.image.height) {
+      throw Error(mask_path, "resolution",
+                  fmt::format("mask is {}x{} but the reference {} is {}x{}", ref.mask.width,
+                              ref.mask.height, image_path, ref.image.width, ref.image.height));
+    }
+  }
+  return ref;
+}
+
+}  // namespace shadefit::fit

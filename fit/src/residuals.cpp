@@ -1,0 +1,285 @@
+#include "shadefit/fit/residuals.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "shadefit/render/error.h"
+
+namespace shadefit::fit {
+namespace {
+
+// Natural range the multi-start samples log rows from: wide enough for shininess 1..1e5, but a
+// classic ks of 1e5 (the table maximum) is never a sensible start.
+constexpr double kLogStartMin = 1e-3;
+constexpr double kLogStartMax = 1e5;
+
+// Radical inverse of `index` in `base`: the Halton sequence (Halton 1960).
+double RadicalInverse(int index, int base) {
+  double result = 0, f = 1.0 / base;
+  for (int i = index; i > 0; i /= base, f /= base) result += f * (i % base);
+  return result;
+}
+
+constexpr int kPrimes[] = {2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53};
+
+}  // namespace
+
+bool FittedInLogSpace(const ParamSpec& spec) {
+  // Besides the table's log rows (shininess, classic ks), two kinds of rows that act
+  // multiplicatively on the image are fitted in log space:
+  //  - roughness: the lobe's peak scales like 1 / alpha^2 = 1 / roughness^4, so the image
+  //    responds to relative, not absolute, changes; a step in log space means the same at 0.05
+  //    as at 0.9 and Gauss-Newton stops overshooting to the lower bound;
+  //  - specular scales (f0, f0_dielectric, normalised ks): in linear space the first
+  //    Gauss-Newton step from the defaults typically drives them to the bound 0, where the
+  //    roughness (or shininess) derivative vanishes and the fit is stranded (measured on the
+  //    synthetic GGX recovery set: 60 iterations or a wrong minimum; in log space: ~20).
+  return spec.log_scale || spec.name == "roughness" || spec.name == "f0" ||
+         spec.name == "f0_dielectric" || spec.name == "ks";
+}
+
+double LogFloor(const ParamSpec& spec) {
+  if (spec.min > 0) return spec.min;
+  return spec.name == "ks" && spec.log_scale ? kLogFloor : kSpecularLogFloor;
+}
+
+Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::string>& fixed)
+    : model_(&model) {
+  // Natural values of the fixed rows, validated against the table by SetParamFromString.
+  std::vector<double> fixed_values = DefaultParams(model);
+  std::vector<bool> is_fixed(model.ParamCount(), false);
+  for (const std::string& assignment : fixed) {
+    SetParamFromString(model, assignment, "--fix", &fixed_values);
+    const std::string name = assignment.substr(0, assignment.find('='));
+    const int offset = model.Offset(name);
+    for (int c = 0; c < model.Find(name)->size; ++c) is_fixed[offset + c] = true;
+  }
+  const std::vector<double> defaults = DefaultParams(model);
+  for (int i = 0; i < model.ParamCount(); ++i) {
+    const ParamSpec& spec = model.SpecOfEntry(i);
+    EntryMap e;
+    e.name = model.EntryName(i);
+    e.log = FittedInLogSpace(spec);
+    if (e.log) {
+      e.lower = std::log(LogFloor(spec));
+      e.upper = std::log(spec.max);
+      e.start_lower = std::max(e.lower, std::log(kLogStartMin));
+      e.start_upper = std::min(e.upper, std::log(kLogStartMax));
+    } else {
+      e.lower = e.start_lower = spec.min;
+      e.upper = e.start_upper = spec.max;
+    }
+    e.fixed = is_fixed[i];
+    e.fixed_value = fixed_values[i];
+    entries_.push_back(e);
+    entries_.back().default_u = ToInternal(i, defaults[i]);
+  }
+}
+
+std::vector<int> Parametrization::FixedIndices() const {
+  std::vector<int> out;
+  for (int i = 0; i < size(); ++i) {
+    if (entries_[i].fixed) out.push_back(i);
+  }
+  return out;
+}
+
+int Parametrization::FreeCount() const {
+  return size() - static_cast<int>(FixedIndices().size());
+}
+
+std::vector<double> Parametrization::ToNatural(const std::vector<double>& u) const {
+  std::vector<double> p(u.size());
+  ToNatural(u.data(), p.data());
+  return p;
+}
+
+double Parametrization::ToInternal(int i, double p) const {
+  const EntryMap& e = entries_[i];
+  const double y = e.log ? std::log(std::max(p, std::exp(e.lower))) : p;
+  return FromBox(e, y);
+}
+
+double Parametrization::FromBox(const EntryMap& e, double y) {
+  const double s = 2.0 * (y - e.lower) / (e.upper - e.lower) - 1.0;
+  return std::asin(std::clamp(s, -1.0, 1.0));
+}
+
+std::vector<double> Parametrization::ToInternal(const std::vector<double>& p) const {
+  std::vector<double> u(p.size());
+  for (int i = 0; i < size(); ++i) u[i] = ToInternal(i, p[i]);
+  return u;
+}
+
+double Parametrization::NaturalDerivative(int i, double u) const {
+  const EntryMap& e = entries_[i];
+  if (e.fixed) return 0.0;
+  const double dy = 0.5 * (e.upper - e.lower) * std::cos(u);
+  if (!e.log) return dy;
+  return dy * std::exp(e.lower + (e.upper - e.lower) * 0.5 * (std::sin(u) + 1.0));
+}
+
+std::vector<double> Parametrization::DefaultInternal() const {
+  std::vector<double> u;
+  for (int i = 0; i < size(); ++i) {
+    u.push_back(entries_[i].fixed ? ToInternal(i, entries_[i].fixed_value)
+                                  : entries_[i].default_u);
+  }
+  return u;
+}
+
+std::vector<double> Parametrization::Start(int s, std::uint64_t seed) const {
+  std::vector<double> u = DefaultInternal();
+  if (s == 0) return u;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  int dim = 0;
+  for (int i = 0; i < size(); ++i) {
+    const double shift = u01(rng);  // Drawn for every entry: fixing one keeps the others'.
+    if (entries_[i].fixed) continue;
+    const int base = kPrimes[dim % std::size(kPrimes)];
+    double x = RadicalInverse(s, base) + shift;
+    x -= std::floor(x);
+    const EntryMap& e = entries_[i];
+    u[i] = FromBox(e, e.start_lower + x * (e.start_upper - e.start_lower));
+    ++dim;
+  }
+  return u;
+}
+
+double CompressRadianceDerivative(Loss loss, double x) {
+  switch (loss) {
+    case Loss::kLog: return 1.0 / (1.0 + x);
+    case Loss::kCubeRoot: {
+      const double c = std::cbrt(x + kCubeRootEpsilon);
+      return 1.0 / (3.0 * c * c);
+    }
+    default: return 1.0;
+  }
+}
+
+ceres::CostFunction* CreateGBufferResidual(const ResidualSettings& settings,
+                                           const ShadingPoint* points, const double* targets,
+                                           int count) {
+  switch (settings.parametrization->size()) {
+    case 3: return GBufferBlockResidual<3>::Create(settings, points, targets, count);
+    case 5: return GBufferBlockResidual<5>::Create(settings, points, targets, count);
+    case 6: return GBufferBlockResidual<6>::Create(settings, points, targets, count);
+    case 7: return GBufferBlockResidual<7>::Create(settings, points, targets, count);
+    case 10: return GBufferBlockResidual<10>::Create(settings, points, targets, count);
+    default:
+      throw Error("", "model",
+                  fmt::format("internal: no G-buffer residual for {} parameters (add a case)",
+                              settings.parametrization->size()));
+  }
+}
+
+GlRenderCache::GlRenderCache(Renderer* renderer, const Scene* scene, ModelId model, int capacity)
+    : renderer_(renderer), scene_(scene), model_(model), capacity_(std::max(capacity, 2)) {}
+
+const Image& GlRenderCache::Get(const std::vector<double>& params) {
+  ++tick_;
+  for (Entry& e : entries_) {
+    if (e.key == params) {
+      e.used = tick_;
+      return e.image;
+    }
+  }
+  Entry* slot;
+  if (static_cast<int>(entries_.size()) < capacity_) {
+    entries_.emplace_back();
+    slot = &entries_.back();
+  } else {
+    slot = &*std::min_element(entries_.begin(), entries_.end(),
+                              [](const Entry& a, const Entry& b) { return a.used < b.used; });
+  }
+  slot->key = params;
+  slot->image = renderer_->Render(*scene_, model_, params);
+  slot->used = tick_;
+  ++renders_;
+  return slot->image;
+}
+
+GlBlockResidual::GlBlockResidual(const ResidualSettings& settings, GlRenderCache* cache,
+                                 const int* pixels, const double* targets, int count,
+                                 double step, bool central)
+    : settings_(settings),
+      cache_(cache),
+      pixels_(pixels),
+      targets_(targets),
+      count_(count),
+      step_(step),
+      central_(central) {
+  set_num_residuals(3 * count);
+  mutable_parameter_block_sizes()->push_back(settings.parametrization->size());
+  mutable_parameter_block_sizes()->push_back(1);
+}
+
+bool GlBlockResidual::Evaluate(double const* const* parameters, double* residuals,
+                               double** jacobians) const {
+  const Parametrization& param = *settings_.parametrization;
+  const int n = param.size();
+  const std::vector<double> u(parameters[0], parameters[0] + n);
+  const double scale = std::exp(parameters[1][0]);
+
+  // Radiance of this block's pixels at parameters u (copied: a later Get may evict the image).
+  auto block_radiance = [&](const std::vector<double>& at, std::vector<double>* out) {
+    const Image& image = cache_->Get(param.ToNatural(at));
+    out->resize(3 * count_);
+    for (int k = 0; k < count_; ++k) {
+      for (int c = 0; c < 3; ++c) {
+        (*out)[3 * k + c] = image.data[static_cast<std::size_t>(pixels_[k]) * image.channels + c];
+      }
+    }
+  };
+  std::vector<double> radiance;
+  block_radiance(u, &radiance);
+  for (int j = 0; j < 3 * count_; ++j) {
+    if (!std::isfinite(radiance[j])) return false;
+    residuals[j] = CompressRadiance(settings_.loss, scale * radiance[j]) - targets_[j];
+  }
+  if (!jacobians) return true;
+
+  std::vector<double> dcompress(3 * count_);
+  for (int j = 0; j < 3 * count_; ++j) {
+    dcompress[j] = CompressRadianceDerivative(settings_.loss, scale * radiance[j]);
+  }
+  if (jacobians[1]) {
+    // d(scale * L) / de = scale * L, exactly.
+    for (int j = 0; j < 3 * count_; ++j) jacobians[1][j] = dcompress[j] * scale * radiance[j];
+  }
+  if (jacobians[0]) {
+    std::vector<double> plus, minus;
+    for (int i = 0; i < n; ++i) {
+      const EntryMap& e = param.entry(i);
+      if (e.fixed) {
+        for (int j = 0; j < 3 * count_; ++j) jacobians[0][j * n + i] = 0.0;
+        continue;
+      }
+          // u is unbounded (the sine transform keeps p in its box), so any step is admissible.
+      std::vector<double> at = u;
+      const double h = step_;
+      if (central_) {
+        at[i] = u[i] + h;
+        block_radiance(at, &plus);
+        at[i] = u[i] - h;
+        block_radiance(at, &minus);
+        for (int j = 0; j < 3 * count_; ++j) {
+          jacobians[0][j * n + i] = dcompress[j] * scale * (plus[j] - minus[j]) / (2 * h);
+        }
+        continue;
+      }
+      at[i] = u[i] + h;
+      block_radiance(at, &plus);
+      for (int j = 0; j < 3 * count_; ++j) {
+        jacobians[0][j * n + i] = dcompress[j] * scale * (plus[j] - radiance[j]) / h;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace shadefit::fit

@@ -1,0 +1,123 @@
+// fit: Ceres fit of one shading model to one or more references of one material
+// (docs/fitting.md). Everything is read and fitted before anything is written; a bad input is a
+// one-line shadefit::Error and leaves no output file.
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "shadefit/fit/fitter.h"
+#include "shadefit/render/error.h"
+#include "shadefit/render/gl_context.h"
+#include "shadefit/render/renderer.h"
+
+namespace shadefit::cli {
+
+void RegisterFitCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "fit", "Fit a shading model to reference images (jointly, one material)");
+  struct Options {
+    std::vector<std::string> refs, masks, fixed;
+    std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
+    int starts = 1, max_iterations = 100, threads = 2, env_samples = 0;
+    std::uint64_t seed = 1;
+    double loss_scale = 0;
+    bool no_images = false, central = false;
+  };
+  auto opt = std::make_shared<Options>();
+  cmd->add_option("--ref", opt->refs,
+                  "Reference image (EXR linear; PNG/JPEG sRGB, clipped pixels masked); "
+                  "repeat for a joint fit. Its scene comes from <ref>.json (scene_file)")
+      ->required();
+  cmd->add_option("--scene", opt->scene, "Scene TOML overriding the sidecar's (single --ref)");
+  cmd->add_option("--mask", opt->masks,
+                  "Mask image per --ref, in order (channel 0 > 0.5 = fit this pixel)");
+  cmd->add_option("--model", opt->model, "Shading model (see `shadefit models`)")->required();
+  cmd->add_option("--loss", opt->loss, "l2 | log | cuberoot | huber | cauchy")
+      ->capture_default_str();
+  cmd->add_option("--loss-scale", opt->loss_scale,
+                  "Huber/Cauchy scale in radiance units (default: 0.05 x p99 of the reference)");
+  cmd->add_option("--starts", opt->starts, "Number of starts (0 = table defaults, then Halton)")
+      ->capture_default_str();
+  cmd->add_option("--seed", opt->seed, "Seed of the Halton scrambling")->capture_default_str();
+  cmd->add_option("--exposure", opt->exposure,
+                  "fixed | free (fit a global scale, for uncalibrated references)")
+      ->capture_default_str();
+  cmd->add_option("--fix", opt->fixed, "Hold a parameter: name=value or name=r,g,b (repeatable)");
+  cmd->add_option("--path", opt->path,
+                  "Derivatives: auto | gbuffer (C++ twin, AutoDiff) | gl (finite differences "
+                  "of GL renders; needed for environment lighting)")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", opt->max_iterations, "Per start")->capture_default_str();
+  cmd->add_option("--threads", opt->threads, "Ceres threads (G-buffer path)")
+      ->capture_default_str();
+  cmd->add_option("--env-samples", opt->env_samples,
+                  "GL path: environment samples per pixel instead of the scene's (0 = keep)");
+  cmd->add_flag("--central-differences", opt->central,
+                "GL path: central instead of forward differences (2x renders)");
+  cmd->add_flag("--no-images", opt->no_images, "Write only the JSON (no fit/error images)");
+  cmd->add_option("-o,--output", opt->output, "Output JSON (images go next to it)")->required();
+  cmd->callback([opt] {
+    if (!opt->scene.empty() && opt->refs.size() != 1) {
+      throw Error("", "--scene", "only valid with a single --ref (each reference has a sidecar)");
+    }
+    if (!opt->masks.empty() && opt->masks.size() != opt->refs.size()) {
+      throw Error("", "--mask", fmt::format("give one mask per --ref ({} refs, {} masks)",
+                                            opt->refs.size(), opt->masks.size()));
+    }
+    fit::FitOptions options;
+    options.loss = fit::ParseLoss(opt->loss);
+    options.loss_scale = opt->loss_scale;
+    options.starts = opt->starts;
+    options.seed = opt->seed;
+    options.exposure = fit::ParseExposure(opt->exposure);
+    options.path = fit::ParsePath(opt->path);
+    options.max_iterations = opt->max_iterations;
+    options.num_threads = opt->threads;
+    options.environment_samples = opt->env_samples;
+    options.central_differences = opt->central;
+    options.render_outputs = !opt->no_images;
+    if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+
+    fit::FitProblem problem;
+    problem.model = opt->model;
+    problem.fixed = opt->fixed;
+    FindModel(problem.model);  // Unknown model: fail before reading anything.
+    for (std::size_t i = 0; i < opt->refs.size(); ++i) {
+      problem.references.push_back(fit::LoadReference(
+          opt->refs[i], opt->scene, opt->masks.empty() ? std::string() : opt->masks[i]));
+    }
+    GlContext context;
+    Renderer renderer(context);
+    options.renderer = &renderer;
+    const fit::FitResult result = fit::Fit(problem, options);
+    const std::vector<std::string> written = fit::WriteFitOutputs(result, opt->output);
+
+    fmt::print("{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
+               "{} iterations, {}; {} of {} starts reached the best\n",
+               result.model, result.references.size(), fit::PathName(result.path),
+               result.final_cost, result.rmse, result.iterations, result.termination,
+               result.starts_reached_best, result.starts);
+    for (const auto& p : result.parameters) {
+      fmt::print("  {:<16} {:>12.6g}  +- {:<10.3g}{}{}{}\n", p.name, p.value, p.std_error,
+                 p.fixed ? " fixed" : "", p.undetermined ? " undetermined" : "",
+                 p.at_bound ? " at bound" : "");
+    }
+    if (result.exposure_free) {
+      fmt::print("  {:<16} {:>12.6g}  +- {:.3g}\n", "exposure", result.exposure,
+                 result.exposure_std_error);
+    }
+    fmt::print("wrote {}\n", opt->output);
+    if (!result.converged) {
+      std::fprintf(stderr,
+                   "shadefit: warning: the fit did not converge (%s after %d iterations: %s); "
+                   "the result is marked \"converged\": false\n",
+                   result.termination.c_str(), result.iterations, result.solver_message.c_str());
+    }
+  });
+}
+
+}  // namespace shadefit::cli
