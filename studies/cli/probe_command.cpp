@@ -1,0 +1,217 @@
+// `shadefit probe <fresnel|highlight|energy|portability> --ref a.exr [--ref ...]
+//      [--model M --set name=v ...] [--fit fit.json ...] [--truth-from-sidecar] -o DIR`:
+// the phenomenon probes (docs/probes.md). References load with their sidecar scene
+// (shadefit::fit::LoadReference); their G-buffers are rendered here.
+//
+// Links: shadefit::probes, shadefit::fit (LoadReference only), CLI11::CLI11, fmt::fmt,
+// nlohmann_json.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "shadefit/fit/fitter.h"
+#include "shadefit/probes/probes.h"
+#include "shadefit/render/error.h"
+#include "shadefit/render/gl_context.h"
+#include "shadefit/render/renderer.h"
+
+namespace shadefit::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ProbeCliOptions {
+  std::string probe;
+  std::vector<std::string> refs;
+  std::string model;
+  std::string label;
+  std::vector<std::string> sets;
+  std::vector<std::string> trained_on;
+  std::vector<std::string> fits;
+  bool truth_from_sidecar = false;
+  std::string output;
+};
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error(path, "", "cannot open file");
+  try {
+    return nlohmann::json::parse(f);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path, "", std::string("malformed JSON: ") + e.what());
+  }
+}
+
+// A fit result (fit/src/fitter.cpp FitResultToJson): model, values by name, exposure.value and
+// the references it was fitted to (inputs.references[].name).
+probes::ModelUnderTest ModelFromFit(const std::string& path) {
+  const nlohmann::json j = ReadJson(path);
+  probes::ModelUnderTest m;
+  if (!j.contains("model") || !j["model"].is_string()) throw Error(path, "model", "missing");
+  m.model = j["model"].get<std::string>();
+  const ModelInfo& info = FindModel(m.model);
+  m.label = fs::path(path).stem().string();
+  m.params = DefaultParams(info);
+  if (!j.contains("values") || !j["values"].is_object()) throw Error(path, "values", "missing");
+  for (const auto& spec : info.params) {
+    if (!j["values"].contains(spec.name)) throw Error(path, "values." + spec.name, "missing");
+    const auto& v = j["values"][spec.name];
+    std::vector<double> values;
+    if (v.is_array()) {
+      for (const auto& x : v) {
+        if (!x.is_number()) throw Error(path, "values." + spec.name, "not a number");
+        values.push_back(x.get<double>());
+      }
+    } else if (v.is_number()) {
+      values.push_back(v.get<double>());
+    } else {
+      throw Error(path, "values." + spec.name, "not a number");
+    }
+    SetParam(info, spec.name, values, path, &m.params);
+  }
+  if (j.contains("exposure") && j["exposure"].is_object() && j["exposure"].contains("value") &&
+      j["exposure"]["value"].is_number()) {
+    m.exposure = j["exposure"]["value"].get<double>();
+  }
+  if (j.contains("inputs") && j["inputs"].contains("references")) {
+    for (const auto& r : j["inputs"]["references"]) {
+      if (r.contains("name") && r["name"].is_string()) m.trained_on.push_back(r["name"]);
+    }
+  }
+  return m;
+}
+
+// The sidecar's Cycles material as one of our models: Principled -> cycles-principled
+// (base_color, metallic, specular, roughness), Diffuse -> lambert (kd = base_color).
+probes::ModelUnderTest TruthFromSidecar(const std::string& image_path) {
+  const std::string sidecar = (fs::path(image_path).replace_extension(".json")).string();
+  const nlohmann::json j = ReadJson(sidecar);
+  if (!j.contains("material") || !j["material"].is_object()) {
+    throw Error(sidecar, "material", "missing (needed by --truth-from-sidecar)");
+  }
+  const auto& mat = j["material"];
+  const std::string type = mat.value("type", "");
+  probes::ModelUnderTest m;
+  m.label = "truth";
+  auto get = [&](const char* key) -> std::vector<double> {
+    if (!mat.contains(key)) throw Error(sidecar, std::string("material.") + key, "missing");
+    const auto& v = mat[key];
+    if (v.is_number()) return {v.get<double>()};
+    return v.get<std::vector<double>>();
+  };
+  if (type == "principled") {
+    m.model = "cycles-principled";
+    const ModelInfo& info = FindModel(m.model);
+    m.params = DefaultParams(info);
+    for (const char* k : {"base_color", "metallic", "specular", "roughness"}) {
+      SetParam(info, k, get(k), sidecar, &m.params);
+    }
+  } else if (type == "diffuse") {
+    m.model = "lambert";
+    const ModelInfo& info = FindModel(m.model);
+    m.params = DefaultParams(info);
+    SetParam(info, "kd", get("base_color"), sidecar, &m.params);
+  } else {
+    throw Error(sidecar, "material.type",
+                fmt::format("'{}' has no equivalent model (principled and diffuse do)", type));
+  }
+  return m;
+}
+
+// "gold-mirror75" -> "mirror75": the text after the last '-'.
+std::string LightingOf(const std::string& name) {
+  const auto dash = name.rfind('-');
+  return dash == std::string::npos ? name : name.substr(dash + 1);
+}
+
+void Run(const ProbeCliOptions& o) {
+  if (o.refs.empty() && o.probe != "energy") throw Error("", "--ref", "at least one reference");
+  GlContext context;
+  Renderer renderer(context);
+  probes::ProbeInputs in;
+  in.renderer = &renderer;
+  for (const std::string& path : o.refs) {
+    fit::FitReference fr = fit::LoadReference(path);
+    probes::ProbeReference r;
+    r.name = fr.name;
+    r.lighting = LightingOf(fr.name);
+    r.scene = fr.scene;
+    r.gbuffer = renderer.RenderGBuffer(r.scene);
+    r.image = std::move(fr.image);
+    if (r.image.channels == 3) {  // No alpha in the file: coverage from the G-buffer.
+      Image rgba(r.image.width, r.image.height, 4);
+      for (int y = 0; y < rgba.height; ++y) {
+        for (int x = 0; x < rgba.width; ++x) {
+          for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = r.image.at(x, y, c);
+          if (x < r.gbuffer.width && y < r.gbuffer.height) {
+            rgba.at(x, y, 3) = r.gbuffer.Coverage(x, y);
+          }
+        }
+      }
+      r.image = std::move(rgba);
+    }
+    in.references.push_back(std::move(r));
+  }
+  if (!o.model.empty()) {
+    const ModelInfo& info = FindModel(o.model);
+    probes::ModelUnderTest m;
+    m.model = o.model;
+    m.label = o.label.empty() ? o.model : o.label;
+    m.params = DefaultParams(info);
+    for (const auto& s : o.sets) SetParamFromString(info, s, "--set", &m.params);
+    m.trained_on = o.trained_on;
+    in.models.push_back(m);
+  } else if (!o.sets.empty()) {
+    throw Error("", "--set", "needs --model");
+  }
+  for (const std::string& f : o.fits) in.models.push_back(ModelFromFit(f));
+  if (o.truth_from_sidecar) {
+    if (o.refs.empty()) throw Error("", "--truth-from-sidecar", "needs --ref");
+    in.truth = TruthFromSidecar(o.refs.front());
+  }
+  probes::ProbeResult result;
+  if (o.probe == "fresnel")
+    result = probes::FresnelProbe(in);
+  else if (o.probe == "highlight")
+    result = probes::HighlightProbe(in);
+  else if (o.probe == "energy")
+    result = probes::EnergyProbe(in);
+  else
+    result = probes::PortabilityProbe(in);
+  probes::WriteProbeOutputs(result, o.output);
+  fmt::print("{} probe: {} reference(s), {} model(s){} -> {}/{}.json, {}/{}.png\n", o.probe,
+             in.references.size(), in.models.size(), in.truth ? " + truth" : "", o.output, o.probe,
+             o.output, o.probe);
+}
+
+}  // namespace
+
+void RegisterProbeCommand(CLI::App& app) {
+  auto opt = std::make_shared<ProbeCliOptions>();
+  auto* cmd = app.add_subcommand("probe",
+                                 "Phenomenon probes: fresnel, highlight, energy, "
+                                 "portability (docs/probes.md)");
+  cmd->add_option("probe", opt->probe, "Which probe")
+      ->required()
+      ->check(CLI::IsMember({"fresnel", "highlight", "energy", "portability"}));
+  cmd->add_option("--ref", opt->refs, "Reference EXR with its sidecar JSON (repeatable)");
+  cmd->add_option("--model", opt->model, "A model under test (see `shadefit models`)");
+  cmd->add_option("--label", opt->label, "Label of --model in the outputs (default: its name)");
+  cmd->add_option("--set", opt->sets, "Parameter of --model, name=value or name=r,g,b");
+  cmd->add_option("--trained-on", opt->trained_on,
+                  "Reference names --model was fitted to (portability)");
+  cmd->add_option("--fit", opt->fits, "A fit result JSON from `shadefit fit` (repeatable)");
+  cmd->add_flag("--truth-from-sidecar", opt->truth_from_sidecar,
+                "Truth = the first reference's Cycles material (principled/diffuse)");
+  cmd->add_option("-o,--output", opt->output, "Output directory")->required();
+  cmd->callback([opt] { Run(*opt); });
+}
+
+}  // namespace shadefit::cli

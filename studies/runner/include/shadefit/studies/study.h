@@ -1,0 +1,82 @@
+// Study files: which references, which models, how to fit them, what to measure and the
+// tolerances the verdicts use (format in docs/studies.md).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace shadefit::studies {
+
+// One reference image of a group, with the names the runner and report use.
+struct ReferenceSpec {
+  std::string name;          // Image stem: "red-plastic-key".
+  std::string material;      // The group's material: "red-plastic".
+  std::string lighting;      // "key": the stem after "<material>-", else the sidecar's scene stem.
+  std::string image_path;    // Absolute.
+  std::string sidecar_path;  // Absolute; "" when the image has none.
+};
+
+// One material under several lightings.
+struct ReferenceGroup {
+  std::string material;
+  std::vector<ReferenceSpec> references;  // Sorted by lighting name.
+};
+
+// The fitter settings a study fixes (the same names as fit::FitOptions, as strings where the
+// fitter parses them). Per-model overrides may change any of them.
+struct FitSettings {
+  std::string loss = "cuberoot";
+  double loss_scale = 0.0;
+  int starts = 4;
+  std::uint64_t seed = 1;
+  std::string exposure = "fixed";
+  std::string path = "auto";
+  int max_iterations = 100;
+  // Fit on every stride-th pixel in x and y (1 = all): cost falls as stride^2 while metrics are
+  // still computed on every pixel. The subsample is a mask, so the images are never resampled.
+  int pixel_stride = 1;
+  int environment_samples = 0;  // GL path: override the scenes' environment samples (0 = keep).
+  std::vector<std::string> fixed;  // "name=value", held constant.
+
+  nlohmann::json ToJson() const;
+};
+
+struct StudySpec {
+  std::string name;         // [study] name; names the output folder.
+  std::string description;
+  std::string path;         // Absolute path of the study file.
+  std::string text;         // Its bytes, for provenance and the job hashes' context.
+  bool quick = false;       // The [quick] overrides were applied.
+
+  std::vector<ReferenceGroup> groups;
+  std::vector<std::string> models;
+  std::map<std::string, FitSettings> model_settings;  // Every model, overrides applied.
+  std::vector<std::vector<std::string>> training_sets;  // Lighting names per set.
+  std::vector<std::string> test_lightings;  // Empty: every lighting not in the training set.
+
+  float metrics_exposure_stops = 0.0f;
+  double metrics_ppd = 67.0;
+  std::vector<std::string> probes;  // "fresnel", "highlight", "energy", "portability".
+  nlohmann::json verdicts;          // [verdicts] as JSON, read by the report.
+  bool previews = true;             // Reference / fit / error PNGs per reference and fit.
+  bool report = true;               // `study run` makes the report at the end.
+
+  // Label of a fit in outputs: the model name when the study has one training set, else
+  // "<model>@<lighting>+<lighting>".
+  std::string Label(const std::string& model, const std::vector<std::string>& train) const;
+  // Whether `lighting` is tested for a fit trained on `train`.
+  bool IsTest(const std::string& lighting, const std::vector<std::string>& train) const;
+
+  nlohmann::json ToJson() const;  // Everything above except the text, for study.json.
+};
+
+// Reads and checks a study file. `quick`: apply its [quick] table. Throws shadefit::Error
+// "<file>: <key>: <problem>" on unknown keys, wrong types, unknown models or probes, globs that
+// match nothing and training lightings a group lacks.
+StudySpec LoadStudy(const std::string& path, bool quick = false);
+
+}  // namespace shadefit::studies

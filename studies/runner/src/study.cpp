@@ -1,0 +1,511 @@
+// Study file parsing and checking (docs/studies.md).
+#include "shadefit/studies/study.h"
+
+#include <fmt/core.h>
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "shadefit/render/error.h"
+#include "shadefit/render/models.h"
+
+namespace shadefit::studies {
+namespace fs = std::filesystem;
+namespace {
+
+const std::set<std::string> kKnownProbes = {"fresnel", "highlight", "energy", "portability"};
+
+// Reading helpers: every key is checked; an unknown key or a wrong type is an error naming the
+// file, the line and the key.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void Fail(const toml::node* node, const std::string& key,
+                         const std::string& problem) const {
+    std::string where = file_;
+    if (node != nullptr && node->source().begin.line > 0) {
+      where += fmt::format(":{}", node->source().begin.line);
+    }
+    throw Error(where, key, problem);
+  }
+
+  void CheckKeys(const toml::table& table, const std::string& prefix,
+                 const std::set<std::string>& allowed) const {
+    for (const auto& [key, node] : table) {
+      if (!allowed.contains(std::string(key.str()))) {
+        Fail(&node, prefix + std::string(key.str()), "unknown key");
+      }
+    }
+  }
+
+  std::string String(const toml::table& t, const std::string& prefix, const std::string& key,
+                     const std::string& fallback) const {
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return fallback;
+    if (!n->is_string()) Fail(n, prefix + key, "expected a string");
+    return *n->value<std::string>();
+  }
+  double Number(const toml::table& t, const std::string& prefix, const std::string& key,
+                double fallback) const {
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return fallback;
+    if (!n->is_number()) Fail(n, prefix + key, "expected a number");
+    return *n->value<double>();
+  }
+  std::int64_t Integer(const toml::table& t, const std::string& prefix, const std::string& key,
+                       std::int64_t fallback, std::int64_t min) const {
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return fallback;
+    if (!n->is_integer()) Fail(n, prefix + key, "expected an integer");
+    const std::int64_t v = *n->value<std::int64_t>();
+    if (v < min) Fail(n, prefix + key, fmt::format("value {} below the minimum {}", v, min));
+    return v;
+  }
+  bool Bool(const toml::table& t, const std::string& prefix, const std::string& key,
+            bool fallback) const {
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return fallback;
+    if (!n->is_boolean()) Fail(n, prefix + key, "expected true or false");
+    return *n->value<bool>();
+  }
+  std::vector<std::string> Strings(const toml::table& t, const std::string& prefix,
+                                   const std::string& key) const {
+    std::vector<std::string> out;
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return out;
+    const toml::array* a = n->as_array();
+    if (a == nullptr) Fail(n, prefix + key, "expected an array of strings");
+    for (const toml::node& e : *a) {
+      if (!e.is_string()) Fail(&e, prefix + key, "expected an array of strings");
+      out.push_back(*e.value<std::string>());
+    }
+    return out;
+  }
+  const toml::table* Table(const toml::table& t, const std::string& prefix,
+                           const std::string& key) const {
+    const toml::node* n = t.get(key);
+    if (n == nullptr) return nullptr;
+    if (!n->is_table()) Fail(n, prefix + key, "expected a table");
+    return n->as_table();
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+const std::set<std::string> kFitKeys = {"loss",           "loss_scale",   "starts",
+                                        "seed",           "exposure",     "path",
+                                        "max_iterations", "pixel_stride", "environment_samples",
+                                        "fixed"};
+
+void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& prefix,
+                     FitSettings* s) {
+  s->loss = r.String(t, prefix, "loss", s->loss);
+  s->loss_scale = r.Number(t, prefix, "loss_scale", s->loss_scale);
+  s->starts = static_cast<int>(r.Integer(t, prefix, "starts", s->starts, 1));
+  s->seed = static_cast<std::uint64_t>(r.Integer(t, prefix, "seed", s->seed, 0));
+  s->exposure = r.String(t, prefix, "exposure", s->exposure);
+  s->path = r.String(t, prefix, "path", s->path);
+  s->max_iterations = static_cast<int>(r.Integer(t, prefix, "max_iterations", s->max_iterations, 1));
+  s->pixel_stride = static_cast<int>(r.Integer(t, prefix, "pixel_stride", s->pixel_stride, 1));
+  s->environment_samples =
+      static_cast<int>(r.Integer(t, prefix, "environment_samples", s->environment_samples, 0));
+  if (t.contains("fixed")) s->fixed = r.Strings(t, prefix, "fixed");
+  const std::set<std::string> losses = {"l2", "log", "cuberoot", "huber", "cauchy"};
+  if (!losses.contains(s->loss)) {
+    r.Fail(t.get("loss"), prefix + "loss", "unknown loss '" + s->loss + "' (l2, log, cuberoot, huber, cauchy)");
+  }
+  if (s->exposure != "fixed" && s->exposure != "free") {
+    r.Fail(t.get("exposure"), prefix + "exposure", "expected \"fixed\" or \"free\"");
+  }
+  if (s->path != "auto" && s->path != "gbuffer" && s->path != "gl") {
+    r.Fail(t.get("path"), prefix + "path", "expected \"auto\", \"gbuffer\" or \"gl\"");
+  }
+}
+
+// Expands one pattern relative to `base`: wildcards are allowed in the last path component only.
+std::vector<fs::path> Glob(const fs::path& base, const std::string& pattern) {
+  const fs::path full = (base / pattern).lexically_normal();
+  const fs::path dir = full.parent_path();
+  const std::string leaf = full.filename().string();
+  std::vector<fs::path> out;
+  if (leaf.find_first_of("*?[") == std::string::npos) {
+    if (fs::exists(full)) out.push_back(full);
+    return out;
+  }
+  if (!fs::is_directory(dir)) return out;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.is_regular_file() &&
+        fnmatch(leaf.c_str(), entry.path().filename().c_str(), 0) == 0) {
+      out.push_back(entry.path());
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string LightingOf(const std::string& stem, const std::string& material,
+                       const fs::path& sidecar) {
+  if (stem.size() > material.size() + 1 && stem.rfind(material + "-", 0) == 0) {
+    return stem.substr(material.size() + 1);
+  }
+  if (fs::exists(sidecar)) {
+    std::ifstream in(sidecar);
+    try {
+      const nlohmann::json j = nlohmann::json::parse(in);
+      if (j.contains("scene_file") && j["scene_file"].is_string()) {
+        std::string s = fs::path(j["scene_file"].get<std::string>()).stem().string();
+        const auto dash = s.find('-');
+        return dash == std::string::npos ? s : s.substr(dash + 1);
+      }
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
+  return stem;
+}
+
+}  // namespace
+
+nlohmann::json FitSettings::ToJson() const {
+  return {{"loss", loss},
+          {"loss_scale", loss_scale},
+          {"starts", starts},
+          {"seed", seed},
+          {"exposure", exposure},
+          {"path", path},
+          {"max_iterations", max_iterations},
+          {"pixel_stride", pixel_stride},
+          {"environment_samples", environment_samples},
+          {"fixed", fixed}};
+}
+
+std::string StudySpec::Label(const std::string& model,
+                             const std::vector<std::string>& train) const {
+  if (training_sets.size() <= 1) return model;
+  std::string out = model + "@";
+  for (std::size_t i = 0; i < train.size(); ++i) out += (i ? "+" : "") + train[i];
+  return out;
+}
+
+bool StudySpec::IsTest(const std::string& lighting, const std::vector<std::string>& train) const {
+  if (std::find(train.begin(), train.end(), lighting) != train.end()) return false;
+  return test_lightings.empty() ||
+         std::find(test_lightings.begin(), test_lightings.end(), lighting) != test_lightings.end();
+}
+
+nlohmann::json StudySpec::ToJson() const {
+  nlohmann::json groups_json = nlohmann::json::array();
+  for (const ReferenceGroup& g : groups) {
+    nlohmann::json refs = nlohmann::json::array();
+    for (const ReferenceSpec& r : g.references) {
+      refs.push_back({{"name", r.name},
+                      {"lighting", r.lighting},
+                      {"image", r.image_path},
+                      {"sidecar", r.sidecar_path}});
+    }
+    groups_json.push_back({{"material", g.material}, {"references", refs}});
+  }
+  nlohmann::json settings = nlohmann::json::object();
+  for (const auto& [model, s] : model_settings) settings[model] = s.ToJson();
+  nlohmann::json labels = nlohmann::json::array();
+  for (const auto& train : training_sets) {
+    for (const std::string& m : models) {
+      labels.push_back({{"label", Label(m, train)}, {"model", m}, {"train", train}});
+    }
+  }
+  return {{"schema", "shadefit.study/1"},
+          {"name", name},
+          {"description", description},
+          {"path", path},
+          {"quick", quick},
+          {"groups", groups_json},
+          {"models", models},
+          {"fits", labels},
+          {"fit_settings", settings},
+          {"training_sets", training_sets},
+          {"test_lightings", test_lightings},
+          {"metrics", {{"exposure_stops", metrics_exposure_stops}, {"ppd", metrics_ppd}}},
+          {"probes", probes},
+          {"verdicts", verdicts},
+          {"outputs", {{"previews", previews}, {"report", report}}}};
+}
+
+StudySpec LoadStudy(const std::string& path, bool quick) {
+  StudySpec spec;
+  const fs::path file = fs::absolute(path).lexically_normal();
+  if (!fs::exists(file)) throw Error(path, "", "study file not found");
+  {
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    spec.text = ss.str();
+  }
+  spec.path = file.string();
+  spec.quick = quick;
+  const Reader r(path);
+  toml::table root;
+  try {
+    root = toml::parse(spec.text, spec.path);
+  } catch (const toml::parse_error& e) {
+    throw Error(fmt::format("{}:{}", path, e.source().begin.line), "",
+                "malformed TOML: " + std::string(e.description()));
+  }
+  r.CheckKeys(root, "", {"study", "group", "fit", "metrics", "probes", "verdicts", "outputs", "quick"});
+
+  // [study]
+  const toml::table* study = r.Table(root, "", "study");
+  if (study == nullptr) r.Fail(nullptr, "study", "missing [study] table");
+  r.CheckKeys(*study, "study.", {"name", "description"});
+  spec.name = r.String(*study, "study.", "name", file.stem().string());
+  spec.description = r.String(*study, "study.", "description", "");
+  if (spec.name.empty() || spec.name.find_first_of("/\\ ") != std::string::npos) {
+    r.Fail(study->get("name"), "study.name", "must be a non-empty name without '/' or spaces");
+  }
+
+  // [quick] first: it filters what follows.
+  const toml::table* q = quick ? r.Table(root, "", "quick") : nullptr;
+  if (const toml::table* qt = r.Table(root, "", "quick")) {
+    std::set<std::string> allowed = kFitKeys;
+    for (const char* k : {"materials", "lightings", "models", "probes", "training_sets"}) allowed.insert(k);
+    r.CheckKeys(*qt, "quick.", allowed);
+  }
+  std::vector<std::string> quick_materials, quick_lightings;
+  if (q != nullptr) {
+    quick_materials = r.Strings(*q, "quick.", "materials");
+    quick_lightings = r.Strings(*q, "quick.", "lightings");
+  }
+
+  // [[group]]
+  const toml::node* groups_node = root.get("group");
+  if (groups_node == nullptr || !groups_node->is_array_of_tables()) {
+    r.Fail(groups_node, "group", "expected one or more [[group]] tables");
+  }
+  const fs::path base = file.parent_path();
+  for (const toml::node& gn : *groups_node->as_array()) {
+    const toml::table& g = *gn.as_table();
+    r.CheckKeys(g, "group.", {"material", "images", "exclude", "lightings"});
+    ReferenceGroup group;
+    group.material = r.String(g, "group.", "material", "");
+    if (group.material.empty()) r.Fail(&gn, "group.material", "missing");
+    if (!quick_materials.empty() &&
+        std::find(quick_materials.begin(), quick_materials.end(), group.material) ==
+            quick_materials.end()) {
+      continue;
+    }
+    const std::vector<std::string> images = r.Strings(g, "group.", "images");
+    if (images.empty()) r.Fail(&gn, "group.images", "missing or empty");
+    const std::vector<std::string> exclude = r.Strings(g, "group.", "exclude");
+    std::vector<std::string> lightings = r.Strings(g, "group.", "lightings");
+    std::set<std::string> seen;
+    for (const std::string& pattern : images) {
+      const std::vector<fs::path> matches = Glob(base, pattern);
+      if (matches.empty()) {
+        r.Fail(g.get("images"), "group.images", "'" + pattern + "' matches no file");
+      }
+      for (const fs::path& m : matches) {
+        const std::string leaf = m.filename().string();
+        if (std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
+              return fnmatch(x.c_str(), leaf.c_str(), 0) == 0;
+            })) {
+          continue;
+        }
+        if (!seen.insert(m.string()).second) continue;
+        ReferenceSpec ref;
+        ref.name = m.stem().string();
+        ref.material = group.material;
+        ref.image_path = m.string();
+        fs::path sidecar = m;
+        sidecar.replace_extension(".json");
+        ref.sidecar_path = fs::exists(sidecar) ? sidecar.string() : "";
+        ref.lighting = LightingOf(ref.name, group.material, sidecar);
+        if (!lightings.empty() &&
+            std::find(lightings.begin(), lightings.end(), ref.lighting) == lightings.end()) {
+          continue;
+        }
+        if (!quick_lightings.empty() &&
+            std::find(quick_lightings.begin(), quick_lightings.end(), ref.lighting) ==
+                quick_lightings.end()) {
+          continue;
+        }
+        group.references.push_back(ref);
+      }
+    }
+    std::sort(group.references.begin(), group.references.end(),
+              [](const ReferenceSpec& a, const ReferenceSpec& b) { return a.lighting < b.lighting; });
+    for (std::size_t i = 1; i < group.references.size(); ++i) {
+      if (group.references[i].lighting == group.references[i - 1].lighting) {
+        r.Fail(&gn, "group.images",
+               fmt::format("material '{}' has two references under lighting '{}'", group.material,
+                           group.references[i].lighting));
+      }
+    }
+    if (group.references.empty()) {
+      r.Fail(&gn, "group.images", "material '" + group.material + "': no reference left");
+    }
+    for (const ReferenceGroup& other : spec.groups) {
+      if (other.material == group.material) {
+        r.Fail(&gn, "group.material", "material '" + group.material + "' listed twice");
+      }
+    }
+    spec.groups.push_back(std::move(group));
+  }
+  if (spec.groups.empty()) r.Fail(nullptr, "quick.materials", "no group left");
+
+  // [fit]
+  const toml::table* fit = r.Table(root, "", "fit");
+  if (fit == nullptr) r.Fail(nullptr, "fit", "missing [fit] table");
+  {
+    std::set<std::string> allowed = kFitKeys;
+    for (const char* k : {"models", "train", "test", "override"}) allowed.insert(k);
+    r.CheckKeys(*fit, "fit.", allowed);
+  }
+  spec.models = r.Strings(*fit, "fit.", "models");
+  if (q != nullptr && q->contains("models")) spec.models = r.Strings(*q, "quick.", "models");
+  if (spec.models.empty()) r.Fail(fit->get("models"), "fit.models", "missing or empty");
+  for (const std::string& m : spec.models) {
+    try {
+      FindModel(m);
+    } catch (const Error& e) {
+      r.Fail(fit->get("models"), "fit.models", e.what());
+    }
+  }
+  FitSettings defaults;
+  ReadFitSettings(r, *fit, "fit.", &defaults);
+  const toml::table* overrides = r.Table(*fit, "fit.", "override");
+  if (overrides != nullptr) {
+    for (const auto& [key, node] : *overrides) {
+      const std::string model(key.str());
+      if (std::find(spec.models.begin(), spec.models.end(), model) == spec.models.end() &&
+          q == nullptr) {
+        r.Fail(&node, "fit.override." + model, "not one of fit.models");
+      }
+      if (!node.is_table()) r.Fail(&node, "fit.override." + model, "expected a table");
+      r.CheckKeys(*node.as_table(), "fit.override." + model + ".", kFitKeys);
+    }
+  }
+  for (const std::string& m : spec.models) {
+    FitSettings s = defaults;
+    if (overrides != nullptr) {
+      if (const toml::table* o = r.Table(*overrides, "fit.override.", m)) {
+        ReadFitSettings(r, *o, "fit.override." + m + ".", &s);
+      }
+    }
+    if (q != nullptr) ReadFitSettings(r, *q, "quick.", &s);
+    spec.model_settings[m] = s;
+  }
+  const auto read_sets = [&](const toml::table& t, const std::string& prefix) {
+    std::vector<std::vector<std::string>> sets;
+    const toml::node* n = t.get("train");
+    if (prefix == "quick.") n = t.get("training_sets");
+    if (n == nullptr) return sets;
+    const toml::array* a = n->as_array();
+    if (a == nullptr) r.Fail(n, prefix + "train", "expected an array of arrays of lighting names");
+    for (const toml::node& e : *a) {
+      std::vector<std::string> set;
+      if (e.is_string()) {
+        set.push_back(*e.value<std::string>());
+      } else if (const toml::array* inner = e.as_array()) {
+        for (const toml::node& x : *inner) {
+          if (!x.is_string()) r.Fail(&x, prefix + "train", "expected lighting names");
+          set.push_back(*x.value<std::string>());
+        }
+      } else {
+        r.Fail(&e, prefix + "train", "expected a lighting name or an array of them");
+      }
+      if (set.empty()) r.Fail(&e, prefix + "train", "empty training set");
+      sets.push_back(set);
+    }
+    return sets;
+  };
+  spec.training_sets = read_sets(*fit, "fit.");
+  if (q != nullptr && q->contains("training_sets")) spec.training_sets = read_sets(*q, "quick.");
+  if (spec.training_sets.empty()) r.Fail(fit->get("train"), "fit.train", "missing or empty");
+  spec.test_lightings = r.Strings(*fit, "fit.", "test");
+  for (const ReferenceGroup& g : spec.groups) {
+    for (const auto& set : spec.training_sets) {
+      for (const std::string& l : set) {
+        const bool has = std::any_of(g.references.begin(), g.references.end(),
+                                     [&](const ReferenceSpec& x) { return x.lighting == l; });
+        if (!has) {
+          r.Fail(fit->get("train"), "fit.train",
+                 fmt::format("material '{}' has no reference under lighting '{}'", g.material, l));
+        }
+      }
+    }
+  }
+
+  // [metrics]
+  if (const toml::table* m = r.Table(root, "", "metrics")) {
+    r.CheckKeys(*m, "metrics.", {"exposure_stops", "ppd"});
+    spec.metrics_exposure_stops =
+        static_cast<float>(r.Number(*m, "metrics.", "exposure_stops", 0.0));
+    spec.metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0);
+  }
+
+  // [probes]
+  if (const toml::table* p = r.Table(root, "", "probes")) {
+    r.CheckKeys(*p, "probes.", {"run"});
+    spec.probes = r.Strings(*p, "probes.", "run");
+  }
+  if (q != nullptr && q->contains("probes")) spec.probes = r.Strings(*q, "quick.", "probes");
+  for (const std::string& p : spec.probes) {
+    if (!kKnownProbes.contains(p)) {
+      r.Fail(nullptr, "probes.run", "unknown probe '" + p + "' (fresnel, highlight, energy, portability)");
+    }
+  }
+
+  // [verdicts.<phenomenon>]: checked here, applied by the report.
+  spec.verdicts = nlohmann::json::object();
+  if (const toml::table* v = r.Table(root, "", "verdicts")) {
+    for (const auto& [key, node] : *v) {
+      const std::string name(key.str());
+      const std::string prefix = "verdicts." + name + ".";
+      if (!node.is_table()) r.Fail(&node, "verdicts." + name, "expected a table");
+      const toml::table& t = *node.as_table();
+      r.CheckKeys(t, prefix, {"question", "source", "kind", "tolerance", "floor", "keys", "metric", "split"});
+      nlohmann::json j;
+      j["question"] = r.String(t, prefix, "question", name);
+      j["source"] = r.String(t, prefix, "source", "");
+      j["kind"] = r.String(t, prefix, "kind", "relative");
+      if (!t.contains("tolerance")) r.Fail(&node, prefix + "tolerance", "missing");
+      j["tolerance"] = r.Number(t, prefix, "tolerance", 0.0);
+      j["floor"] = r.Number(t, prefix, "floor", 0.0);
+      j["keys"] = r.Strings(t, prefix, "keys");
+      j["metric"] = r.String(t, prefix, "metric", "");
+      j["split"] = r.String(t, prefix, "split", "test");
+      const std::string source = j["source"];
+      if (source != "metrics" && !kKnownProbes.contains(source)) {
+        r.Fail(t.get("source"), prefix + "source",
+               "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability)");
+      }
+      if (j["kind"] != "relative" && j["kind"] != "max" && j["kind"] != "absolute") {
+        r.Fail(t.get("kind"), prefix + "kind", "expected \"relative\", \"absolute\" or \"max\"");
+      }
+      if (source == "metrics" && j["metric"] == "") {
+        r.Fail(&node, prefix + "metric", "required when source = \"metrics\"");
+      }
+      if (j["split"] != "train" && j["split"] != "test") {
+        r.Fail(t.get("split"), prefix + "split", "expected \"train\" or \"test\"");
+      }
+      spec.verdicts[name] = j;
+    }
+  }
+
+  // [outputs]
+  if (const toml::table* o = r.Table(root, "", "outputs")) {
+    r.CheckKeys(*o, "outputs.", {"previews", "report"});
+    spec.previews = r.Bool(*o, "outputs.", "previews", true);
+    spec.report = r.Bool(*o, "outputs.", "report", true);
+  }
+  return spec;
+}
+
+}  // namespace shadefit::studies

@@ -1,0 +1,97 @@
+// Study file parsing: globs, lightings, quick overrides, labels and the errors bad files give.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "shadefit/render/error.h"
+#include "shadefit/studies/study.h"
+
+namespace shadefit::studies {
+namespace {
+namespace fs = std::filesystem;
+
+const std::string kRefs = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles";
+
+std::string WriteStudy(const std::string& name, const std::string& text) {
+  const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "studies" / "files";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::string Base(const std::string& extra = "") {
+  return "[study]\nname = \"t\"\n[[group]]\nmaterial = \"gold\"\nimages = [\"" + kRefs +
+         "/gold-*.exr\"]\nexclude = [\"*-env.exr\"]\n[fit]\nmodels = [\"ggx\", \"blinn-phong\"]\n"
+         "train = [[\"key\"]]\n" + extra;
+}
+
+TEST(StudyFile, GlobsLightingsAndDefaults) {
+  const StudySpec s = LoadStudy(WriteStudy("a.toml", Base()));
+  ASSERT_EQ(s.groups.size(), 1u);
+  std::vector<std::string> lightings;
+  for (const auto& r : s.groups[0].references) lightings.push_back(r.lighting);
+  EXPECT_EQ(lightings, (std::vector<std::string>{"camera", "key", "mirror60", "mirror75",
+                                                 "mirror85", "rim", "side"}));
+  EXPECT_EQ(s.Label("ggx", {"key"}), "ggx");
+  EXPECT_TRUE(s.IsTest("rim", {"key"}));
+  EXPECT_FALSE(s.IsTest("key", {"key"}));
+  EXPECT_EQ(s.model_settings.at("ggx").loss, "cuberoot");
+}
+
+TEST(StudyFile, QuickAndOverrides) {
+  const std::string text = Base(
+      "starts = 5\n[fit.override.ggx]\nstarts = 7\n[quick]\nlightings = [\"key\", \"rim\"]\n"
+      "max_iterations = 9\nmodels = [\"ggx\"]\n");
+  const StudySpec full = LoadStudy(WriteStudy("b.toml", text));
+  EXPECT_EQ(full.models.size(), 2u);
+  EXPECT_EQ(full.model_settings.at("ggx").starts, 7);
+  EXPECT_EQ(full.model_settings.at("blinn-phong").starts, 5);
+  const StudySpec quick = LoadStudy(WriteStudy("b.toml", text), true);
+  EXPECT_EQ(quick.models, std::vector<std::string>{"ggx"});
+  EXPECT_EQ(quick.groups[0].references.size(), 2u);
+  EXPECT_EQ(quick.model_settings.at("ggx").max_iterations, 9);
+  EXPECT_EQ(quick.model_settings.at("ggx").starts, 7);
+}
+
+TEST(StudyFile, TwoTrainingSetsLabelFits) {
+  const StudySpec s = LoadStudy(WriteStudy(
+      "c.toml", "[study]\nname = \"t\"\n[[group]]\nmaterial = \"gold\"\nimages = [\"" + kRefs +
+                    "/gold-*.exr\"]\n[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\", [\"key\", \"rim\"]]\n"));
+  ASSERT_EQ(s.training_sets.size(), 2u);
+  EXPECT_EQ(s.Label("ggx", {"key", "rim"}), "ggx@key+rim");
+}
+
+std::string Replace(std::string s, const std::string& from, const std::string& to) {
+  s.replace(s.find(from), from.size(), to);
+  return s;
+}
+
+void ExpectError(const std::string& file, const std::string& text, const std::string& what) {
+  try {
+    LoadStudy(WriteStudy(file, text));
+    FAIL() << "no error for " << file;
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+  }
+}
+
+TEST(StudyFile, BadFilesNameTheKey) {
+  ExpectError("e1.toml", Base("colour = 1\n"), "fit.colour: unknown key");
+  ExpectError("e2.toml", Base("loss = \"l3\"\n"), "fit.loss: unknown loss 'l3'");
+  ExpectError("e3.toml", Base("[probes]\nrun = [\"sheen\"]\n"), "probes.run: unknown probe");
+  ExpectError("e4.toml",
+              "[study]\nname = \"t\"\n[[group]]\nmaterial = \"x\"\nimages = [\"nothing-*.exr\"]\n"
+              "[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\"]\n",
+              "group.images: 'nothing-*.exr' matches no file");
+  ExpectError("e5.toml", Base("[verdicts.fresnel]\nsource = \"fresnel\"\n"),
+              "verdicts.fresnel.tolerance: missing");
+  ExpectError("e6.toml", Replace(Base(), "train = [[\"key\"]]", "train = [[\"noon\"]]"),
+              "material 'gold' has no reference under lighting 'noon'");
+  ExpectError("e7.toml", Replace(Base(), "\"ggx\", ", "\"gxx\", "), "unknown model 'gxx'");
+}
+
+}  // namespace
+}  // namespace shadefit::studies
