@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "shadefit/metrics/ssim.h"
 
 #include <cmath>
@@ -239,12 +240,28 @@ MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParam
   while (scales < static_cast<int>(p.weights.size()) && std::min(w, h) >> scales >= window) {
     ++scales;
   }
+  std::vector<std::uint8_t> valid = ValidPixels(p.ssim.mask, reference.PixelCount());
+  if (p.ssim.mask) {
+    // A mask shrinks at every scale (window erosion, then 2x2 downsampling): keep only the
+    // scales where some window still lies inside it, as for small images above. Scale 0 must
+    // have one, or CountPooled reports the mask as unusable.
+    std::vector<std::uint8_t> v = valid;
+    int sw = w, sh = h, usable = 0;
+    for (int j = 0; j < scales; ++j) {
+      const std::vector<std::uint8_t> pool = PoolMask(v, sw, sh, p.ssim.radius);
+      if (std::find(pool.begin(), pool.end(), 1) == pool.end()) break;
+      ++usable;
+      v = DownsampleValid(v, sw, sh);
+      sw /= 2;
+      sh /= 2;
+    }
+    scales = std::max(usable, 1);
+  }
   double weight_sum = 0.0;
   for (int j = 0; j < scales; ++j) weight_sum += p.weights[j];
 
   std::vector<Plane> x = SplitPlanes(reference);
   std::vector<Plane> y = SplitPlanes(test);
-  std::vector<std::uint8_t> valid = ValidPixels(p.ssim.mask, reference.PixelCount());
   const int channels = reference.channels;
   MsSsimResult result;
   result.scales_used = scales;

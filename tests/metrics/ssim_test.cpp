@@ -224,3 +224,34 @@ TEST(SsimTest, TooSmallOrEmptyIsAnError) {
 
 }  // namespace
 }  // namespace shadefit::metrics
+
+namespace shadefit::metrics {
+namespace {
+
+// A sphere-shaped mask on a 256^2 frame (the study's references): the mask shrinks at every
+// MS-SSIM scale, so only the scales where a window still fits inside it are used.
+TEST(SsimTest, MsSsimWithDiscMaskUsesTheScalesThatFit) {
+  const int n = 256;
+  Image a(n, n, 1), b(n, n, 1), mask(n, n, 1);
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const double dx = x + 0.5 - n / 2.0, dy = y + 0.5 - n / 2.0;
+      mask.at(x, y, 0) = dx * dx + dy * dy < 98.0 * 98.0 ? 1.0f : 0.0f;
+      a.at(x, y, 0) = static_cast<float>(0.5 + 0.4 * std::sin(0.05 * x) * std::cos(0.07 * y));
+      b.at(x, y, 0) = a.at(x, y, 0) + static_cast<float>(0.05 * std::sin(0.9 * x + 0.4 * y));
+    }
+  }
+  MsSsimParameters p;
+  p.ssim.data_range = 1.0;
+  p.ssim.mask = &mask;
+  const MsSsimResult same = MsSsim(a, a, p);
+  EXPECT_NEAR(same.value, 1.0, 1e-9);
+  EXPECT_GE(same.scales_used, 3);
+  EXPECT_LT(same.scales_used, 5);
+  const MsSsimResult differ = MsSsim(a, b, p);
+  EXPECT_LT(differ.value, 0.999);
+  EXPECT_GT(differ.value, 0.0);
+}
+
+}  // namespace
+}  // namespace shadefit::metrics
