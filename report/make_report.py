@@ -368,6 +368,66 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
                 f"{material}: reference, fits and error maps per lighting")
 
 
+
+# Lighting shown per probe: one per panel keeps a figure readable (all lightings stay in the JSON
+# and the tables). Back light for Fresnel, key light for the highlight shape.
+PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key", "camera"]}
+
+
+def plot_probe_curves(fig, ax, probe, curves):
+    """One panel per curve kind ("<label> @ <reference>: <kind>"); models in fixed colours, the
+    reference dashed black; one lighting per panel. Returns whether anything was drawn."""
+    parsed = []
+    for name, c in curves.items():
+        xs, ys = c.get("x", []), c.get("y", [])
+        if not xs or len(xs) != len(ys):
+            continue
+        head, _, kind = name.rpartition(": ")
+        label, _, ref = head.partition(" @ ")
+        parsed.append((kind or name, label or name, ref, c))
+    if not parsed:
+        return False
+    kinds = sorted({k for k, _, _, _ in parsed})
+    fig.clf()
+    axes = fig.subplots(1, len(kinds), squeeze=False)[0]
+    fig.set_size_inches(4.2 * len(kinds) + 2.0, 3.6)
+    labels = sorted({lab for _, lab, _, _ in parsed if lab != "reference"})
+    colours = {lab: plt.cm.tab10(i % 10) for i, lab in enumerate(labels)}
+    for ax_k, kind in zip(axes, kinds):
+        items = [p for p in parsed if p[0] == kind]
+        refs = sorted({r for _, _, r, _ in items if r})
+        chosen = None
+        for want in PREFERRED_LIGHTING.get(probe, []):
+            chosen = next((r for r in refs if r.endswith("-" + want)), None)
+            if chosen:
+                break
+        chosen = chosen or (refs[0] if refs else None)
+        for _, lab, ref, c in items:
+            if ref and ref != chosen:
+                continue
+            ys = np.array([np.nan if y is None else y for y in c["y"]], dtype=float)
+            if lab == "reference":
+                ax_k.plot(c["x"], ys, "--", color="black", linewidth=1.6, label="reference")
+            else:
+                ax_k.plot(c["x"], ys, "-", color=colours[lab], linewidth=1.2, label=lab)
+            ax_k.set_xlabel(c.get("x_label", ""), fontsize=8)
+            ax_k.set_ylabel(c.get("y_label", ""), fontsize=8)
+            if c.get("y_scale") == "log" or probe == "highlight":
+                ax_k.set_yscale("log")
+        ax_k.set_title(kind + (f" ({chosen})" if chosen else ""), fontsize=8)
+        ax_k.tick_params(labelsize=7)
+    handles, names = axes[-1].get_legend_handles_labels()
+    for ax_k in axes[:-1]:
+        for h, n in zip(*ax_k.get_legend_handles_labels()):
+            if n not in names:
+                handles.append(h)
+                names.append(n)
+    fig.legend(handles, names, loc="center right", fontsize=7, frameon=False)
+    fig.subplots_adjust(left=0.08, right=1.0 - 1.9 / fig.get_size_inches()[0], bottom=0.16,
+                        top=0.86, wspace=0.3)
+    return True
+
+
 def probe_figures(study, probes, fig_dir, manifest):
     for material, job in sorted(probes.items()):
         for probe, result in job.get("probes", {}).items():
@@ -392,23 +452,15 @@ def probe_figures(study, probes, fig_dir, manifest):
                     ax.set_xticklabels(keys, rotation=30, ha="right", fontsize=6)
                     plotted = True
             else:
-                for name, c in curves.items():
-                    xs, ys = c.get("x", []), c.get("y", [])
-                    if not xs or len(xs) != len(ys):
-                        continue
-                    ys = np.array([np.nan if y is None else y for y in ys], dtype=float)
-                    style = "--" if name.startswith("reference") else "-"
-                    ax.plot(xs, ys, style, label=name, linewidth=1.2)
-                    ax.set_xlabel(c.get("x_label", ""))
-                    ax.set_ylabel(c.get("y_label", ""))
-                    plotted = True
-                if probe == "highlight" and plotted:
-                    ax.set_yscale("log")
-            ax.set_title(f"{material}: {probe}", fontsize=9)
-            if plotted:
+                plotted = plot_probe_curves(fig, ax, probe, curves)
+            if not plotted:
+                ax.set_title(f"{material}: {probe}", fontsize=9)
+                ax.text(0.5, 0.5, "no curves reported", ha="center", transform=ax.transAxes)
+            elif probe == "portability" or not curves:
+                ax.set_title(f"{material}: {probe}", fontsize=9)
                 ax.legend(fontsize=6)
             else:
-                ax.text(0.5, 0.5, "no curves reported", ha="center", transform=ax.transAxes)
+                fig.suptitle(f"{material}: {probe}", fontsize=9)
             fig.subplots_adjust(bottom=0.2)
             save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
                         f"{material}: {probe} probe")
