@@ -309,6 +309,8 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
     throw Error("", "params", fmt::format("model {} takes {} parameters, got {}", info.name,
                                           info.ParamCount(), params.size()));
   }
+  // Another GlContext made on this thread (a nested Fit, say) may have taken the thread over.
+  impl_->context.MakeCurrent();
   GLuint program = impl_->Program(model, false, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
@@ -322,6 +324,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
 }
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
+  impl_->context.MakeCurrent();
   GLuint program = impl_->Program(ModelId::kLambert, true, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shadefit/render/files.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
@@ -204,8 +205,8 @@ double EvaluateModelOnReference(const FitReference& reference, const std::string
                                 const std::vector<double>& params, double exposure = 1.0,
                                 Renderer* renderer = nullptr, Image* prediction = nullptr);
 
-// SHA-256 (FIPS 180-4) of a file's bytes, lowercase hex. Throws shadefit::Error if unreadable.
-std::string Sha256File(const std::string& path);
-std::string Sha256(const std::string& bytes);
+// SHA-256 (FIPS 180-4), lowercase hex: the one implementation in render/files.h.
+using shadefit::Sha256File;
+inline std::string Sha256(const std::string& bytes) { return Sha256String(bytes); }
 
 }  // namespace shadefit::fit

@@ -14,7 +14,8 @@ namespace shadefit {
 
 class Renderer {
  public:
-  // The context must be current on the calling thread for every call.
+  // Every call makes `context` current on the calling thread first, so other contexts created
+  // on the same thread in between do no harm; one renderer is used by one thread at a time.
   explicit Renderer(GlContext& context);
   ~Renderer();
   Renderer(const Renderer&) = delete;
