@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -133,7 +134,10 @@ void WriteTextAtomic(const std::string& path, const std::string& text) {
   if (!p.parent_path().empty() && !fs::is_directory(p.parent_path())) {
     throw Error(path, "", "output directory does not exist");
   }
-  const fs::path tmp = p.parent_path() / fmt::format(".{}.{}.tmp", p.filename().string(), getpid());
+  // Unique per process and call: concurrent writers of one file never share a temporary.
+  static std::atomic<unsigned long> counter{0};
+  const fs::path tmp =
+      p.parent_path() / fmt::format(".{}.{}.{}.tmp", p.filename().string(), getpid(), ++counter);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out << text;

@@ -3,7 +3,10 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,11 +19,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Temporary sibling path: the rename that follows is atomic on one file system.
+// Temporary sibling path, unique per process and call so that concurrent writers of the same
+// file (two study jobs writing one reference preview) never share it; the rename that follows
+// is atomic on one file system and the last writer wins with a complete file.
 std::string TempPathFor(const std::string& path) {
+  static std::atomic<unsigned long> counter{0};
   fs::path p(path);
-  return (p.parent_path() / ("." + p.filename().string() + ".tmp")).string() +
-         p.extension().string();
+  const std::string unique = std::to_string(::getpid()) + "." + std::to_string(++counter);
+  // The writer is chosen from the final name (WriteWithOiio), so the temporary can end in .tmp.
+  return (p.parent_path() / ("." + p.filename().string() + "." + unique + ".tmp")).string();
 }
 
 void CommitTemp(const std::string& tmp, const std::string& path) {
