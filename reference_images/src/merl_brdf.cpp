@@ -16,6 +16,7 @@
 #include "shadefit/refs/measured_brdf.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 
 namespace shadefit::refs {
 namespace {
@@ -156,24 +157,10 @@ void WriteMerlBinary(const std::string& path,
       }
     }
   }
-  const fs::path p(path);
-  const fs::path tmp = p.parent_path() / fmt::format(".{}.{}.tmp", p.filename().string(), getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    const std::int32_t dims[3] = {kMerlThetaH, kMerlThetaD, kMerlPhiD};
-    out.write(reinterpret_cast<const char*>(dims), sizeof(dims));
-    out.write(reinterpret_cast<const char*>(data.data()),
-              static_cast<std::streamsize>(data.size() * sizeof(double)));
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path, "", "cannot write file");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, p, ec);
-  if (ec) throw Error(path, "", "cannot write file (rename failed)");
+  const std::int32_t dims[3] = {kMerlThetaH, kMerlThetaD, kMerlPhiD};
+  std::string bytes(reinterpret_cast<const char*>(dims), sizeof(dims));
+  bytes.append(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(double));
+  WriteTextAtomic(path, bytes);  // Binary-safe: a temporary sibling, then a rename.
 }
 
 }  // namespace shadefit::refs

@@ -11,21 +11,9 @@
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
+#include "../render/test_util.h"  // SharedRenderer(), TestOutputDir().
 
 namespace shadefit::testing {
-
-// Created once; the context stays current on the main thread (gtest runs tests there).
-inline Renderer& SharedRenderer() {
-  static GlContext* context = new GlContext();
-  static Renderer* renderer = new Renderer(*context);
-  return *renderer;
-}
-
-inline std::string TestOutputDir(const std::string& sub) {
-  const std::filesystem::path dir = std::filesystem::path(SHADEFIT_TEST_OUTPUT) / sub;
-  std::filesystem::create_directories(dir);
-  return dir.string();
-}
 
 inline std::string CameraToml(const std::string& position, double fov, int size) {
   return "[camera]\nposition = " + position +
