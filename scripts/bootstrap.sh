@@ -42,18 +42,5 @@ if [ "$mode" = test ]; then
   exit $?
 fi
 
-echo "== running the main job"
-if [ -f studies/pbs_vs_blinn_phong.toml ]; then
-  ./build/studies/shadefit study run studies/pbs_vs_blinn_phong.toml -o out
-  ./build/studies/shadefit report out/pbs_vs_blinn_phong
-else
-  # Until the study runner lands: render the demo scenes with every model into out/.
-  mkdir -p out
-  for scene in tests/data/sphere_key.toml; do
-    for model in blinn-phong blinn-phong-normalized ggx cycles-principled; do
-      ./build/studies/shadefit render --scene "$scene" --model "$model" \
-        -o "out/$(basename "$scene" .toml)-$model.exr"
-    done
-  done
-  echo "renders are in out/"
-fi
+echo "== running the main job: the default study on the shipped references, then its report"
+./build/studies/shadefit study run studies/pbs_vs_blinn_phong.toml -o out
