@@ -145,9 +145,7 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
   for (const auto& m : materials) {
     expected.push_back("report/figures/grid-" + m + ".png");
     expected.push_back("report/figures/grid-" + m + ".pdf");
-#ifdef SHADEFIT_HAVE_PROBES
     expected.push_back("jobs/probe." + m + ".json");
-#endif
     for (const auto& model : models) expected.push_back("jobs/fit." + m + "." + model + ".key.json");
     for (const auto& l : lightings) {
       expected.push_back("images/" + m + "-" + l + ".reference.png");
@@ -217,9 +215,7 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
   offset = fs::file_size(out / "study.log");
   ASSERT_EQ(RunShadefit(run, dir), 0) << ReadText(dir / "command.txt");
   std::set<std::string> want = {"fit.gold.ggx.key", "fit.red-plastic.ggx.key"};
-#ifdef SHADEFIT_HAVE_PROBES
   want.insert({"probe.gold", "probe.red-plastic"});
-#endif
   EXPECT_EQ(StartedSince(out / "study.log", offset), want);
 }
 
@@ -278,9 +274,6 @@ bool FresnelReproduced(const fs::path& study_dir, const std::string& fit) {
 }
 
 TEST(StudyVerdicts, FresnelVerdictFollowsTheReference) {
-#ifndef SHADEFIT_HAVE_PROBES
-  GTEST_SKIP() << "built without shadefit::probes: no Fresnel numbers to judge";
-#endif
   const fs::path dir = OutputDir("verdict_flip");
   const fs::path refs = dir / "refs";
   fs::create_directories(refs);

@@ -40,9 +40,7 @@
 #include "shadefit/render/image.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
-#ifdef SHADEFIT_HAVE_PROBES
 #include "shadefit/probes/probes.h"
-#endif
 
 #ifndef SHADEFIT_VERSION_STRING
 #define SHADEFIT_VERSION_STRING "unknown"
@@ -343,7 +341,6 @@ void StudyRun::BuildJobs() {
       }
     }
     if (!spec_.probes.empty()) {
-#ifdef SHADEFIT_HAVE_PROBES
       Job job;
       job.kind = Job::Kind::kProbe;
       job.group = static_cast<int>(gi);
@@ -354,7 +351,6 @@ void StudyRun::BuildJobs() {
       job.hash = Sha256String(version + "\n" + context.dump());
       job.weight = 1.0 + 0.5 * spec_.probes.size();
       jobs_.push_back(job);
-#endif
     }
   }
 }
@@ -546,7 +542,6 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
 }
 
 void StudyRun::RunProbeJob(Job& job, Worker& worker) {
-#ifdef SHADEFIT_HAVE_PROBES
   const ReferenceGroup& g = spec_.groups[job.group];
   const auto t0 = Clock::now();
   probes::ProbeInputs in;
@@ -611,10 +606,6 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
             {"outputs", outputs},
             {"seconds", std::chrono::duration<double>(Clock::now() - t0).count()}};
   WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
-#else
-  (void)worker;
-  throw Error("", job.id, "shadefit was built without the probes library");
-#endif
 }
 
 void StudyRun::WorkerLoop(int index) {
@@ -796,11 +787,6 @@ RunSummary StudyRun::Run() {
   start_ = Clock::now();
   Prepare();
   BuildJobs();
-#ifndef SHADEFIT_HAVE_PROBES
-  if (!spec_.probes.empty()) {
-    log_->Say("warning: built without the probes library; probes are skipped");
-  }
-#endif
   RunSummary summary;
   summary.study_dir = dir_.string();
   summary.total = static_cast<int>(jobs_.size());
