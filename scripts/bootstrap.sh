@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 # Every dependency is a Debian 12 package (README, "Dependencies").
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libceres-dev libopenimageio-dev libopenexr-dev libglm-dev libopencv-dev libhdf5-dev
+  libceres-dev libopenimageio-dev openimageio-tools libopenexr-dev libglm-dev libopencv-dev libhdf5-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev

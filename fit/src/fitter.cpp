@@ -808,22 +808,12 @@ nlohmann::json FitResultToJson(const FitResult& r) {
 
 namespace {
 
-void WriteTextAtomic(const std::string& path, const std::string& text) {
+// The fit's JSON goes into a folder created on demand, through the one atomic writer
+// (render/files.h): a unique hidden temporary, then a rename.
+void WriteFitJsonAtomic(const std::string& path, const std::string& text) {
   const fs::path target(path);
   if (target.has_parent_path()) fs::create_directories(target.parent_path());
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw Error(path, "", "cannot write");
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path, "", "cannot move the temporary file into place");
-  }
+  shadefit::WriteTextAtomic(path, text);
 }
 
 }  // namespace
@@ -872,7 +862,7 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
       j["outputs"].push_back({{"reference", ref.name}, {"path", base + suffix}});
     }
   }
-  WriteTextAtomic(json_path, j.dump(1) + "\n");
+  WriteFitJsonAtomic(json_path, j.dump(1) + "\n");
   written.push_back(json_path);
   return written;
 }

@@ -129,15 +129,21 @@ std::string Sha256File(const std::string& path) {
   return sha.HexDigest();
 }
 
+std::string TemporaryPathFor(const std::string& path) {
+  // Unique per process and call: concurrent writers of one file never share a temporary.
+  static std::atomic<unsigned long> counter{0};
+  const fs::path p(path);
+  return (p.parent_path() /
+          fmt::format(".{}.{}.{}.tmp", p.filename().string(), getpid(), ++counter))
+      .string();
+}
+
 void WriteTextAtomic(const std::string& path, const std::string& text) {
   const fs::path p(path);
   if (!p.parent_path().empty() && !fs::is_directory(p.parent_path())) {
     throw Error(path, "", "output directory does not exist");
   }
-  // Unique per process and call: concurrent writers of one file never share a temporary.
-  static std::atomic<unsigned long> counter{0};
-  const fs::path tmp =
-      p.parent_path() / fmt::format(".{}.{}.{}.tmp", p.filename().string(), getpid(), ++counter);
+  const fs::path tmp = TemporaryPathFor(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out << text;

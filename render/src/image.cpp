@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 
 namespace shadefit {
 namespace {
@@ -22,14 +23,6 @@ namespace fs = std::filesystem;
 // Temporary sibling path, unique per process and call so that concurrent writers of the same
 // file (two study jobs writing one reference preview) never share it; the rename that follows
 // is atomic on one file system and the last writer wins with a complete file.
-std::string TempPathFor(const std::string& path) {
-  static std::atomic<unsigned long> counter{0};
-  fs::path p(path);
-  const std::string unique = std::to_string(::getpid()) + "." + std::to_string(++counter);
-  // The writer is chosen from the final name (WriteWithOiio), so the temporary can end in .tmp.
-  return (p.parent_path() / ("." + p.filename().string() + "." + unique + ".tmp")).string();
-}
-
 void CommitTemp(const std::string& tmp, const std::string& path) {
   std::error_code ec;
   fs::rename(tmp, path, ec);
@@ -45,7 +38,7 @@ void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::T
   if (!parent.empty() && !fs::is_directory(parent)) {
     throw Error(path, "", "output directory does not exist");
   }
-  const std::string tmp = TempPathFor(path);
+  const std::string tmp = TemporaryPathFor(path);
   auto out = OIIO::ImageOutput::create(path);  // Format from the final name, not the temp one.
   if (!out) throw Error(path, "", "no writer for this file type: " + OIIO::geterror());
   if (!out->open(tmp, spec) || !out->write_image(type, pixels) || !out->close()) {

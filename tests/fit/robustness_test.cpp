@@ -179,7 +179,9 @@ TEST(LossTest, EveryLossRecoversOwnRender) {
     ExpectSane(r);
     EXPECT_NEAR(r.values[6], truth[6], 0.02 * truth[6]);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.values[c], truth[c], 0.01 * truth[c]);
-    if (loss == fit::Loss::kHuber || loss == fit::Loss::kCauchy) EXPECT_GT(r.loss_scale, 0);
+    if (loss == fit::Loss::kHuber || loss == fit::Loss::kCauchy) {
+      EXPECT_GT(r.loss_scale, 0);
+    }
   }
 }
 

@@ -153,8 +153,12 @@ TEST(BrdfPhysics, GgxFurnaceLosesEnergyWithRoughness) {
     std::printf("[ furnace ] ggx roughness %.2f: E(normal) %.4f, hemispherical mean %.4f\n", r,
                 e1, mean);
     EXPECT_LT(mean, previous + 1e-3);
-    if (r <= 0.05) EXPECT_GT(mean, 0.99);
-    if (r >= 1.0) EXPECT_LT(mean, 0.9);
+    if (r <= 0.05) {
+      EXPECT_GT(mean, 0.99);
+    }
+    if (r >= 1.0) {
+      EXPECT_LT(mean, 0.9);
+    }
     previous = mean;
   }
 }

@@ -54,27 +54,7 @@ using Clock = std::chrono::steady_clock;
 std::string ShadefitVersion() { return SHADEFIT_VERSION_STRING; }
 
 void WriteFileAtomic(const std::string& path, const std::string& text) {
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() /
-                       fmt::format(".{}.{}.{}.tmp", target.filename().string(), ::getpid(),
-                                   std::hash<std::thread::id>{}(std::this_thread::get_id()));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(path, "", "cannot open for writing");
-    out << text;
-    out.flush();
-    if (!out) {
-      out.close();
-      fs::remove(tmp);
-      throw Error(path, "", "write failed");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp);
-    throw Error(path, "", "rename failed: " + ec.message());
-  }
+  shadefit::WriteTextAtomic(path, text);
 }
 
 namespace {

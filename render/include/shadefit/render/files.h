@@ -11,6 +11,11 @@ namespace shadefit {
 std::string Sha256File(const std::string& path);
 std::string Sha256String(const std::string& bytes);
 
+// The hidden temporary that an atomic writer fills before renaming it to `path`:
+// "<dir>/.<name>.<pid>.<n>.tmp", unique per process and call, in the same directory (so the
+// rename stays on one file system). Every atomic writer in shadefit names its temporary here.
+std::string TemporaryPathFor(const std::string& path);
+
 // Writes text to a temporary sibling and renames it over `path`, so a reader never sees a partial
 // file and a failure leaves nothing. Throws shadefit::Error naming the file.
 void WriteTextAtomic(const std::string& path, const std::string& text);
