@@ -140,16 +140,17 @@ cache="$cache_dir/bookworm-minbase-$maker.tar"
 begin "base root ($maker, minbase)"
 mkdir -p "$root"
 fresh_cache=0
-if [ "$use_cache" -eq 1 ] && [ -f "$cache" ] && [ -n "$(find "$cache" -mtime -7)" ]; then
+if [ "$use_cache" -eq 1 ] && [ -f "$cache" ] && tar -tf "$cache" ./etc/debian_version >/dev/null 2>&1 \
+    && [ -n "$(find "$cache" -mtime -7)" ]; then
   say "reusing the cached minimal base $cache ($(du -h "$cache" | cut -f1))"
 else
   fresh_cache=1
 fi
 if [ "$fresh_cache" -eq 1 ]; then
   mkdir -p "$cache_dir"
-  tmp_tar="$cache.$$.tmp"
+  tmp_tar="$cache_dir/.building.$$.tar"  # mmdebstrap picks the format from the name
   if [ "$maker" = mmdebstrap ]; then
-    if ! mmdebstrap --quiet --variant=minbase "${aptopts[@]}" bookworm "$tmp_tar" "$sources" \
+    if ! mmdebstrap --quiet --variant=minbase --format=tar "${aptopts[@]}" bookworm "$tmp_tar" "$sources" \
          >"$work/root-build.log" 2>&1; then
       rm -f "$tmp_tar"
       die "cannot build a Debian 12 root with mmdebstrap (no mirror reachable?): $(grep -iE 'error|fail' "$work/root-build.log" | tail -n1)"
