@@ -25,6 +25,9 @@ ProbeInputs GgxInputs() {
   }
   in.models.push_back(*in.truth);
   in.models.back().label = "ggx-truth";
+  // A perturbed truth (f0 doubled): its curve error against the reference must be the Schlick
+  // difference, not the noise floor.
+  in.models.push_back(MakeModel("ggx-f0x2", "ggx", {"kd=0.3", "f0=0.08", "roughness=0.3"}));
   in.models.push_back(
       MakeModel("blinn-phong", "blinn-phong", {"kd=0.3", "ks=0.3", "shininess=40"}));
   return in;
@@ -40,8 +43,11 @@ TEST(FresnelProbe, SchlickGgxGivesF0AndSchlickCurve) {
               r.numbers["reference"]["rim_to_centre"].get<double>());
   EXPECT_NEAR(f_centre, 0.04, 1e-3);
   const auto pts = CurvePoints(r.curves.at("reference: F vs theta_d"));
-  ASSERT_GE(pts.size(), 4u);
-  double worst = 0;
+  // The camera light gives theta_d = 0, rim and mirror85 the grazing end: the curve must span
+  // both, so the loop below cannot pass on a handful of flat-region bins.
+  ASSERT_GE(pts.size(), 5u);
+  double worst = 0, x_min = 90, x_max = 0, sq_perturbed = 0;
+  int compared = 0;
   for (const auto& [x, y] : pts) {
     // x is the lobe-weighted mean theta_d of a 5 deg bin; F is the lobe-weighted mean of a
     // convex curve over the bin, so allow a quarter of Schlick's change across +-2.5 deg.
@@ -49,10 +55,28 @@ TEST(FresnelProbe, SchlickGgxGivesF0AndSchlickCurve) {
         0.25 * std::abs(Schlick(0.04, std::min(90.0, x + 2.5)) - Schlick(0.04, x - 2.5)) + 1e-3;
     EXPECT_NEAR(y, Schlick(0.04, x), tol) << "theta_d " << x;
     worst = std::max(worst, std::abs(y - Schlick(0.04, x)) / tol);
+    x_min = std::min(x_min, x);
+    x_max = std::max(x_max, x);
+    sq_perturbed += std::pow(Schlick(0.08, x) - Schlick(0.04, x), 2);
+    ++compared;
     std::printf("[ fresnel ] theta_d %5.1f  F %.5f  Schlick %.5f\n", x, y, Schlick(0.04, x));
   }
-  EXPECT_LT(r.numbers["ggx-truth"]["curve_rmse_theta_d"].get<double>(), 1e-3);
+  EXPECT_GE(compared, 5);
+  EXPECT_LT(x_min, 10.0);
+  EXPECT_GT(x_max, 80.0);
+  // Noise floor: the truth as a model.
+  const double floor_d = r.numbers["ggx-truth"]["curve_rmse_theta_d"].get<double>();
+  EXPECT_LT(floor_d, 1e-3);
   EXPECT_LT(r.numbers["ggx-truth"]["curve_rmse_theta_v"].get<double>(), 1e-3);
+  // f0 = 0.08 against 0.04: the curve RMSE is the RMS of Schlick(0.08) - Schlick(0.04) =
+  // 0.04 (1 - (1 - cos)^5) over the bins (to the bins' angle spread).
+  const double perturbed = r.numbers["ggx-f0x2"]["curve_rmse_theta_d"].get<double>();
+  const double expected = std::sqrt(sq_perturbed / compared);
+  std::printf("[ fresnel ] f0 0.08 vs 0.04: curve RMSE %.5f (closed form %.5f, floor %.2g)\n",
+              perturbed, expected, floor_d);
+  EXPECT_NEAR(perturbed, expected, 0.05 * expected);
+  EXPECT_GT(perturbed, 20 * floor_d);
+  EXPECT_NEAR(r.numbers["ggx-f0x2"]["F_centre"].get<double>(), 0.08, 2e-3);
   // Grazing reflectance rises: F(85) / F0 > 5 (Schlick: 0.04 -> 0.40 at 85 deg).
   EXPECT_GT(r.numbers["reference"]["rim_to_centre"].get<double>(), 5.0);
 }
@@ -84,13 +108,37 @@ TEST(FresnelProbe, LambertPercentileEstimateLeavesNoSpecular) {
   }
 }
 
+// The twin path (no renderer) and the GL path give the same non-flat Fresnel curve of a Schlick
+// GGX model, bin by bin.
 TEST(FresnelProbe, TwinPathMatchesGlPath) {
   ProbeInputs in = GgxInputs();
   const probes::ProbeResult gl = FresnelProbe(in);
   in.renderer = nullptr;  // models by the C++ twin
   const probes::ProbeResult twin = FresnelProbe(in);
-  EXPECT_NEAR(gl.numbers["blinn-phong"]["F_rim"].get<double>(),
-              twin.numbers["blinn-phong"]["F_rim"].get<double>(), 1e-4);
+  for (const char* label : {"ggx-f0x2", "blinn-phong"}) {
+    const std::string series = std::string(label) + ": F vs theta_d";
+    const auto a = CurvePoints(gl.curves.at(series)), b = CurvePoints(twin.curves.at(series));
+    ASSERT_EQ(a.size(), b.size()) << label;
+    ASSERT_GE(a.size(), 5u) << label;
+    double lo = 1e9, hi = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_NEAR(a[i].first, b[i].first, 1e-2) << label << " bin " << i;
+      EXPECT_NEAR(a[i].second, b[i].second, 1e-3 * a[i].second) << label << " theta_d " << a[i].first;
+      lo = std::min(lo, a[i].second);
+      hi = std::max(hi, a[i].second);
+    }
+    // GGX's curve rises from F0 = 0.08 to well above 0.5 at grazing: a curve the two paths
+    // could only share by both computing Fresnel.
+    if (std::string(label) == "ggx-f0x2") {
+      EXPECT_GT(hi / lo, 5.0);
+    }
+    for (const char* number : {"F_centre", "F_rim", "curve_rmse_theta_d"}) {
+      EXPECT_NEAR(gl.numbers[label][number].get<double>(),
+                  twin.numbers[label][number].get<double>(),
+                  1e-3 * std::abs(gl.numbers[label][number].get<double>()) + 1e-6)
+          << label << " " << number;
+    }
+  }
 }
 
 }  // namespace
