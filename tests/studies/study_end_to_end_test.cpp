@@ -1,10 +1,15 @@
 // `shadefit study run` + `shadefit report` end to end on a small study of shipped references
-// (2 materials x 2 models x 2 lightings), and verdicts that follow the data.
+// (2 materials x 2 models x 2 lightings): the report's verdict cells equal verdicts recomputed
+// here from results.csv and the probe files with the study's tolerances, its figures exist and
+// are referenced, its LaTeX tables parse back to results.csv; and verdicts that follow the data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -26,6 +31,10 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 const std::string kRefs = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles";
+
+// The study file's tolerances (SmallStudy writes them; the checks below use the same numbers).
+constexpr double kImageTolerance = 0.05;    // [verdicts.image], max of mean train LDR-FLIP
+constexpr double kFresnelTolerance = 0.25;  // [verdicts.fresnel], relative
 
 fs::path OutputDir(const std::string& name) {
   const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "studies" / name;
@@ -113,10 +122,319 @@ std::string SmallStudy(const std::string& name, const std::vector<std::string>& 
        "max_iterations = 25\npixel_stride = 4\n"
        "[probes]\nrun = [\"fresnel\", \"highlight\", \"energy\", \"portability\"]\n"
        "[verdicts.image]\nsource = \"metrics\"\nmetric = \"flip_ldr_mean\"\nsplit = \"train\"\n"
-       "kind = \"max\"\ntolerance = 0.05\n"
-       "[verdicts.fresnel]\nsource = \"fresnel\"\nkind = \"relative\"\ntolerance = 0.25\n" +
-       extra;
+       "kind = \"max\"\ntolerance = " + std::to_string(kImageTolerance) + "\n"
+       "[verdicts.fresnel]\nsource = \"fresnel\"\nkind = \"relative\"\ntolerance = " +
+       std::to_string(kFresnelTolerance) + "\n" + extra;
   return s;
+}
+
+// --- Report content, recomputed here from the result files --------------------------------------
+
+// Numeric leaves of a probe's numbers as "a.b" -> value, the flattening docs/studies.md
+// ("Verdict rules") describes: nested objects joined with '.', lists of up to 8 numbers as
+// "a[i]", booleans as 1/0, nulls and non-numbers left out.
+void Flatten(const json& j, const std::string& prefix, std::map<std::string, double>* out) {
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) Flatten(*it, prefix + it.key() + ".", out);
+  } else if (j.is_array()) {
+    if (j.size() > 8) return;
+    for (const json& x : j) {
+      if (!x.is_number()) return;
+    }
+    for (std::size_t i = 0; i < j.size(); ++i) {
+      (*out)[prefix.substr(0, prefix.size() - 1) + "[" + std::to_string(i) + "]"] = j[i];
+    }
+  } else if (j.is_boolean()) {
+    (*out)[prefix.substr(0, prefix.size() - 1)] = j.get<bool>() ? 1.0 : 0.0;
+  } else if (j.is_number() && std::isfinite(j.get<double>())) {
+    (*out)[prefix.substr(0, prefix.size() - 1)] = j.get<double>();
+  }
+}
+
+struct Verdict {
+  bool reproduced = false;
+  double worst_error = 0;  // the error of the worst quantity (largest error / tolerance)
+  double model_value = 0;  // the worst quantity's model number
+  int quantities = 0;
+};
+
+// [verdicts.image]: the mean flip_ldr_mean of the fit's train rows of results.csv, judged as max.
+Verdict ImageVerdict(const std::vector<std::map<std::string, std::string>>& rows,
+                     const std::string& material, const std::string& label) {
+  double sum = 0;
+  int n = 0;
+  for (const auto& r : rows) {
+    if (r.at("material") == material && r.at("label") == label && r.at("split") == "train") {
+      sum += std::stod(r.at("flip_ldr_mean"));
+      ++n;
+    }
+  }
+  Verdict v;
+  v.quantities = n > 0 ? 1 : 0;
+  v.model_value = v.worst_error = sum / n;
+  v.reproduced = v.worst_error <= kImageTolerance;
+  return v;
+}
+
+// [verdicts.fresnel]: every number both the reference and the fit report, relative error
+// |model - reference| / max(|reference|, 1e-12) (floor 0), reproduced when all are within.
+Verdict FresnelVerdict(const fs::path& study_dir, const std::string& material,
+                       const std::string& label) {
+  const json job = json::parse(ReadText(study_dir / "jobs" / ("probe." + material + ".json")));
+  const json& numbers = job["probes"]["fresnel"]["numbers"];
+  std::map<std::string, double> ref, mod;
+  Flatten(numbers["reference"], "", &ref);
+  Flatten(numbers[label], "", &mod);
+  Verdict v;
+  v.reproduced = true;
+  double worst = -1;
+  for (const auto& [key, r] : ref) {
+    const auto it = mod.find(key);
+    if (it == mod.end()) continue;
+    const double err = std::abs(it->second - r) / std::max(std::abs(r), 1e-12);
+    v.reproduced = v.reproduced && err <= kFresnelTolerance;
+    if (err > worst) {
+      worst = err;
+      v.worst_error = err;
+      v.model_value = it->second;
+    }
+    ++v.quantities;
+  }
+  return v;
+}
+
+// A CSV line split at commas outside double quotes (Python's csv module quotes cells with commas).
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> cells(1);
+  bool quoted = false;
+  for (char ch : line) {
+    if (ch == '"') {
+      quoted = !quoted;
+    } else if (ch == ',' && !quoted) {
+      cells.emplace_back();
+    } else {
+      cells.back() += ch;
+    }
+  }
+  return cells;
+}
+
+std::vector<std::vector<std::string>> ReadCsvRows(const fs::path& p) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream in(ReadText(p));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    rows.push_back(SplitCsvLine(line));
+  }
+  return rows;
+}
+
+std::string HtmlUnescape(std::string s) {
+  const std::pair<const char*, const char*> entities[] = {
+      {"&lt;", "<"}, {"&gt;", ">"}, {"&quot;", "\""}, {"&#x27;", "'"}, {"&amp;", "&"}};
+  for (const auto& [from, to] : entities) {
+    for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + 1)) {
+      s.replace(p, std::strlen(from), to);
+    }
+  }
+  return s;
+}
+
+// The <td> texts of every <tr> in an HTML fragment.
+std::vector<std::vector<std::string>> HtmlRows(const std::string& html) {
+  std::vector<std::vector<std::string>> rows;
+  for (std::size_t tr = html.find("<tr>"); tr != std::string::npos; tr = html.find("<tr>", tr + 4)) {
+    const std::size_t end = html.find("</tr>", tr);
+    const std::string row = html.substr(tr, end - tr);
+    std::vector<std::string> cells;
+    for (std::size_t td = row.find("<td"); td != std::string::npos; td = row.find("<td", td + 3)) {
+      const std::size_t open = row.find('>', td) + 1;
+      cells.push_back(HtmlUnescape(row.substr(open, row.find("</td>", open) - open)));
+    }
+    if (!cells.empty()) rows.push_back(cells);
+  }
+  return rows;
+}
+
+// Attribute values `name='...'` in an HTML text.
+std::vector<std::string> HtmlAttributes(const std::string& html, const std::string& name) {
+  std::vector<std::string> out;
+  const std::string key = name + "='";
+  for (std::size_t p = html.find(key); p != std::string::npos; p = html.find(key, p + 1)) {
+    const std::size_t start = p + key.size();
+    out.push_back(html.substr(start, html.find('\'', start) - start));
+  }
+  return out;
+}
+
+// The body rows of a booktabs tabular written by the report (between \midrule and \bottomrule),
+// cells split at " & ", LaTeX escapes of '_', '%', '&', '#' undone.
+std::vector<std::vector<std::string>> LatexRows(const fs::path& p) {
+  const std::string tex = ReadText(p);
+  const std::size_t begin = tex.find("\\midrule\n"), end = tex.find("\\bottomrule");
+  EXPECT_NE(begin, std::string::npos) << p;
+  EXPECT_NE(end, std::string::npos) << p;
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream in(tex.substr(begin + 9, end - begin - 9));
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::size_t eol = line.rfind(" \\\\");
+    EXPECT_NE(eol, std::string::npos) << line;
+    line = line.substr(0, eol);
+    std::vector<std::string> cells;
+    std::size_t start = 0;
+    for (std::size_t amp = line.find(" & "); ; amp = line.find(" & ", start)) {
+      std::string cell = line.substr(start, amp == std::string::npos ? std::string::npos : amp - start);
+      for (const char* esc : {"\\_", "\\%", "\\&", "\\#"}) {
+        for (std::size_t q = cell.find(esc); q != std::string::npos; q = cell.find(esc, q)) {
+          cell.erase(q, 1);
+        }
+      }
+      cells.push_back(cell);
+      if (amp == std::string::npos) break;
+      start = amp + 3;
+    }
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+// Every verdict cell of verdicts.csv, the HTML verdict table, the matrix (CSV, LaTeX, HTML,
+// summary.md) equals the verdict recomputed here; every figure index.html names exists and every
+// figure the report made is named; the LaTeX metrics table parses back to results.csv.
+void ExpectReportContent(const fs::path& out, const std::vector<std::string>& materials,
+                         const std::vector<std::string>& labels) {
+  const fs::path report = out / "report";
+  const auto rows = ReadCsv(out / "results.csv");
+  std::map<std::string, Verdict> recomputed;  // "phenomenon/material/fit"
+  for (const auto& m : materials) {
+    for (const auto& l : labels) {
+      recomputed["image/" + m + "/" + l] = ImageVerdict(rows, m, l);
+      recomputed["fresnel/" + m + "/" + l] = FresnelVerdict(out, m, l);
+    }
+  }
+  const auto yes_no = [](bool b) { return std::string(b ? "yes" : "no"); };
+
+  // tables/verdicts.csv: one row per phenomenon x material x fit.
+  const auto vcsv = ReadCsvRows(report / "tables/verdicts.csv");
+  ASSERT_EQ(vcsv.size(), recomputed.size() + 1);
+  for (std::size_t i = 1; i < vcsv.size(); ++i) {
+    const auto& c = vcsv[i];
+    ASSERT_EQ(c.size(), 9u) << i;
+    const std::string key = c[0] + "/" + c[1] + "/" + c[2];
+    ASSERT_TRUE(recomputed.count(key)) << key;
+    const Verdict& v = recomputed[key];
+    EXPECT_EQ(c[8], yes_no(v.reproduced)) << key;
+    EXPECT_NEAR(std::stod(c[5]), v.model_value, 5e-4 * std::abs(v.model_value) + 1e-12) << key;
+    EXPECT_NEAR(std::stod(c[6]), v.worst_error, 5e-3 * std::abs(v.worst_error) + 1e-12) << key;
+  }
+
+  // The matrix: "reproduced/judged" per phenomenon and fit.
+  std::map<std::string, std::string> matrix;  // "phenomenon/fit" -> "k/n"
+  for (const char* ph : {"image", "fresnel"}) {
+    for (const auto& l : labels) {
+      int good = 0;
+      for (const auto& m : materials) good += recomputed[std::string(ph) + "/" + m + "/" + l].reproduced;
+      matrix[std::string(ph) + "/" + l] =
+          std::to_string(good) + "/" + std::to_string(materials.size());
+    }
+  }
+  const auto check_matrix_row = [&](const std::vector<std::string>& cells, const std::string& where) {
+    if (cells.size() != 2 + labels.size() || (cells[0] != "image" && cells[0] != "fresnel")) return 0;
+    for (std::size_t k = 0; k < labels.size(); ++k) {
+      EXPECT_EQ(cells[2 + k], matrix[cells[0] + "/" + labels[k]]) << where << " " << cells[0];
+    }
+    return 1;
+  };
+  int matrix_rows = 0;
+  for (const auto& cells : ReadCsvRows(report / "tables/matrix.csv")) {
+    matrix_rows += check_matrix_row(cells, "matrix.csv");
+  }
+  for (const auto& cells : LatexRows(report / "tables/matrix.tex")) {
+    matrix_rows += check_matrix_row(cells, "matrix.tex");
+  }
+
+  // index.html: the tables before the figures are the matrix and the verdicts.
+  const std::string html = ReadText(report / "index.html");
+  const std::size_t figures_at = html.find("<h2>Figures</h2>");
+  ASSERT_NE(figures_at, std::string::npos);
+  int html_verdicts = 0;
+  for (const auto& cells : HtmlRows(html.substr(0, figures_at))) {
+    matrix_rows += check_matrix_row(cells, "index.html");
+    if (cells.size() == 9) {
+      const std::string key = cells[0] + "/" + cells[1] + "/" + cells[2];
+      ASSERT_TRUE(recomputed.count(key)) << key;
+      EXPECT_EQ(cells[8], yes_no(recomputed[key].reproduced)) << "index.html " << key;
+      ++html_verdicts;
+    }
+  }
+  EXPECT_EQ(html_verdicts, static_cast<int>(recomputed.size()));
+  // summary.md's matrix rows are Markdown: "| image | image | 1/2 | 2/2 |".
+  const std::string summary = ReadText(report / "summary.md");
+  for (const char* ph : {"image", "fresnel"}) {
+    std::string row = std::string("| ") + ph + " | " + ph;
+    for (const auto& l : labels) row += " | " + matrix[std::string(ph) + "/" + l];
+    EXPECT_NE(summary.find(row + " |"), std::string::npos) << row << "\n" << summary;
+  }
+  EXPECT_EQ(matrix_rows, 2 * 3);  // two phenomena in CSV, LaTeX and HTML
+
+  // Figures: everything index.html points at exists; every figure made is on the page (PNG and
+  // PDF) and in report.tex.
+  std::set<std::string> named;
+  for (const char* attr : {"src", "href"}) {
+    for (const std::string& f : HtmlAttributes(html, attr)) {
+      EXPECT_TRUE(fs::is_regular_file(report / f)) << "index.html names missing " << f;
+      named.insert(f);
+    }
+  }
+  const json figures = json::parse(ReadText(report / "figures.json"));
+  const std::string tex = ReadText(report / "report.tex");
+  for (const json& f : figures) {
+    EXPECT_TRUE(named.count(f["png"].get<std::string>())) << f["png"] << " not on the page";
+    EXPECT_TRUE(named.count(f["pdf"].get<std::string>())) << f["pdf"] << " not on the page";
+    std::string braced = "{";
+    braced.append(f["pdf"].get<std::string>()).append("}");
+    EXPECT_NE(tex.find(braced), std::string::npos) << f["pdf"] << " not in report.tex";
+  }
+  int pngs = 0;
+  for (const auto& e : fs::directory_iterator(report / "figures")) {
+    if (e.path().extension() != ".png") continue;
+    ++pngs;
+    EXPECT_TRUE(named.count("figures/" + e.path().filename().string()))
+        << e.path() << " made but not on the page";
+  }
+  EXPECT_EQ(pngs, static_cast<int>(figures.size()));
+  for (const char* t : {"matrix", "verdicts", "metrics", "parameters", "probes"}) {
+    EXPECT_NE(tex.find(std::string("\\input{tables/") + t + ".tex}"), std::string::npos) << t;
+  }
+
+  // tables/metrics.tex parses back to results.csv: each metric to the digits it is printed with.
+  struct Column {
+    const char* key;
+    double abs_tol, rel_tol;  // half a unit of the last printed digit
+  };
+  const Column columns[] = {{"rmse", 0, 5.01e-4},          {"relative_rmse", 5.01e-4, 0},
+                            {"psnr", 5.01e-3, 0},          {"ssim", 5.01e-5, 0},
+                            {"ciede2000_mean", 5.01e-4, 0}, {"flip_ldr_mean", 5.01e-5, 0},
+                            {"flip_hdr_mean", 5.01e-5, 0}};
+  const auto tex_rows = LatexRows(report / "tables/metrics.tex");
+  ASSERT_EQ(tex_rows.size(), rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& t = tex_rows[i];
+    const auto& r = rows[i];
+    ASSERT_EQ(t.size(), 12u) << i;
+    EXPECT_EQ(t[0], r.at("material"));
+    EXPECT_EQ(t[1], r.at("lighting"));
+    EXPECT_EQ(t[2], r.at("label"));
+    EXPECT_EQ(t[3], r.at("split"));
+    for (int c = 0; c < 7; ++c) {
+      const double want = std::stod(r.at(columns[c].key));
+      EXPECT_NEAR(std::stod(t[4 + c]), want, columns[c].abs_tol + columns[c].rel_tol * std::abs(want))
+          << r.at("reference") << " " << r.at("label") << " " << columns[c].key;
+    }
+    EXPECT_EQ(t[11], r.at("converged") == "1" ? "yes" : "NO");
+  }
 }
 
 TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
@@ -202,6 +520,7 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
     }
   }
   EXPECT_EQ(image_verdicts, 4);
+  ExpectReportContent(out, materials, models);
 
   // Rerun: every job is unchanged and skipped.
   std::size_t offset = fs::file_size(out / "study.log");
