@@ -1,9 +1,15 @@
-// Reading references (sidecar -> scene), provenance hashes, output files, and the `fit`
-// subcommand end to end, including "bad input -> one-line error and no output file".
+// Reading references (sidecar -> scene), provenance hashes, output files (their contents: fitted
+// image, error image, preview; no temporary left), and the `fit` subcommand end to end, including
+// "bad input -> one-line error and no output file".
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "commands.h"
 #include "fit_test_util.h"
@@ -110,6 +116,20 @@ int RunCli(std::vector<std::string> args) {
   return 0;
 }
 
+// Hidden temporaries of the atomic writers ("<dir>/.<name>.<pid>.<n>.tmp", render/files.h) or any
+// other ".tmp" left in a folder.
+std::vector<std::string> LeftoverTemporaries(const std::string& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.ends_with(".tmp") || name.find(".tmp.") != std::string::npos) out.push_back(name);
+  }
+  return out;
+}
+
+// sRGB encoding (IEC 61966-2-1): 12.92 x below 0.0031308, else 1.055 x^(1/2.4) - 0.055.
+double Srgb(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055; }
+
 TEST(FitCommandTest, WritesJsonAndImages) {
   const Files f = MakeReferenceFiles("fit_io_cli");
   const std::string out = f.dir + "/out/fit.json";
@@ -127,7 +147,99 @@ TEST(FitCommandTest, WritesJsonAndImages) {
   for (const char* suffix : {".fit.exr", ".error.exr", ".error.png"}) {
     EXPECT_TRUE(fs::exists(f.dir + "/out/fit.ref" + suffix)) << suffix;
   }
-  EXPECT_FALSE(fs::exists(out + ".tmp"));
+  const std::vector<std::string> left = LeftoverTemporaries(f.dir + "/out");
+  EXPECT_TRUE(left.empty()) << left.front();
+}
+
+// A model that cannot reproduce the reference (Lambert on a GGX render), so the fit and error
+// images have content: the fitted image is a render at the fitted values, the error image is
+// |fit - reference| on exactly the fitted pixels, its RMSE is the JSON's, and the preview is the
+// error over its 99th percentile, sRGB-encoded. No temporary is left beside them.
+TEST(FitCommandTest, ImagesHoldFitAndError) {
+  const Files f = MakeReferenceFiles("fit_io_cli_images");
+  const std::string out_dir = f.dir + "/out";
+  fs::remove_all(out_dir);
+  ASSERT_EQ(RunCli({"fit", "--ref", f.exr, "--model", "lambert", "-o", out_dir + "/fit.json"}), 0);
+  std::ifstream in(out_dir + "/fit.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+
+  // Parameters in the table's order, from the JSON's values.
+  const ModelInfo& info = FindModel("lambert");
+  std::vector<double> params;
+  for (const ParamSpec& p : info.params) {
+    const nlohmann::json& v = j["values"][p.name];
+    if (p.size == 1) {
+      params.push_back(v.get<double>());
+    } else {
+      for (int c = 0; c < 3; ++c) params.push_back(v[c].get<double>());
+    }
+  }
+  const double exposure = j["exposure"]["value"].get<double>();
+  const Image render =
+      testing::SharedRenderer().Render(LoadScene(f.toml), info.id, params);
+  const Image ref = ReadImage(f.exr);
+  const Image fit = ReadImage(out_dir + "/fit.ref.fit.exr");
+  const Image err = ReadImage(out_dir + "/fit.ref.error.exr");
+  const Image png = ReadImage(out_dir + "/fit.ref.error.png");
+  ASSERT_EQ(fit.PixelCount(), ref.PixelCount());
+  ASSERT_EQ(err.PixelCount(), ref.PixelCount());
+  ASSERT_EQ(png.PixelCount(), ref.PixelCount());
+  ASSERT_EQ(err.channels, 4);
+  ASSERT_GE(png.channels, 3);
+
+  double sq = 0, fit_vs_ref = 0;
+  long fitted = 0;
+  std::vector<double> errors;
+  for (std::size_t p = 0; p < ref.PixelCount(); ++p) {
+    for (int c = 0; c < 3; ++c) {
+      const double expected = exposure * render.data[p * render.channels + c];
+      EXPECT_NEAR(fit.data[p * fit.channels + c], expected, 1e-6 + 1e-6 * std::abs(expected))
+          << "fit pixel " << p << " channel " << c;
+    }
+    const float alpha = err.data[p * 4 + 3];
+    ASSERT_TRUE(alpha == 0.0f || alpha == 1.0f) << "error alpha " << alpha << " at " << p;
+    for (int c = 0; c < 3; ++c) {
+      const double d = fit.data[p * fit.channels + c] - ref.data[p * ref.channels + c];
+      if (alpha == 1.0f) {
+        EXPECT_NEAR(err.data[p * 4 + c], std::abs(d), 1e-6) << "error pixel " << p;
+        sq += d * d;
+        fit_vs_ref = std::max(fit_vs_ref, std::abs(d));
+        errors.push_back(std::abs(d));
+      } else {
+        EXPECT_EQ(err.data[p * 4 + c], 0.0f) << "unfitted pixel " << p;
+      }
+    }
+    fitted += alpha == 1.0f;
+  }
+  const nlohmann::json& per_ref = j["rmse"]["per_reference"][0];
+  EXPECT_EQ(fitted, per_ref["pixels"].get<long>());
+  const double rmse = std::sqrt(sq / (3.0 * fitted));
+  std::printf("lambert on ggx: %ld fitted pixels, RMSE %.5g (JSON %.5g), max |error| %.4g\n",
+              fitted, rmse, per_ref["rmse"].get<double>(), fit_vs_ref);
+  EXPECT_GT(rmse, 1e-3);  // a real misfit: the highlight
+  EXPECT_NEAR(rmse, per_ref["rmse"].get<double>(), 1e-3 * rmse);
+
+  // Preview: min(1, sRGB(error / p99)), p99 = the 99th percentile of the fitted pixels' errors.
+  std::vector<double> sorted = errors;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() * 99 / 100, sorted.end());
+  const double p99 = sorted[sorted.size() * 99 / 100];
+  ASSERT_GT(p99, 0);
+  int white = 0;
+  for (std::size_t p = 0; p < png.PixelCount(); ++p) {
+    for (int c = 0; c < 3; ++c) {
+      const double expected = std::min(1.0, Srgb(err.data[p * 4 + c] / p99));
+      EXPECT_NEAR(png.data[p * png.channels + c], expected, 0.5 / 255 + 1e-4)
+          << "preview pixel " << p << " channel " << c;
+      white += png.data[p * png.channels + c] == 1.0f;
+    }
+  }
+  EXPECT_GT(white, 0);
+
+  // Exactly the four outputs, no temporary.
+  EXPECT_TRUE(LeftoverTemporaries(out_dir).empty());
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(out_dir)) ++files;
+  EXPECT_EQ(files, 4);
 }
 
 TEST(FitCommandTest, BadInputWritesNothing) {
