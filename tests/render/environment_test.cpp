@@ -1,5 +1,7 @@
 // Environment lighting: the GL renderer's fixed-sample MIS integration against a brute-force CPU
-// estimate with 2^16 independent random samples per technique, at pixels across the sphere.
+// estimate with 2^16 independent random samples per technique, and against a dense quadrature
+// over the map's texels that shares no environment code (layout and Cycles' orientation written
+// out here), at pixels across the sphere.
 // The tolerances here are the numbers stated in docs/environment.md.
 #include <gtest/gtest.h>
 
@@ -93,6 +95,10 @@ struct EnvCase {
   const char* model;
   std::vector<double> params;
   double tolerance;  // Mean relative error over the probed pixels.
+  int quadrature_fine = 2;  // Texel subdivision of the quadrature near the mirror direction.
+  // Mean relative error against the texel quadrature; tight enough that the same pixels under
+  // the opposite rotation fail it (checked below).
+  double quadrature_tolerance = 0.01;
 };
 
 class EnvironmentTest : public ::testing::TestWithParam<EnvCase> {};
@@ -132,11 +138,131 @@ TEST_P(EnvironmentTest, FixedSamplesMatchBruteForce) {
   EXPECT_LE(mean, GetParam().tolerance);
 }
 
+// --- A reference that shares nothing with the environment code --------------------------------
+//
+// A dense quadrature over the map's texels, written from the layout docs/scenes.md and
+// docs/environment.md give (Cycles' `direction_to_equirectangular`): a world direction d is looked
+// up at m = Rz(rotation_z) d, u = -atan2(m.y, m.x) / (2 pi) + 0.5, v = atan2(m.z, hypot(m.x, m.y))
+// / pi + 0.5, v = 0 at the bottom row. Inverting: texel column i, row j (row 0 on top) covers
+// u in [i, i+1) / w, v in [h-1-j, h-j) / h, i.e. azimuth phi = (0.5 - u) 2 pi and elevation
+// e = (v - 0.5) pi; its solid angle is (2 pi / w) (sin e_top - sin e_bottom). Radiance between
+// texel centres is bilinear (GL's filter: centres at half-texel offsets, wrapping in u). Neither
+// EnvironmentMap's Radiance, Pdf, Sample nor its rotation is used; the BRDF is the model's twin.
+struct TexelQuadrature {
+  const Image& map;  // RGB, row 0 on top, as read from the file
+  double rotation_deg;
+
+  Vec3d Bilinear(double u, double v) const {
+    const int w = map.width, h = map.height;
+    const double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    const double fx = x - x0, fy = y - y0;
+    auto texel = [&](int xi, int yi, int c) {
+      xi = ((xi % w) + w) % w;
+      yi = std::clamp(yi, 0, h - 1);
+      return static_cast<double>(map.at(xi, yi, c));
+    };
+    Vec3d out;
+    for (int c = 0; c < 3; ++c) {
+      out[c] = (1 - fy) * ((1 - fx) * texel(x0, y0, c) + fx * texel(x0 + 1, y0, c)) +
+               fy * ((1 - fx) * texel(x0, y0 + 1, c) + fx * texel(x0 + 1, y0 + 1, c));
+    }
+    return out;
+  }
+
+  // Map-space direction (u, v) -> world: m = Rz(rotation) d, so d = Rz(-rotation) m.
+  Vec3d World(double u, double v) const {
+    const double phi = (0.5 - u) * 2 * kPi, e = (v - 0.5) * kPi;
+    const double mx = std::cos(e) * std::cos(phi), my = std::cos(e) * std::sin(phi),
+                 mz = std::sin(e);
+    const double t = -rotation_deg * kPi / 180.0;
+    return {std::cos(t) * mx - std::sin(t) * my, std::sin(t) * mx + std::cos(t) * my, mz};
+  }
+
+  // Integral of Reflect(l, v) L(l) over the sphere. Each texel is split into k x k cells, and
+  // into fine x fine cells within 0.25 rad of the mirror direction (narrow lobes).
+  Vec3d Integrate(ModelId model, const std::vector<double>& p, const Vec3d& n, const Vec3d& v,
+                  int k, int fine) const {
+    const int w = map.width, h = map.height;
+    const Vec3d r = n * (2 * Dot(n, v)) - v;
+    Vec3d sum{0, 0, 0};
+    for (int j = 0; j < h; ++j) {
+      for (int i = 0; i < w; ++i) {
+        const double u0 = static_cast<double>(i) / w, v0 = static_cast<double>(h - 1 - j) / h;
+        const Vec3d centre = World(u0 + 0.5 / w, v0 + 0.5 / h);
+        if (Dot(centre, n) < -0.05) continue;  // fully below the horizon (texels < 0.05 rad)
+        const int s = Dot(centre, r) > std::cos(0.25) ? fine : k;
+        for (int b = 0; b < s; ++b) {
+          const double vb = v0 + b / static_cast<double>(s * h), vt = vb + 1.0 / (s * h);
+          const double solid = 2 * kPi / (w * s) * (std::sin((vt - 0.5) * kPi) -
+                                                    std::sin((vb - 0.5) * kPi));
+          for (int a = 0; a < s; ++a) {
+            const double uc = u0 + (a + 0.5) / (s * w), vc = 0.5 * (vb + vt);
+            const Vec3d l = World(uc, vc);
+            if (Dot(n, l) <= 0) continue;
+            double f[3];
+            Reflect(model, p.data(), n, l, v, f);
+            const Vec3d le = Bilinear(uc, vc);
+            for (int c = 0; c < 3; ++c) sum[c] += f[c] * le[c] * solid;
+          }
+        }
+      }
+    }
+    return sum;
+  }
+};
+
+TEST_P(EnvironmentTest, MatchesTexelQuadrature) {
+  const std::string map_path = WriteSyntheticMap();
+  const double rotation = 30.0;
+  const std::string toml = testing::SphereSceneToml(
+      48, 48, "[[lights]]\ntype = \"environment\"\nfile = \"" + map_path +
+                  "\"\nstrength = 1.0\nrotation_z = " + std::to_string(rotation) +
+                  "\nsamples = 256\n");
+  const Scene scene = ParseScene(toml, "env.toml");
+  const ModelInfo& model = FindModel(GetParam().model);
+  Renderer& renderer = testing::SharedRenderer();
+  const Image gl = renderer.Render(scene, model.id, GetParam().params);
+  const GBuffer g = renderer.RenderGBuffer(scene);
+  const Image map = ReadImage(map_path);
+  const TexelQuadrature quadrature{map, rotation};
+  // The same pixels under the opposite rotation: a flipped rotation must be told apart.
+  const TexelQuadrature flipped{map, -rotation};
+  double sum_rel = 0, worst = 0, sum_flipped = 0;
+  int count = 0;
+  for (int y = 4; y < 48; y += 8) {
+    for (int x = 4; x < 48; x += 8) {
+      if (!g.Hit(x, y) || g.Coverage(x, y) < 1) continue;
+      const Vec3d n = Normalize(Vec3d{g.normal.at(x, y, 0), g.normal.at(x, y, 1),
+                                      g.normal.at(x, y, 2)});
+      const Vec3d v = Normalize(Vec3d{g.view.at(x, y, 0), g.view.at(x, y, 1), g.view.at(x, y, 2)});
+      const int fine = GetParam().quadrature_fine;
+      const Vec3d ref = quadrature.Integrate(model.id, GetParam().params, n, v, 2, fine);
+      const Vec3d other = flipped.Integrate(model.id, GetParam().params, n, v, 2, fine);
+      const double lum_ref = ref.x + ref.y + ref.z;
+      const double lum_gl = gl.at(x, y, 0) + gl.at(x, y, 1) + gl.at(x, y, 2);
+      const double rel = std::abs(lum_gl - lum_ref) / lum_ref;
+      sum_rel += rel;
+      sum_flipped += std::abs(lum_gl - (other.x + other.y + other.z)) / lum_ref;
+      worst = std::max(worst, rel);
+      ++count;
+    }
+  }
+  const double mean = sum_rel / count, mean_flipped = sum_flipped / count;
+  std::printf(
+      "[ env ] %s vs texel quadrature: mean relative error %.4f, worst %.4f over %d pixels; "
+      "against the flipped rotation %.4f\n",
+      model.name.c_str(), mean, worst, count, mean_flipped);
+  EXPECT_GT(count, 15);
+  EXPECT_LE(mean, GetParam().quadrature_tolerance);
+  EXPECT_GT(mean_flipped, 3 * GetParam().quadrature_tolerance);
+}
+
 INSTANTIATE_TEST_SUITE_P(
     Models, EnvironmentTest,
     ::testing::Values(EnvCase{"lambert", {0.8, 0.8, 0.8}, 0.01},
                       EnvCase{"ggx", {0.5, 0.2, 0.1, 0.04, 0.04, 0.04, 0.5}, 0.02},
-                      EnvCase{"ggx", {0.0, 0.0, 0.0, 0.9, 0.7, 0.3, 0.15}, 0.03},
+                      EnvCase{"ggx", {0.0, 0.0, 0.0, 0.9, 0.7, 0.3, 0.15}, 0.03, 16, 0.005},
                       EnvCase{"blinn-phong-normalized", {0.3, 0.3, 0.3, 0.5, 0.5, 0.5, 80}, 0.03}));
 
 // White furnace: Lambert kd = 1 under a uniform environment of radiance 1 is 1 everywhere.
