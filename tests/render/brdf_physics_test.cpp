@@ -84,17 +84,13 @@ TEST(BrdfPhysics, NormalisedBlinnPhongAlbedoMatchesClosedForm) {
   }
 }
 
-// Pure specular lobes (no diffuse) with unit reflectance: albedo <= bound + 4 sigma, where the
-// bound is 1 except for normalised Blinn-Phong, whose approximate normalisation (n + 8) / (8 pi)
-// is allowed the 7.5% excess the closed form above proves.
+// Physically based lobes (no diffuse, or Lambert alone) with unit reflectance: directional
+// albedo <= 1 at every view. Single-scattering microfacet models with F = 1 lose energy
+// (never gain it), a conductor's Fresnel is below 1, Lambert kd = 1 is exactly 1.
 struct LobeCase {
   const char* model;
   std::vector<double> params;
 };
-
-double AlbedoBound(const std::string& model) {
-  return model == "blinn-phong-normalized" ? 1.075 : 1.0;
-}
 
 class EnergyConservationTest : public ::testing::TestWithParam<LobeCase> {};
 
@@ -103,7 +99,9 @@ TEST_P(EnergyConservationTest, AlbedoAtMostOne) {
   double max_albedo = 0;
   for (const double cv : {1.0, 0.8, 0.5, 0.3, 0.1, 0.03}) {
     const AlbedoEstimate e = DirectionalAlbedo(model.id, GetParam().params, cv);
-    EXPECT_LE(e.value[0], AlbedoBound(model.name) + 4.0 * e.std_error[0] + 1e-4)
+    // 2e-3 rather than the reported 4 sigma (up to 2e-2, conservative: Lambert lands on 1
+    // within 1e-4), so a 1% energy gain fails.
+    EXPECT_LE(e.value[0], 1.0 + 2e-3)
         << model.name << " cos_v " << cv << " sigma " << e.std_error[0];
     max_albedo = std::max(max_albedo, e.value[0]);
   }
@@ -113,12 +111,6 @@ TEST_P(EnergyConservationTest, AlbedoAtMostOne) {
 INSTANTIATE_TEST_SUITE_P(
     Lobes, EnergyConservationTest,
     ::testing::Values(
-        // blinn-phong-normalized: kd, ks, shininess.
-        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 1}},
-        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 10}},
-        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 100}},
-        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 1000}},
-        LobeCase{"blinn-phong-normalized", {0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 50}},
         // ggx: kd, f0, roughness (f0 = 1: F = 1, the white furnace).
         LobeCase{"ggx", {0, 0, 0, 1, 1, 1, 0.05}}, LobeCase{"ggx", {0, 0, 0, 1, 1, 1, 0.3}},
         LobeCase{"ggx", {0, 0, 0, 1, 1, 1, 0.6}}, LobeCase{"ggx", {0, 0, 0, 1, 1, 1, 1.0}},
@@ -126,6 +118,42 @@ INSTANTIATE_TEST_SUITE_P(
         LobeCase{"beckmann", {0, 0, 0, 1, 1, 1, 0.5}},
         LobeCase{"ggx-conductor", {0.2, 0.9, 1.1, 3.9, 2.4, 2.2, 0.4}},
         LobeCase{"lambert", {1, 1, 1}}));
+
+// Normalised Blinn-Phong does not conserve energy: its (n + 8) / (8 pi) normalisation is an
+// approximation. Its bound is the closed form at normal view (NormalisedBlinnPhongAlbedoMatches-
+// ClosedForm above), kd + ks E_closed(n), which every other view stays below (the lobe loses
+// energy towards grazing); and at normal view the albedo reaches it, so the bound is tight.
+double NormalisedBlinnPhongClosedForm(double n) {
+  return (n + 8.0) * (2.0 * (1.0 - std::pow(2.0, -(n + 4.0) / 2.0)) / (n + 4.0) -
+                      (1.0 - std::pow(2.0, -(n + 2.0) / 2.0)) / (n + 2.0));
+}
+
+class NormalisedBlinnPhongEnergyTest : public ::testing::TestWithParam<LobeCase> {};
+
+TEST_P(NormalisedBlinnPhongEnergyTest, AlbedoAtMostClosedFormAtNormalView) {
+  const ModelInfo& model = FindModel("blinn-phong-normalized");
+  const std::vector<double>& p = GetParam().params;  // kd (3), ks (3), shininess
+  const double bound = p[0] + p[3] * NormalisedBlinnPhongClosedForm(p[6]);
+  // The quadrature's reported sigma (3e-3 .. 5e-3 here) is conservative: at normal view it
+  // lands within 1e-4 of the closed form, so 2e-3 is the margin (a 0.5% excess fails).
+  for (const double cv : {1.0, 0.8, 0.5, 0.3, 0.1, 0.03}) {
+    const AlbedoEstimate e = DirectionalAlbedo(model.id, p, cv);
+    EXPECT_LE(e.value[0], bound + 2e-3)
+        << "shininess " << p[6] << " cos_v " << cv << " sigma " << e.std_error[0];
+    if (cv == 1.0) EXPECT_NEAR(e.value[0], bound, 2e-3) << "shininess " << p[6];
+  }
+  std::printf("[ albedo ] blinn-phong-normalized n %g: bound %.4f\n", p[6], bound);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Lobes, NormalisedBlinnPhongEnergyTest,
+    ::testing::Values(
+        // blinn-phong-normalized: kd, ks, shininess. Bounds 1.024, 1.075, 1.018, 1.002, 1.016.
+        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 1}},
+        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 10}},
+        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 100}},
+        LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 1000}},
+        LobeCase{"blinn-phong-normalized", {0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 50}}));
 
 // The classic model is not normalised: with ks = 1 and a broad lobe it reflects more than
 // arrives (documented in docs/models.md as the expected failure the study measures).
