@@ -85,7 +85,71 @@ struct PreparedReference {
   std::vector<double> targets;         // 3 compressed reference values per point.
   double p99_norm = 0;                 // 99th percentile of the RGB norm over valid pixels.
   std::unique_ptr<GlRenderCache> cache;
+  // Environment or uniform light on the twin path: `points` is a subsample and carries the
+  // quadrature; the RMSE is taken over every valid pixel (these) from a GL render.
+  bool environment = false;
+  std::vector<int> all_pixels;
+  std::vector<double> all_linear;
 };
+
+// Keeps `want` of the valid pixels, half of them from the brightest tenth (highlights are few
+// and carry the lobe's shape) and half by a regular stride through the rest. Deterministic.
+void SubsampleForEnvironment(PreparedReference* r, int want) {
+  r->all_pixels = r->pixels;
+  r->all_linear = r->linear;
+  const std::size_t n = r->points.size();
+  if (static_cast<long>(n) <= want) return;
+  std::vector<double> norms(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    norms[k] = std::hypot(r->linear[3 * k], r->linear[3 * k + 1], r->linear[3 * k + 2]);
+  }
+  std::vector<double> sorted = norms;
+  std::nth_element(sorted.begin(), sorted.begin() + n * 9 / 10, sorted.end());
+  const double p90 = sorted[n * 9 / 10];
+  std::size_t bright = 0;
+  for (double v : norms) bright += v >= p90 ? 1 : 0;
+  const std::size_t half = static_cast<std::size_t>(want) / 2;
+  const std::size_t bright_stride = std::max<std::size_t>(1, (bright + half - 1) / half);
+  const std::size_t dim_stride = std::max<std::size_t>(1, (n - bright + half - 1) / half);
+  std::vector<ShadingPoint> points;
+  std::vector<int> pixels;
+  std::vector<double> linear;
+  std::size_t bright_seen = 0, dim_seen = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool is_bright = norms[k] >= p90;
+    const std::size_t seen = is_bright ? bright_seen++ : dim_seen++;
+    if (seen % (is_bright ? bright_stride : dim_stride) != 0) continue;
+    points.push_back(std::move(r->points[k]));
+    pixels.push_back(r->pixels[k]);
+    for (int c = 0; c < 3; ++c) linear.push_back(r->linear[3 * k + c]);
+  }
+  r->points = std::move(points);
+  r->pixels = std::move(pixels);
+  r->linear = std::move(linear);
+}
+
+// The GGX proposal widths of the environment quadrature: before anything is fitted, a
+// defensive spread over the range real materials take (Hesterberg 1995, "Weighted average
+// importance sampling and defensive mixture distributions"); once a lobe width is known, that
+// width and three times it (the tail), so the samples follow the lobe the fit settled on.
+std::vector<double> ProposalAlphas(ModelId model, const std::vector<double>& params,
+                                   bool fitted) {
+  const double alpha = SpecularLobeAlpha(model, params.data());
+  if (!(alpha > 0)) return {};
+  if (!fitted) return {0.02, 0.08, 0.3};
+  const double a = std::clamp(alpha, 1e-3, 1.0);
+  return {a, std::min(1.0, 3 * a)};
+}
+
+void AttachQuadrature(std::vector<PreparedReference>& refs, std::vector<double> lobe_alphas,
+                      int samples) {
+  EnvironmentQuadrature q;
+  q.samples_per_technique = samples;
+  q.lobe_alphas = std::move(lobe_alphas);
+  for (PreparedReference& r : refs) {
+    if (r.environment) AttachEnvironmentSamples(r.scene, q, &r.points);
+  }
+}
 
 // Finds the valid pixels: full coverage in the reference (alpha) and in our G-buffer, inside the
 // mask, not clipped. Throws on non-finite values there, and when nothing (or only black) is left.
@@ -248,19 +312,21 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     refs.push_back(Prepare(ref, renderer, options.environment_samples, &result.gbuffer_renders));
     twin_ok = twin_ok && TwinSupportsScene(ref.scene);
   }
+  // The twin covers every scene: environment and uniform light through its quadrature.
   DerivativePath path = options.path;
-  if (path == DerivativePath::kAuto) path = twin_ok ? DerivativePath::kGBuffer : DerivativePath::kGl;
-  if (path == DerivativePath::kGBuffer && !twin_ok) {
-    for (const auto& r : refs) {
-      if (!TwinSupportsScene(r.scene)) {
-        throw Error(r.label, "scene",
-                    "environment/uniform lighting needs --path gl (the C++ twin evaluates point, "
-                    "directional and ambient lights only)");
-      }
-    }
-  }
+  if (path == DerivativePath::kAuto) path = DerivativePath::kGBuffer;
   result.path = path;
   const bool gl = path == DerivativePath::kGl;
+  const bool environment = !gl && !twin_ok;
+  if (environment) {
+    for (PreparedReference& r : refs) {
+      if (TwinSupportsScene(r.scene)) continue;
+      r.environment = true;
+      SubsampleForEnvironment(&r, std::max(64, options.environment_pixels));
+    }
+    AttachQuadrature(refs, ProposalAlphas(model.id, param.ToNatural(param.DefaultInternal()), false),
+                     std::max(4, options.environment_twin_samples));
+  }
 
   double loss_scale = 0;
   if (IsRobust(options.loss)) {
@@ -530,6 +596,42 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     best = 0;
     best_summary = ceres::Solver::Summary();
   }
+  // Environment rounds: re-centre the quadrature's GGX proposal on the winner's lobe and solve
+  // again from it. Every start's cost is then re-evaluated on the new quadrature, so that costs
+  // stay comparable between starts.
+  for (int round = 0; environment && round < options.environment_rounds &&
+                      std::isfinite(result.start_results[best].final_cost);
+       ++round) {
+    AttachQuadrature(refs, ProposalAlphas(model.id, result.start_results[best].params, true),
+                     2 * std::max(4, options.environment_twin_samples));
+    ceres::Problem::EvaluateOptions eval;
+    eval.num_threads = threads;
+    for (int s = 0; s < options.starts; ++s) {
+      StartResult& sr = result.start_results[s];
+      if (s == best || !std::isfinite(sr.final_cost)) continue;
+      std::copy(best_u[s].begin(), best_u[s].end(), u.begin());
+      log_exposure[0] = best_e[s];
+      ceres_problem.Evaluate(eval, &sr.final_cost, nullptr, nullptr, nullptr);
+    }
+    const int winner_before = best;
+    std::copy(best_u[best].begin(), best_u[best].end(), u.begin());
+    log_exposure[0] = best_e[best];
+    StartResult& sr = result.start_results[winner_before];
+    const int previous_iterations = sr.iterations;
+    const double initial = sr.initial_cost;
+    best = -1;  // solve_full picks the best of the re-evaluated starts and this re-solve.
+    for (int s = 0; s < options.starts; ++s) {
+      const StartResult& o = result.start_results[s];
+      if (s != winner_before && std::isfinite(o.final_cost) &&
+          (best < 0 || o.final_cost < result.start_results[best].final_cost)) {
+        best = s;
+      }
+    }
+    solve_full(winner_before, &sr);
+    sr.iterations += previous_iterations;
+    sr.initial_cost = initial;
+    if (best < 0) best = winner_before;
+  }
   const StartResult& winner = result.start_results[best];
   std::copy(best_u[best].begin(), best_u[best].end(), u.begin());
   log_exposure[0] = best_e[best];
@@ -625,7 +727,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
           for (int i = 0; i < n; ++i) {
             ParameterEstimate& pe = result.parameters[i];
             if (pe.fixed || pe.undetermined || pe.at_bound) continue;
-            pe.std_error = param.NaturalDerivative(i, u[i]) * std::sqrt(std::max(0.0, cuu[i * n + i] * s2));
+            pe.std_error = std::abs(param.NaturalDerivative(i, u[i])) * std::sqrt(std::max(0.0, cuu[i * n + i] * s2));
           }
         }
         if (result.exposure_free) {
@@ -653,24 +755,37 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     rr.name = r.source->name;
     rr.pixels = static_cast<int>(r.points.size());
     double sq = 0;
-    const Image* image = gl ? &r.cache->Get(result.values) : nullptr;
-    for (std::size_t k = 0; k < r.points.size(); ++k) {
-      double rgb[3];
-      if (gl) {
+    long count = 0;
+    if (gl || r.environment) {
+      // A GL render over every valid pixel (the environment twin fitted a subsample).
+      Image env_render;
+      if (r.environment) env_render = renderer.Render(r.scene, model.id, result.values);
+      const Image& image = gl ? r.cache->Get(result.values) : env_render;
+      const std::vector<int>& pixels = r.environment ? r.all_pixels : r.pixels;
+      const std::vector<double>& linear = r.environment ? r.all_linear : r.linear;
+      for (std::size_t k = 0; k < pixels.size(); ++k) {
         for (int c = 0; c < 3; ++c) {
-          rgb[c] = image->data[static_cast<std::size_t>(r.pixels[k]) * image->channels + c];
+          const double x = image.data[static_cast<std::size_t>(pixels[k]) * image.channels + c];
+          const double d = result.exposure * x - linear[3 * k + c];
+          sq += d * d;
         }
-      } else {
+      }
+      count = static_cast<long>(pixels.size());
+      rr.pixels = static_cast<int>(count);
+    } else {
+      for (std::size_t k = 0; k < r.points.size(); ++k) {
+        double rgb[3];
         ShadePoint(model.id, result.values.data(), r.points[k], rgb);
+        for (int c = 0; c < 3; ++c) {
+          const double d = result.exposure * rgb[c] - r.linear[3 * k + c];
+          sq += d * d;
+        }
       }
-      for (int c = 0; c < 3; ++c) {
-        const double d = result.exposure * rgb[c] - r.linear[3 * k + c];
-        sq += d * d;
-      }
+      count = static_cast<long>(r.points.size());
     }
-    rr.rmse = std::sqrt(sq / (3.0 * r.points.size()));
+    rr.rmse = std::sqrt(sq / (3.0 * count));
     total_sq += sq;
-    total_n += 3 * static_cast<long>(r.points.size());
+    total_n += 3 * count;
     if (options.render_outputs) {
       const Image render = renderer.Render(r.scene, model.id, result.values);
       const Image& ref = r.source->image;
@@ -679,7 +794,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
       for (std::size_t p = 0; p < render.PixelCount(); ++p) {
         for (int c = 0; c < 3; ++c) rr.prediction.data[4 * p + c] *= result.exposure;
       }
-      for (int k : r.pixels) {
+      for (int k : r.environment ? r.all_pixels : r.pixels) {
         for (int c = 0; c < 3; ++c) {
           rr.abs_error.data[4 * k + c] =
               std::abs(rr.prediction.data[4 * k + c] - ref.data[k * ref.channels + c]);
@@ -702,7 +817,12 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     const FitReference& ref = problem.references[i];
     nlohmann::json j;
     j["name"] = ref.name;
-    j["pixels"] = refs[i].points.size();
+    j["pixels"] = refs[i].environment ? refs[i].all_pixels.size() : refs[i].points.size();
+    if (refs[i].environment) {
+      j["environment_quadrature"] = {{"fitted_pixels", refs[i].points.size()},
+                                     {"samples_per_technique", options.environment_twin_samples},
+                                     {"rounds", options.environment_rounds}};
+    }
     auto file = [&](const std::string& role, const std::string& p) {
       if (p.empty()) return;
       nlohmann::json f{{"path", p}};

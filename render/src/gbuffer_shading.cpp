@@ -25,6 +25,7 @@ std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
       const Vec3d p{g.position.at(x, y, 0), g.position.at(x, y, 1), g.position.at(x, y, 2)};
       // Renormalised in double: float storage leaves |n| = 1 +- 1e-7, which a Blinn-Phong
       // exponent of 10^4 would turn into a 1e-3 error.
+      sp.p = p;
       sp.n = Normalize(Vec3d{g.normal.at(x, y, 0), g.normal.at(x, y, 1), g.normal.at(x, y, 2)});
       sp.v = Normalize(Vec3d{g.view.at(x, y, 0), g.view.at(x, y, 1), g.view.at(x, y, 2)});
       sp.ambient = ambient;

@@ -7,10 +7,12 @@
 // (Loss). Two derivative paths evaluate the same residuals:
 //   kGBuffer: GL renders each reference's G-buffer once; the residuals run on the templated C++
 //             twin of the shading code (ShadePoint<ceres::Jet>): exact derivatives by AutoDiff,
-//             multi-threaded. Valid when every scene has only point/directional/ambient lights.
+//             multi-threaded. Point/directional/ambient lights are exact; environment and
+//             uniform light are a fixed per-pixel quadrature (FitOptions::environment_*).
 //   kGl:      Ceres drives the GL renderer; the Jacobian comes from forward differences of GL
 //             renders (one render per free parameter and evaluation point, shared by every
-//             residual block through a cache). Needed for environment lighting.
+//             residual block through a cache). Under environment light its GGX proposal moves
+//             with the roughness, which makes the renders non-smooth in it (docs/fitting.md).
 #pragma once
 
 #include <cstdint>
@@ -110,6 +112,15 @@ struct FitOptions {
   bool central_differences = false;  // GL path: central differences (2 renders per parameter).
   int environment_samples = 0;       // GL path: override the scenes' environment sample count
                                      // (0 = keep). Renders cost ~linear in samples.
+  // G-buffer path under environment or uniform light: the twin shades a quadrature whose
+  // directions never move with the parameters (render/gbuffer.h, AttachEnvironmentSamples), on a
+  // stratified subsample of each reference's valid pixels (the RMSE is still over all of them,
+  // from a GL render). After the multi-start, environment_rounds more solves re-centre the GGX
+  // proposal on the fitted lobe width (the estimate is unbiased for any proposal; this cuts its
+  // variance where the fit ends up).
+  int environment_pixels = 3072;      // Fitted pixels per reference.
+  int environment_twin_samples = 32;  // Samples per technique per pixel.
+  int environment_rounds = 1;
   bool compute_covariance = true;
   // G-buffer path with > 16384 valid pixels: run every start on a ~4096-pixel subsample (all
   // highlight pixels + a stride through the rest), then polish the best ones on all pixels.

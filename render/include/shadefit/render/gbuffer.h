@@ -2,6 +2,7 @@
 // pass evaluated on it. The fitter's exact-derivative path and the GLSL-vs-C++ test use this.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "shadefit/render/image.h"
@@ -29,14 +30,39 @@ struct PixelLight {
 
 struct ShadingPoint {
   int x = 0, y = 0;
+  Vec3d p;                         // world position (occlusion rays start here)
   Vec3d n, v;
   Vec3d ambient;                   // ambient radiance (times ka for classic models)
-  std::vector<PixelLight> lights;
+  std::vector<PixelLight> lights;  // point and directional lights: exact
+  // Environment or uniform light as a fixed quadrature (AttachEnvironmentSamples): direction and
+  // radiance times quadrature weight, so that it is shaded exactly like `lights`.
+  std::vector<PixelLight> environment;
 };
 
 // True when every light of the scene is point, directional or ambient: the twin evaluates them
-// exactly. Environment and uniform lights need the GL renderer.
+// exactly. Environment and uniform lights need the GL renderer or a quadrature (below).
 bool TwinSupportsScene(const Scene& scene);
+
+// Environment (or uniform) light for the twin: a quadrature whose directions and weights depend
+// on the pixel and on these settings only, never on the model's parameters. The estimate
+//   L_o = sum_i f(l_i) (n.l_i) L_env(l_i) / (K sum_t p_t(l_i))
+// over K samples of each technique t (multiple importance sampling with the balance heuristic,
+// Veach and Guibas 1995): the environment's luminance distribution, cosine-weighted hemisphere,
+// and one GGX half-vector distribution per entry of lobe_alphas (Walter et al. 2007, eqs. 35-36).
+// Because nothing in it moves with the parameters, the twin's image is a smooth function of them
+// and AutoDiff gives the derivative of the very estimate that is fitted. It is unbiased for
+// every parameter value; lobe_alphas only set its variance (fitter: near the fitted lobe width).
+struct EnvironmentQuadrature {
+  int samples_per_technique = 64;
+  std::vector<double> lobe_alphas;  // GGX widths of the specular proposals; empty = none.
+  std::uint32_t seed = 0;           // Mixed into each pixel's Cranley-Patterson rotation.
+};
+
+// The scene's environment/uniform light as seen from each point, replacing point.environment.
+// Samples below the horizon or occluded by another object are dropped. No-op without such a
+// light. Throws shadefit::Error when the map cannot be read.
+void AttachEnvironmentSamples(const Scene& scene, const EnvironmentQuadrature& quadrature,
+                              std::vector<ShadingPoint>* points);
 
 // The pixels with a hit and coverage >= min_coverage, with their light geometry.
 std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& gbuffer,
@@ -48,10 +74,12 @@ void ShadePoint(ModelId model, const T* params, const ShadingPoint& point, T* ou
   T ka[3];
   AmbientReflectance(model, params, ka);
   for (int c = 0; c < 3; ++c) out[c] = ka[c] * T(point.ambient[c]);
-  for (const PixelLight& light : point.lights) {
-    T f[3];
-    Reflect(model, params, point.n, light.l, point.v, f);
-    for (int c = 0; c < 3; ++c) out[c] += f[c] * T(light.irradiance[c]);
+  for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
+    for (const PixelLight& light : *set) {
+      T f[3];
+      Reflect(model, params, point.n, light.l, point.v, f);
+      for (int c = 0; c < 3; ++c) out[c] += f[c] * T(light.irradiance[c]);
+    }
   }
 }
 
