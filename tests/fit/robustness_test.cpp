@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "fit_test_util.h"
 #include "shadefit/render/error.h"
@@ -179,6 +180,13 @@ TEST(LossTest, EveryLossRecoversOwnRender) {
     ExpectSane(r);
     EXPECT_NEAR(r.values[6], truth[6], 0.02 * truth[6]);
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.values[c], truth[c], 0.01 * truth[c]);
+    // f0 too: the specular colour a loss could trade against kd or roughness.
+    for (int c = 3; c < 6; ++c) {
+      EXPECT_NEAR(r.values[c], truth[c], 0.01 * truth[c]) << "f0 channel " << c - 3;
+    }
+    std::printf("[ loss ] %s: kd (%.4f, %.4f, %.4f) f0 (%.5f, %.5f, %.5f) roughness %.4f\n",
+                fit::LossName(loss).c_str(), r.values[0], r.values[1], r.values[2], r.values[3],
+                r.values[4], r.values[5], r.values[6]);
     if (loss == fit::Loss::kHuber || loss == fit::Loss::kCauchy) {
       EXPECT_GT(r.loss_scale, 0);
     }

@@ -3,7 +3,9 @@
 // relative (pbrt's analytic-scene idea), computed here in double from the hit point.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "shadefit/render/scene.h"
 #include "test_util.h"
@@ -53,21 +55,54 @@ TEST(AnalyticScene, RowZeroIsTop) {
   EXPECT_EQ(image.at(16, 26, 0), 0.0f);
 }
 
-// Supersampling: coverage is fractional only on the silhouette and the interior is unchanged.
+// Supersampling: coverage on the silhouette equals the analytic fraction. The unit sphere seen
+// from distance 6 on the optical axis projects to a disc of angular radius asin(1/6), i.e. of
+// radius R = tan(asin(1/6)) / tan(fov/2) * 24 = (1/sqrt(35)) / tan(11 deg) * 24 = 20.87 px about
+// the image centre (24, 24). With supersample = 4 the renderer takes the 4 x 4 grid of points
+// (i + 0.5) / 4 in each pixel (docs/scenes.md: N x N stratified samples), so a pixel's coverage
+// is the count of those points inside the disc over 16; and it approximates the area fraction.
 TEST(AnalyticScene, SupersamplingGivesCoverage) {
   std::string toml = testing::SphereSceneToml(
       48, 48, "[[lights]]\ntype = \"point\"\nposition = [0.0, -6.0, 0.0]\npower = 100.0\n");
   toml.insert(toml.find("[[objects]]"), "supersample = 4\n");
   const Scene scene = ParseScene(toml, "ss.toml");
   const Image image = testing::SharedRenderer().Render(scene, ModelId::kLambert, {1, 1, 1});
-  int partial = 0;
+  const double radius = (1.0 / std::sqrt(35.0)) / std::tan(11.0 * kPi / 180.0) * 24.0;
+  auto inside = [&](double px, double py) { return std::hypot(px - 24.0, py - 24.0) < radius; };
+  int partial = 0, exact = 0, off_by_one = 0;
+  double total = 0, worst_area = 0;
   for (int y = 0; y < 48; ++y) {
     for (int x = 0; x < 48; ++x) {
       const float a = image.at(x, y, 3);
+      total += a;
+      int grid = 0;
+      for (int sy = 0; sy < 4; ++sy) {
+        for (int sx = 0; sx < 4; ++sx) grid += inside(x + (sx + 0.5) / 4, y + (sy + 0.5) / 4);
+      }
+      int fine = 0;
+      for (int sy = 0; sy < 64; ++sy) {
+        for (int sx = 0; sx < 64; ++sx) fine += inside(x + (sx + 0.5) / 64, y + (sy + 0.5) / 64);
+      }
+      const double area = fine / 4096.0;
       if (a > 0.0f && a < 1.0f) ++partial;
+      // Float rays can flip a sample that lies within ~1e-5 px of the silhouette.
+      const double diff = std::abs(a - grid / 16.0);
+      if (diff < 1e-6) {
+        ++exact;
+      } else {
+        EXPECT_LE(diff, 1.0 / 16 + 1e-6) << "pixel " << x << ", " << y;
+        ++off_by_one;
+      }
+      if (area > 0 && area < 1) worst_area = std::max(worst_area, std::abs(a - area));
     }
   }
-  EXPECT_GT(partial, 40);
+  std::printf("[ coverage ] %d partial pixels, %d match the 4x4 grid count, %d off by one sample; "
+              "total %.2f px^2 (disc %.2f), worst |coverage - area| %.3f\n",
+              partial, exact, off_by_one, total, kPi * radius * radius, worst_area);
+  EXPECT_GT(partial, 100);
+  EXPECT_LE(off_by_one, 2);
+  EXPECT_NEAR(total, kPi * radius * radius, 0.005 * kPi * radius * radius);
+  EXPECT_LT(worst_area, 0.2);
   EXPECT_EQ(image.at(24, 24, 3), 1.0f);
   EXPECT_EQ(image.at(0, 0, 3), 0.0f);
 }
