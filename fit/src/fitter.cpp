@@ -484,37 +484,49 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   };
   // Full-problem solve from the current u, e; records start s.
   auto solve_full = [&](int s, StartResult* start) {
+    // Active set (bounds without crawling): an optimum on a bound is approached through a
+    // stationary point of the sine transform, where Levenberg-Marquardt creeps (cost ~ delta^2,
+    // step ~ delta / 2: linear convergence). So the solve runs in stages of kStageIterations;
+    // after a stage that has not converged, entries within kSnap of a bound (|sin u| > 1 - kSnap,
+    // i.e. 0.05% of their box) are snapped onto it and held there, and the rest is solved on.
+    // This is the working-set treatment of bound constraints (Nocedal and Wright 2006, sec. 16.5
+    // and 16.7: a constraint that a stage's iterates press against joins the working set).
+    constexpr int kStageIterations = 15;
+    constexpr double kSnap = 1e-3;
+    const int budget = options.max_iterations;
+    solver_options.max_num_iterations = std::min(budget, kStageIterations);
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &ceres_problem, &summary);
     count_evaluations(summary);
-    int extra_iterations = 0;
-    // Active-set finish: an optimum on a bound is approached through a stationary point of the
-    // sine transform, where Levenberg-Marquardt creeps (cost ~ delta^2, step ~ delta / 2). When the
-    // iteration limit stops a run with entries within 1e-4 of a bound, snap them onto it, hold
-    // them there and re-solve the rest (a few iterations): the usual active-set treatment.
+    int used = static_cast<int>(summary.iterations.size()) - 1;
     std::vector<int> held = fixed;
-    for (int round = 0; round < 3 && summary.termination_type == ceres::NO_CONVERGENCE &&
-                        summary.iterations.size() > 1;
+    for (int round = 0; round < 8 && summary.termination_type == ceres::NO_CONVERGENCE &&
+                        used < budget;
          ++round) {
       const std::size_t before = held.size();
       for (int i = 0; i < n; ++i) {
         if (std::find(held.begin(), held.end(), i) != held.end() ||
-            !(std::abs(std::sin(u[i])) > 1.0 - 1e-4)) {
+            !(std::abs(std::sin(u[i])) > 1.0 - kSnap)) {
           continue;
         }
         u[i] = std::sin(u[i]) > 0 ? std::numbers::pi / 2 : -std::numbers::pi / 2;
         held.push_back(i);
       }
-      if (held.size() == before || static_cast<int>(held.size()) >= n) break;
-      std::sort(held.begin(), held.end());
-      ceres_problem.SetManifold(u.data(), new ceres::SubsetManifold(n, held));
+      if (static_cast<int>(held.size()) >= n) break;
+      if (held.size() != before) {
+        std::sort(held.begin(), held.end());
+        ceres_problem.SetManifold(u.data(), new ceres::SubsetManifold(n, held));
+      }
+      solver_options.max_num_iterations = std::min(budget - used, kStageIterations);
       ceres::Solver::Summary finish;
       ceres::Solve(solver_options, &ceres_problem, &finish);
       count_evaluations(finish);
-      extra_iterations += static_cast<int>(finish.iterations.size()) - 1;
+      const int it = static_cast<int>(finish.iterations.size()) - 1;
+      used += it;
       finish.initial_cost = summary.initial_cost;
       summary = finish;
     }
+    solver_options.max_num_iterations = options.max_iterations;
     if (held.size() > fixed.size()) {
       ceres_problem.SetManifold(u.data(),
                                 fixed.empty() ? nullptr : new ceres::SubsetManifold(n, fixed));
@@ -523,8 +535,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     start->exposure = std::exp(log_exposure[0]);
     if (!coarse) start->initial_cost = summary.initial_cost;
     start->final_cost = summary.final_cost;
-    start->iterations = coarse_iterations[s] + static_cast<int>(summary.iterations.size()) - 1 +
-                        extra_iterations;
+    start->iterations = coarse_iterations[s] + used;
     start->termination = ceres::TerminationTypeToString(summary.termination_type);
     start->converged = summary.termination_type == ceres::CONVERGENCE;
     best_u[s] = u;

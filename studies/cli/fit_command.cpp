@@ -23,6 +23,9 @@ void RegisterFitCommand(CLI::App& app) {
     std::vector<std::string> refs, masks, fixed;
     std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
     int starts = 1, max_iterations = 100, threads = 2, env_samples = 0;
+    int env_pixels = fit::FitOptions{}.environment_pixels;
+    int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
+    int env_rounds = fit::FitOptions{}.environment_rounds;
     std::uint64_t seed = 1;
     double loss_scale = 0;
     bool no_images = false, central = false;
@@ -56,6 +59,15 @@ void RegisterFitCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--env-samples", opt->env_samples,
                   "GL path: environment samples per pixel instead of the scene's (0 = keep)");
+  cmd->add_option("--env-pixels", opt->env_pixels,
+                  "G-buffer path, environment light: valid pixels fitted per reference")
+      ->capture_default_str();
+  cmd->add_option("--env-twin-samples", opt->env_twin_samples,
+                  "G-buffer path, environment light: quadrature samples per technique per pixel")
+      ->capture_default_str();
+  cmd->add_option("--env-rounds", opt->env_rounds,
+                  "G-buffer path, environment light: re-solves with the proposal on the fit")
+      ->capture_default_str();
   cmd->add_flag("--central-differences", opt->central,
                 "GL path: central instead of forward differences (2x renders)");
   cmd->add_flag("--no-images", opt->no_images, "Write only the JSON (no fit/error images)");
@@ -78,6 +90,12 @@ void RegisterFitCommand(CLI::App& app) {
     options.max_iterations = opt->max_iterations;
     options.num_threads = opt->threads;
     options.environment_samples = opt->env_samples;
+    if (opt->env_pixels < 16) throw Error("", "--env-pixels", "must be >= 16");
+    if (opt->env_twin_samples < 1) throw Error("", "--env-twin-samples", "must be >= 1");
+    if (opt->env_rounds < 0) throw Error("", "--env-rounds", "must be >= 0");
+    options.environment_pixels = opt->env_pixels;
+    options.environment_twin_samples = opt->env_twin_samples;
+    options.environment_rounds = opt->env_rounds;
     options.central_differences = opt->central;
     options.render_outputs = !opt->no_images;
     if (options.starts < 1) throw Error("", "--starts", "must be >= 1");

@@ -118,8 +118,8 @@ struct FitOptions {
   // from a GL render). After the multi-start, environment_rounds more solves re-centre the GGX
   // proposal on the fitted lobe width (the estimate is unbiased for any proposal; this cuts its
   // variance where the fit ends up).
-  int environment_pixels = 3072;      // Fitted pixels per reference.
-  int environment_twin_samples = 32;  // Samples per technique per pixel.
+  int environment_pixels = 2048;      // Fitted pixels per reference.
+  int environment_twin_samples = 24;  // Samples per technique per pixel (round 1; x2 after).
   int environment_rounds = 1;
   bool compute_covariance = true;
   // G-buffer path with > 16384 valid pixels: run every start on a ~4096-pixel subsample (all
