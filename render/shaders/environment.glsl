@@ -28,7 +28,8 @@ float RadicalInverse(uint bits) {
 }
 
 // Per-pixel Cranley-Patterson offset: decorrelates the fixed point set between pixels while
-// staying deterministic (a function of the pixel only, never of the parameters).
+// staying deterministic (a function of the pixel only). Note that technique 3 below follows the
+// model's lobe width, so the sample directions do move with roughness (docs/environment.md).
 vec2 PixelOffset() {
   uvec2 p = uvec2(gl_FragCoord.xy);
   uint h = p.x * 1973u + p.y * 9277u + 26699u;
