@@ -518,8 +518,13 @@ def write_index(report_dir, study, tables, figures, provenance, summary_md):
              f"<h1>Study {html.escape(study['name'])}</h1><p>{html.escape(study.get('description', ''))}</p>",
              "<h2>Verdicts</h2><p>Materials whose numbers are within the study's tolerance, per "
              "phenomenon and fit (rules in docs/studies.md).</p>", html_table(tables["matrix"]),
-             html_table(tables["verdicts"]),
-             "<h2>Figures</h2>"]
+             html_table(tables["verdicts"])]
+    if "ngan2005_spearman" in tables:
+        parts += ["<h2>Against Ngan, Durand and Matusik 2005</h2><p>Rank correlation (Spearman) "
+                  "of our fitted lobe widths with the published BRDF-space fits of the same "
+                  "measured materials; the per-material numbers follow.</p>",
+                  html_table(tables["ngan2005_spearman"]), html_table(tables["ngan2005"])]
+    parts += ["<h2>Figures</h2>"]
     for f in figures:
         parts.append(f"<figure><img src='{f['png']}' alt='{html.escape(f['name'])}'>"
                      f"<figcaption>{html.escape(f['caption'])} "
@@ -561,6 +566,104 @@ def summary_markdown(study, summary, matrix, provenance):
     lines += ["", f"shadefit {sf.get('version', '?')}, GL: {provenance.get('gl_renderer', '?')}, "
               f"generated {datetime.date.today().isoformat()}.", ""]
     return "\n".join(lines)
+
+
+# --- Ngan, Durand and Matusik 2005 side by side (measured studies) ----------------------------
+
+def ranks(values):
+    """Ranks 1..n, ties given their average rank (for Spearman's rho)."""
+    order = sorted(range(len(values)), key=lambda i: values[i])
+    r = [0.0] * len(values)
+    i = 0
+    while i < len(order):
+        j = i
+        while j + 1 < len(order) and values[order[j + 1]] == values[order[i]]:
+            j += 1
+        for k in range(i, j + 1):
+            r[order[k]] = (i + j) / 2.0 + 1.0
+        i = j + 1
+    return r
+
+
+def spearman(x, y):
+    """Spearman's rank correlation: Pearson's correlation of the ranks (ties averaged)."""
+    if len(x) < 3:
+        return None
+    rx, ry = ranks(x), ranks(y)
+    mx, my = sum(rx) / len(rx), sum(ry) / len(ry)
+    sxy = sum((a - mx) * (b - my) for a, b in zip(rx, ry))
+    sxx = sum((a - mx) ** 2 for a in rx)
+    syy = sum((b - my) ** 2 for b in ry)
+    return sxy / math.sqrt(sxx * syy) if sxx > 0 and syy > 0 else None
+
+
+def ngan_table_path(study):
+    """ngan2005-fits.tsv beside the measured folder the study's references came from, if any."""
+    for g in study["groups"]:
+        for r in g["references"]:
+            sidecar = r.get("sidecar")
+            if not sidecar or not os.path.exists(sidecar):
+                continue
+            sc = load_json(sidecar)
+            if sc.get("kind") != "measured-brdf":
+                continue
+            for f in sc.get("brdf", {}).get("files", []):
+                candidate = os.path.join(os.path.dirname(os.path.dirname(f["path"])),
+                                         "ngan2005-fits.tsv")
+                if os.path.exists(candidate):
+                    return candidate
+    return None
+
+
+def read_ngan(path):
+    with open(path, encoding="utf-8") as f:
+        lines = [l.rstrip("\n") for l in f if l.strip() and not l.startswith("#")]
+    header = lines[0].split("\t")
+    out = {}
+    for line in lines[1:]:
+        cells = line.split("\t")
+        out[cells[0]] = {h: float(c) for h, c in zip(header[1:], cells[1:])}
+    return out
+
+
+# Our fitted quantity set against Ngan's: (our model, our parameter -> number, Ngan's column).
+# GGX and Beckmann alpha = roughness^2 (models.md); Ngan's Cook-Torrance m is a Beckmann slope
+# width; Blinn-Phong sharpness n is the exponent. Ranks compare across normalisations.
+NGAN_PAIRS = [
+    ("blinn-phong", "shininess", lambda v: v, "shininess n", "blinn_phong_n", "Blinn-Phong n"),
+    ("blinn-phong-normalized", "shininess", lambda v: v, "shininess n", "blinn_phong_n",
+     "Blinn-Phong n"),
+    ("ggx", "roughness", lambda v: v * v, "alpha", "cook_torrance_m", "Cook-Torrance m"),
+    ("beckmann", "roughness", lambda v: v * v, "alpha", "cook_torrance_m", "Cook-Torrance m")]
+
+
+def ngan_comparison(study, fits):
+    """Per fit label with a counterpart in Ngan 2005: our number next to theirs, and rho."""
+    path = ngan_table_path(study)
+    if path is None:
+        return None
+    ngan = read_ngan(path)
+    rows, correlations = [], []
+    for f in study["fits"]:
+        for model, pname, to_num, ours_label, col, col_label in NGAN_PAIRS:
+            if f["model"] != model:
+                continue
+            ours, theirs = [], []
+            for m in materials_of(study):
+                job = fits.get((m, f["label"]))
+                if job is None or m not in ngan:
+                    continue
+                value = next((to_float(p["value"]) for p in job["parameters"] if p["name"] == pname), None)
+                if value is None:
+                    continue
+                num = to_num(value)
+                ours.append(num)
+                theirs.append(ngan[m][col])
+                rows.append([m, f["label"], ours_label, fmt(num), col_label, fmt(ngan[m][col])])
+            rho = spearman(ours, theirs)
+            correlations.append({"fit": f["label"], "model": model, "ours": ours_label,
+                                 "ngan": col, "materials": len(ours), "spearman": rho})
+    return {"source": path, "rows": rows, "correlations": correlations}
 
 
 def write_latex_document(report_dir, tables, figures):
@@ -621,7 +724,28 @@ def main(argv):
     with open(os.path.join(report_dir, "figures.json"), "w", encoding="utf-8") as f:
         json.dump(figures, f, indent=1)
 
+    ngan = ngan_comparison(study, fits)
+    if ngan is not None:
+        cols = ["material", "fit", "ours", "value", "Ngan 2005", "Ngan's value"]
+        tables["ngan2005"] = (cols, ngan["rows"])
+        write_table(table_dir, "ngan2005", cols, ngan["rows"],
+                    "Our fitted lobe parameters next to Ngan, Durand and Matusik 2005's BRDF-space fits", 3)
+        corr_cols = ["fit", "our parameter", "Ngan 2005", "materials", "Spearman rho"]
+        corr_rows = [[c["fit"], c["ours"], c["ngan"], str(c["materials"]),
+                      fmt(c["spearman"], "{:.3f}") if c["spearman"] is not None else "n/a"]
+                     for c in ngan["correlations"]]
+        tables["ngan2005_spearman"] = (corr_cols, corr_rows)
+        write_table(table_dir, "ngan2005_spearman", corr_cols, corr_rows,
+                    "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
+        with open(os.path.join(report_dir, "ngan2005.json"), "w", encoding="utf-8") as f:
+            json.dump(ngan, f, indent=1)
     summary_md = summary_markdown(study, summary, matrix, provenance)
+    if ngan is not None:
+        summary_md += "\n## Against Ngan, Durand and Matusik 2005\n\n" + "".join(
+            f"- {c['fit']}: Spearman rho of our {c['ours']} with Ngan's {c['ngan']} over "
+            f"{c['materials']} materials: "
+            + (f"{c['spearman']:.3f}" if c["spearman"] is not None else "n/a") + "\n"
+            for c in ngan["correlations"])
     with open(os.path.join(report_dir, "summary.md"), "w", encoding="utf-8") as f:
         f.write(summary_md)
     write_index(report_dir, study, tables, figures, provenance, summary_md)

@@ -483,54 +483,103 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
     result.jacobian_evaluations += summary.num_jacobian_evaluations;
   };
   // Full-problem solve from the current u, e; records start s.
-  auto solve_full = [&](int s, StartResult* start) {
-    // Active set (bounds without crawling): an optimum on a bound is approached through a
-    // stationary point of the sine transform, where Levenberg-Marquardt creeps (cost ~ delta^2,
-    // step ~ delta / 2: linear convergence). So the solve runs in stages of kStageIterations;
-    // after a stage that has not converged, entries within kSnap of a bound (|sin u| > 1 - kSnap,
-    // i.e. 0.05% of their box) are snapped onto it and held there, and the rest is solved on.
-    // This is the working-set treatment of bound constraints (Nocedal and Wright 2006, sec. 16.5
-    // and 16.7: a constraint that a stage's iterates press against joins the working set).
+  // Active set (bounds without crawling): an optimum on a bound is approached through a
+  // stationary point of the sine transform, where Levenberg-Marquardt creeps (cost ~ delta^2,
+  // step ~ delta / 2: linear convergence). So a solve runs in stages of kStageIterations; after a
+  // stage that has not converged, entries within kSnap of a bound (|sin u| > 1 - kSnap, i.e.
+  // 0.05% of their box) are snapped onto it and held there, and the rest is solved on. This is
+  // the working-set treatment of bound constraints (Nocedal and Wright 2006, sec. 16.5 and 16.7:
+  // a constraint that a stage's iterates press against joins the working set). Returns the last
+  // stage's summary (initial_cost: the first stage's) and the iterations of all stages.
+  auto staged_solve = [&](ceres::Problem& problem, int* iterations) {
     constexpr int kStageIterations = 15;
     constexpr double kSnap = 1e-3;
+    constexpr double kSnapWide = 2e-2;  // 1% of the box.
     const int budget = options.max_iterations;
     solver_options.max_num_iterations = std::min(budget, kStageIterations);
     ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &ceres_problem, &summary);
+    ceres::Solve(solver_options, &problem, &summary);
     count_evaluations(summary);
     int used = static_cast<int>(summary.iterations.size()) - 1;
     std::vector<int> held = fixed;
-    for (int round = 0; round < 8 && summary.termination_type == ceres::NO_CONVERGENCE &&
-                        used < budget;
-         ++round) {
-      const std::size_t before = held.size();
-      for (int i = 0; i < n; ++i) {
-        if (std::find(held.begin(), held.end(), i) != held.end() ||
-            !(std::abs(std::sin(u[i])) > 1.0 - kSnap)) {
-          continue;
+    ceres::Problem::EvaluateOptions eval;
+    eval.num_threads = threads;
+    auto cost_now = [&] {
+      double c = 0;
+      problem.Evaluate(eval, &c, nullptr, nullptr, nullptr);
+      return c;
+    };
+    auto is_held = [&](int i) { return std::find(held.begin(), held.end(), i) != held.end(); };
+    for (int round = 0; round < 12 && used < budget; ++round) {
+      bool changed = false;
+      // Release: a held entry whose step 1% into its box lowers the cost does not belong on
+      // the bound (its Lagrange multiplier has the wrong sign); it is solved for again.
+      if (held.size() > fixed.size()) {
+        double c0 = cost_now();
+        for (std::size_t k = 0; k < held.size();) {
+          const int i = held[k];
+          if (std::find(fixed.begin(), fixed.end(), i) != fixed.end()) {
+            ++k;
+            continue;
+          }
+          const double save = u[i];
+          u[i] = std::asin(std::sin(save) > 0 ? 1.0 - kSnapWide : -(1.0 - kSnapWide));
+          const double c = cost_now();
+          if (std::isfinite(c) && c < c0 * (1 - 1e-9)) {
+            held.erase(held.begin() + static_cast<long>(k));
+            c0 = c;
+            changed = true;
+          } else {
+            u[i] = save;
+            ++k;
+          }
         }
-        u[i] = std::sin(u[i]) > 0 ? std::numbers::pi / 2 : -std::numbers::pi / 2;
-        held.push_back(i);
       }
-      if (static_cast<int>(held.size()) >= n) break;
-      if (held.size() != before) {
-        std::sort(held.begin(), held.end());
-        ceres_problem.SetManifold(u.data(), new ceres::SubsetManifold(n, held));
+      if (summary.termination_type == ceres::NO_CONVERGENCE) {
+        // Snap: entries within kSnapWide of a bound when snapping them all does not raise the
+        // cost (relative 1e-6: the bound is where they are going), else those within kSnap.
+        const std::vector<double> keep_u = u;
+        const double c_before = cost_now();
+        std::vector<int> wide;
+        for (int i = 0; i < n; ++i) {
+          if (is_held(i) || !(std::abs(std::sin(u[i])) > 1.0 - kSnapWide)) continue;
+          wide.push_back(i);
+          u[i] = std::sin(u[i]) > 0 ? std::numbers::pi / 2 : -std::numbers::pi / 2;
+        }
+        const double c_after = wide.empty() ? c_before : cost_now();
+        const bool accept_wide = std::isfinite(c_after) && c_after <= c_before * (1 + 1e-6);
+        for (int i : wide) {
+          if (accept_wide || std::abs(std::sin(keep_u[i])) > 1.0 - kSnap) {
+            held.push_back(i);
+            changed = true;
+          } else {
+            u[i] = keep_u[i];
+          }
+        }
+        // A stage that stopped at its limit goes on even when the working set is unchanged.
+        changed = changed || summary.iterations.size() > 1;
       }
+      if (!changed || static_cast<int>(held.size()) >= n) break;
+      std::sort(held.begin(), held.end());
+      problem.SetManifold(u.data(), held.empty() ? nullptr : new ceres::SubsetManifold(n, held));
       solver_options.max_num_iterations = std::min(budget - used, kStageIterations);
       ceres::Solver::Summary finish;
-      ceres::Solve(solver_options, &ceres_problem, &finish);
+      ceres::Solve(solver_options, &problem, &finish);
       count_evaluations(finish);
-      const int it = static_cast<int>(finish.iterations.size()) - 1;
-      used += it;
+      used += static_cast<int>(finish.iterations.size()) - 1;
       finish.initial_cost = summary.initial_cost;
       summary = finish;
     }
     solver_options.max_num_iterations = options.max_iterations;
     if (held.size() > fixed.size()) {
-      ceres_problem.SetManifold(u.data(),
-                                fixed.empty() ? nullptr : new ceres::SubsetManifold(n, fixed));
+      problem.SetManifold(u.data(), fixed.empty() ? nullptr : new ceres::SubsetManifold(n, fixed));
     }
+    *iterations = used;
+    return summary;
+  };
+  auto solve_full = [&](int s, StartResult* start) {
+    int used = 0;
+    const ceres::Solver::Summary summary = staged_solve(ceres_problem, &used);
     start->params = param.ToNatural(u);
     start->exposure = std::exp(log_exposure[0]);
     if (!coarse) start->initial_cost = summary.initial_cost;
@@ -560,10 +609,9 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
       solve_full(s, &result.start_results[s]);
       continue;
     }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &coarse_problem, &summary);
-    count_evaluations(summary);
-    coarse_iterations[s] = static_cast<int>(summary.iterations.size()) - 1;
+    int used = 0;
+    const ceres::Solver::Summary summary = staged_solve(coarse_problem, &used);
+    coarse_iterations[s] = used;
     coarse_cost[s] = summary.termination_type == ceres::FAILURE ? NAN : summary.final_cost;
     best_u[s] = u;
     best_e[s] = log_exposure[0];

@@ -47,7 +47,21 @@ struct StudyRunOptions {
 };
 
 void RunStudyCommand(const StudyRunOptions& o) {
-  const studies::StudySpec spec = studies::LoadStudy(o.study, o.quick);
+  studies::StudySpec spec = studies::LoadStudy(o.study, o.quick);
+  if (const std::string skip = studies::MeasuredSkipReason(spec); !skip.empty()) {
+    std::fprintf(stderr, "shadefit: study %s: %s\n", spec.name.c_str(), skip.c_str());
+  }
+  const studies::MeasuredSummary measured =
+      studies::MaterialiseMeasuredReferences(&spec, o.out, o.quiet);
+  if (measured.rendered + measured.unchanged > 0 && !o.quiet) {
+    std::fprintf(stderr, "study %s: %d measured reference(s) rendered (%.1f s), %d unchanged\n",
+                 spec.name.c_str(), measured.rendered, measured.seconds, measured.unchanged);
+  }
+  if (spec.groups.empty()) {
+    std::fprintf(stderr, "shadefit: study %s: no material to study; nothing run\n",
+                 spec.name.c_str());
+    return;
+  }
   studies::RunOptions ro;
   ro.jobs = o.jobs;
   ro.out_dir = o.out;

@@ -227,6 +227,15 @@ nlohmann::json StudySpec::ToJson() const {
           {"path", path},
           {"quick", quick},
           {"groups", groups_json},
+          {"measured", [&] {
+             nlohmann::json m = nlohmann::json::array();
+             for (const MeasuredSource& src : measured) {
+               m.push_back({{"folder", src.folder}, {"present", src.present},
+                            {"materials", src.materials}, {"lightings", src.lightings},
+                            {"scenes", src.scenes}, {"samples", src.samples}});
+             }
+             return m;
+           }()},
           {"models", models},
           {"fits", labels},
           {"fit_settings", settings},
@@ -258,7 +267,8 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     throw Error(fmt::format("{}:{}", path, e.source().begin.line), "",
                 "malformed TOML: " + std::string(e.description()));
   }
-  r.CheckKeys(root, "", {"study", "group", "fit", "metrics", "probes", "verdicts", "outputs", "quick"});
+  r.CheckKeys(root, "", {"study", "group", "measured", "fit", "metrics", "probes", "verdicts",
+                        "outputs", "quick"});
 
   // [study]
   const toml::table* study = r.Table(root, "", "study");
@@ -283,13 +293,101 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     quick_lightings = r.Strings(*q, "quick.", "lightings");
   }
 
+  const fs::path base = file.parent_path();
+  // [[measured]]
+  if (const toml::node* mn = root.get("measured")) {
+    if (!mn->is_array_of_tables()) r.Fail(mn, "measured", "expected [[measured]] tables");
+    for (const toml::node& e : *mn->as_array()) {
+      const toml::table& t = *e.as_table();
+      r.CheckKeys(t, "measured.", {"folder", "scenes", "exclude", "samples"});
+      MeasuredSource src;
+      const std::string folder = r.String(t, "measured.", "folder", "");
+      if (folder.empty()) r.Fail(&e, "measured.folder", "missing");
+      src.folder = (base / folder).lexically_normal().string();
+      src.samples = static_cast<int>(r.Number(t, "measured.", "samples", 0.0));
+      if (src.samples < 0) r.Fail(t.get("samples"), "measured.samples", "must be >= 0");
+      const std::vector<std::string> exclude = r.Strings(t, "measured.", "exclude");
+      auto excluded = [&](const std::string& leaf) {
+        return std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
+          return fnmatch(x.c_str(), leaf.c_str(), 0) == 0;
+        });
+      };
+      const std::vector<std::string> scenes = r.Strings(t, "measured.", "scenes");
+      if (scenes.empty()) r.Fail(&e, "measured.scenes", "missing or empty");
+      for (const std::string& pattern : scenes) {
+        const std::vector<fs::path> matches = Glob(base, pattern);
+        if (matches.empty()) {
+          r.Fail(t.get("scenes"), "measured.scenes", "'" + pattern + "' matches no file");
+        }
+        for (const fs::path& m : matches) {
+          if (excluded(m.filename().string())) continue;
+          // "sphere-key.toml" -> "key": the lighting names of the shipped Cycles scenes.
+          std::string lighting = m.stem().string();
+          if (const auto dash = lighting.find('-'); dash != std::string::npos) {
+            lighting = lighting.substr(dash + 1);
+          }
+          if (!quick_lightings.empty() &&
+              std::find(quick_lightings.begin(), quick_lightings.end(), lighting) ==
+                  quick_lightings.end()) {
+            continue;
+          }
+          if (std::find(src.lightings.begin(), src.lightings.end(), lighting) !=
+              src.lightings.end()) {
+            r.Fail(t.get("scenes"), "measured.scenes",
+                   "two scenes under lighting '" + lighting + "'");
+          }
+          src.scenes.push_back(m.string());
+          src.lightings.push_back(lighting);
+        }
+      }
+      src.present = fs::is_directory(src.folder);
+      if (src.present) {
+        std::vector<fs::path> files;
+        for (const auto& entry : fs::directory_iterator(src.folder)) {
+          const fs::path& f = entry.path();
+          const std::string ext = f.extension().string();
+          if (excluded(f.filename().string())) continue;
+          if (ext == ".binary") files.push_back(f);
+          // A Neural-BRDF network is its weights (.h5) with the Keras config (.json) beside it.
+          if (ext == ".h5" && fs::exists(fs::path(f).replace_extension(".json"))) {
+            files.push_back(f);
+          }
+        }
+        std::sort(files.begin(), files.end());
+        for (const fs::path& f : files) {
+          const std::string material = f.stem().string();
+          if (!quick_materials.empty() &&
+              std::find(quick_materials.begin(), quick_materials.end(), material) ==
+                  quick_materials.end()) {
+            continue;
+          }
+          if (std::find(src.materials.begin(), src.materials.end(), material) !=
+              src.materials.end()) {
+            r.Fail(&e, "measured.folder",
+                   "material '" + material + "' is there twice (.binary and .h5)");
+          }
+          src.brdfs.push_back(f.string());
+          src.materials.push_back(material);
+        }
+        if (src.brdfs.empty()) {
+          r.Fail(t.get("folder"), "measured.folder",
+                 src.folder + ": no MERL .binary or Neural-BRDF .h5 (+ .json) file in it");
+        }
+      }
+      spec.measured.push_back(std::move(src));
+    }
+  }
+
   // [[group]]
   const toml::node* groups_node = root.get("group");
-  if (groups_node == nullptr || !groups_node->is_array_of_tables()) {
-    r.Fail(groups_node, "group", "expected one or more [[group]] tables");
+  if (groups_node != nullptr && !groups_node->is_array_of_tables()) {
+    r.Fail(groups_node, "group", "expected [[group]] tables");
   }
-  const fs::path base = file.parent_path();
-  for (const toml::node& gn : *groups_node->as_array()) {
+  if (groups_node == nullptr && spec.measured.empty()) {
+    r.Fail(nullptr, "group", "expected one or more [[group]] or [[measured]] tables");
+  }
+  const toml::array empty_groups;
+  for (const toml::node& gn : groups_node ? *groups_node->as_array() : empty_groups) {
     const toml::table& g = *gn.as_table();
     r.CheckKeys(g, "group.", {"material", "images", "exclude", "lightings"});
     ReferenceGroup group;
@@ -357,7 +455,11 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     }
     spec.groups.push_back(std::move(group));
   }
-  if (spec.groups.empty()) r.Fail(nullptr, "quick.materials", "no group left");
+  bool any_measured = false;
+  for (const MeasuredSource& m : spec.measured) any_measured = any_measured || !m.brdfs.empty();
+  if (spec.groups.empty() && !any_measured && MeasuredSkipReason(spec).empty()) {
+    r.Fail(nullptr, "quick.materials", "no group left");
+  }
 
   // [fit]
   const toml::table* fit = r.Table(root, "", "fit");
@@ -429,6 +531,16 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   if (q != nullptr && q->contains("training_sets")) spec.training_sets = read_sets(*q, "quick.");
   if (spec.training_sets.empty()) r.Fail(fit->get("train"), "fit.train", "missing or empty");
   spec.test_lightings = r.Strings(*fit, "fit.", "test");
+  for (const MeasuredSource& m : spec.measured) {
+    for (const auto& set : spec.training_sets) {
+      for (const std::string& l : set) {
+        if (std::find(m.lightings.begin(), m.lightings.end(), l) == m.lightings.end()) {
+          r.Fail(fit->get("train"), "fit.train",
+                 fmt::format("[[measured]] {} has no scene under lighting '{}'", m.folder, l));
+        }
+      }
+    }
+  }
   for (const ReferenceGroup& g : spec.groups) {
     for (const auto& set : spec.training_sets) {
       for (const std::string& l : set) {
@@ -506,6 +618,18 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     spec.report = r.Bool(*o, "outputs.", "report", true);
   }
   return spec;
+}
+
+std::string MeasuredSkipReason(const StudySpec& spec) {
+  for (const MeasuredSource& m : spec.measured) {
+    if (!m.present) {
+      return m.folder +
+             ": not found, so the measured materials are skipped (get MERL .binary files from "
+             "MERL's BRDF database, or the Neural-BRDF networks of Sztrajman et al. 2021, and set "
+             "[[measured]] folder; README, \"Measured materials\")";
+    }
+  }
+  return "";
 }
 
 }  // namespace shadefit::studies

@@ -38,6 +38,17 @@ struct RunSummary {
 // not run). results.csv and provenance.json are written only when every job succeeded.
 RunSummary RunStudy(const StudySpec& spec, const RunOptions& options);
 
+struct MeasuredSummary {
+  int rendered = 0, unchanged = 0;
+  double seconds = 0;  // Render time of the rendered ones.
+};
+
+// Renders the references of the study's [[measured]] sources that are missing or out of date
+// into OUT/<study>/references/ and appends one group per material to spec->groups. Call before
+// RunStudy. Throws shadefit::Error naming the file on an unreadable BRDF or scene.
+MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string& out_dir,
+                                              bool quiet);
+
 // Version string recorded in outputs and job hashes ("0.1.0+<git revision>").
 std::string ShadefitVersion();
 

@@ -45,6 +45,19 @@ struct FitSettings {
   nlohmann::json ToJson() const;
 };
 
+// [measured]: materials given as measured BRDF files (MERL .binary, or Neural-BRDF .h5 with its
+// .json), rendered by the study itself under each of `scenes` (MaterialiseMeasuredReferences)
+// before any fit; their references then form one group per material like any other.
+struct MeasuredSource {
+  std::string folder;                 // Absolute.
+  bool present = false;               // false: the folder is absent; the part is skipped.
+  std::vector<std::string> brdfs;     // Absolute paths of the BRDF files, sorted.
+  std::vector<std::string> materials; // Their stems, in the same order.
+  std::vector<std::string> scenes;    // Absolute scene paths, one per lighting.
+  std::vector<std::string> lightings; // "key" for ".../sphere-key.toml", in the same order.
+  int samples = 0;                    // Environment samples per technique (0 = the scene's).
+};
+
 struct StudySpec {
   std::string name;         // [study] name; names the output folder.
   std::string description;
@@ -53,6 +66,7 @@ struct StudySpec {
   bool quick = false;       // The [quick] overrides were applied.
 
   std::vector<ReferenceGroup> groups;
+  std::vector<MeasuredSource> measured;  // [[measured]] tables (groups added when rendered).
   std::vector<std::string> models;
   std::map<std::string, FitSettings> model_settings;  // Every model, overrides applied.
   std::vector<std::vector<std::string>> training_sets;  // Lighting names per set.
@@ -78,5 +92,9 @@ struct StudySpec {
 // "<file>: <key>: <problem>" on unknown keys, wrong types, unknown models or probes, globs that
 // match nothing and training lightings a group lacks.
 StudySpec LoadStudy(const std::string& path, bool quick = false);
+
+// Why a [[measured]] source contributes nothing ("" when every source is present): one line
+// for the user, naming the folder and where the data comes from.
+std::string MeasuredSkipReason(const StudySpec& spec);
 
 }  // namespace shadefit::studies

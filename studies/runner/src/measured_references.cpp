@@ -1,0 +1,115 @@
+// [[measured]] sources of a study: every BRDF file of the folder rendered under every scene with
+// shadefit's measured renderer (reference_images/, docs/measured_and_imported.md), into
+// OUT/<study>/references/<material>-<lighting>.exr with its sidecar, then one reference group
+// per material. A reference is re-rendered only when its key changes: the SHA-256 of the BRDF
+// file(s), the scene's bytes, the sample count and the shadefit version. The renders are
+// deterministic (per-pixel seeds; the thread count does not change them).
+#include <fmt/core.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/refs/render_measured.h"
+#include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
+#include "shadefit/render/gl_context.h"
+#include "shadefit/render/renderer.h"
+#include "shadefit/studies/runner.h"
+
+namespace shadefit::studies {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "", "cannot read");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string ReferenceKey(const MeasuredSource& src, std::size_t material, std::size_t lighting) {
+  std::string key = "shadefit.measured-reference/1\n" + ShadefitVersion() + "\n";
+  const std::string& brdf = src.brdfs[material];
+  key += Sha256File(brdf) + "\n";
+  if (fs::path(brdf).extension() == ".h5") {
+    key += Sha256File(fs::path(brdf).replace_extension(".json").string()) + "\n";
+  }
+  key += Sha256String(ReadAll(src.scenes[lighting])) + "\n";
+  key += fmt::format("samples {}\n", src.samples);
+  return Sha256String(key);
+}
+
+}  // namespace
+
+MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string& out_dir,
+                                              bool quiet) {
+  MeasuredSummary summary;
+  bool any = false;
+  for (const MeasuredSource& src : spec->measured) any = any || !src.brdfs.empty();
+  if (!any) return summary;
+  const fs::path dir = fs::path(out_dir) / spec->name / "references";
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) throw Error(dir.string(), "", "cannot create the folder");
+  std::unique_ptr<GlContext> context;
+  std::unique_ptr<Renderer> renderer;
+  for (const MeasuredSource& src : spec->measured) {
+    for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
+      for (const ReferenceGroup& g : spec->groups) {
+        if (g.material == src.materials[m]) {
+          throw Error(spec->path, "measured.folder",
+                      "material '" + g.material + "' is also a [[group]]");
+        }
+      }
+      ReferenceGroup group;
+      group.material = src.materials[m];
+      for (std::size_t l = 0; l < src.scenes.size(); ++l) {
+        ReferenceSpec ref;
+        ref.name = group.material + "-" + src.lightings[l];
+        ref.material = group.material;
+        ref.lighting = src.lightings[l];
+        ref.image_path = (dir / (ref.name + ".exr")).string();
+        ref.sidecar_path = refs::SidecarPath(ref.image_path);
+        const std::string key = ReferenceKey(src, m, l);
+        const fs::path key_path = dir / (ref.name + ".key");
+        const bool cached = fs::exists(ref.image_path) && fs::exists(ref.sidecar_path) &&
+                            fs::exists(key_path) && ReadAll(key_path.string()) == key + "\n";
+        if (cached) {
+          ++summary.unchanged;
+        } else {
+          if (!renderer) {
+            context = std::make_unique<GlContext>();
+            renderer = std::make_unique<Renderer>(*context);
+          }
+          refs::MeasuredReferenceRequest request;
+          request.brdf_path = src.brdfs[m];
+          request.scene_path = src.scenes[l];
+          request.output = ref.image_path;
+          request.options.samples = src.samples;
+          // The key is written last: a render interrupted before it is redone by the next run.
+          fs::remove(key_path, ec);
+          const refs::RenderMeasuredStats stats = refs::MakeMeasuredReference(request, *renderer);
+          WriteTextAtomic(key_path.string(), key + "\n");
+          ++summary.rendered;
+          summary.seconds += stats.seconds;
+          if (!quiet) {
+            fmt::print(stderr, "measured reference {} ({:.2f} s)\n", ref.name, stats.seconds);
+          }
+        }
+        group.references.push_back(ref);
+      }
+      std::sort(group.references.begin(), group.references.end(),
+                [](const ReferenceSpec& a, const ReferenceSpec& b) {
+                  return a.lighting < b.lighting;
+                });
+      spec->groups.push_back(std::move(group));
+    }
+  }
+  return summary;
+}
+
+}  // namespace shadefit::studies
