@@ -81,6 +81,57 @@ TEST(FresnelProbe, SchlickGgxGivesF0AndSchlickCurve) {
   EXPECT_GT(r.numbers["reference"]["rim_to_centre"].get<double>(), 5.0);
 }
 
+// The probes' truth for every shipped Cycles reference is cycles-principled: its diffuse/lobe
+// split must leave the whole Principled Fresnel in the specular, so the effective curve is
+// Cycles' interpolate_fresnel_color, written out here from Cycles 3.4 (bsdf_util.h:
+// fresnel_dielectric_cos, remapped from cspec0 at normal incidence to 1 at grazing) rather than
+// taken from render/: specular 0.5 gives cspec0 = 0.08 * 0.5 = 0.04 and ior 1.5.
+double CyclesFresnel(double cspec0, double ior, double theta_deg) {
+  auto dielectric = [ior](double cosi) {
+    const double g2 = ior * ior - 1 + cosi * cosi;
+    const double g = std::sqrt(g2);
+    const double a = (g - cosi) / (g + cosi);
+    const double b = (cosi * (g + cosi) - 1) / (cosi * (g - cosi) + 1);
+    return 0.5 * a * a * (1 + b * b);
+  };
+  const double f0 = dielectric(1.0);
+  const double fh = (dielectric(std::cos(theta_deg * kPi / 180.0)) - f0) / (1 - f0);
+  return cspec0 * (1 - fh) + fh;
+}
+
+TEST(FresnelProbe, PrincipledTruthGivesCyclesFresnelCurve) {
+  ProbeInputs in;
+  in.renderer = &SharedRenderer();
+  in.truth = MakeModel("truth", "cycles-principled",
+                       {"base_color=0.8,0.05,0.05", "metallic=0", "specular=0.5",
+                        "roughness=0.3"});
+  for (const char* l : {"camera", "side", "rim", "mirror60", "mirror75", "mirror85"}) {
+    in.references.push_back(MakeReference(*in.truth, l));
+  }
+  const double ior = 2 / (1 - std::sqrt(0.08 * 0.5)) - 1;  // Cycles' specular -> ior: 1.5.
+  const probes::ProbeResult r = FresnelProbe(in);
+  const double f_centre = r.numbers["reference"]["F_centre"].get<double>();
+  std::printf("[ fresnel ] principled F_centre %.5f (cspec0 0.04), rim/centre %.3f\n", f_centre,
+              r.numbers["reference"]["rim_to_centre"].get<double>());
+  EXPECT_NEAR(f_centre, 0.04, 2e-3);
+  const auto pts = CurvePoints(r.curves.at("reference: F vs theta_d"));
+  ASSERT_GE(pts.size(), 5u);
+  double x_min = 90, x_max = 0;
+  for (const auto& [x, y] : pts) {
+    // Same bin allowance as the Schlick test above: a quarter of the curve's change over the bin.
+    const double tol = 0.25 * std::abs(CyclesFresnel(0.04, ior, std::min(90.0, x + 2.5)) -
+                                       CyclesFresnel(0.04, ior, x - 2.5)) +
+                       1e-3;
+    EXPECT_NEAR(y, CyclesFresnel(0.04, ior, x), tol) << "theta_d " << x;
+    std::printf("[ fresnel ] theta_d %5.1f  F %.5f  Cycles %.5f\n", x, y,
+                CyclesFresnel(0.04, ior, x));
+    x_min = std::min(x_min, x);
+    x_max = std::max(x_max, x);
+  }
+  EXPECT_LT(x_min, 10.0);
+  EXPECT_GT(x_max, 80.0);
+}
+
 // Classic Blinn-Phong has no Fresnel factor: its effective Fresnel is ks at every angle.
 TEST(FresnelProbe, BlinnPhongCurveIsFlat) {
   const ProbeInputs in = GgxInputs();
