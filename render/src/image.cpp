@@ -9,6 +9,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <memory>
 
@@ -30,6 +32,22 @@ void CommitTemp(const std::string& tmp, const std::string& path) {
     fs::remove(tmp, ec);
     throw Error(path, "", "cannot write file (rename failed)");
   }
+}
+
+// "YYYY:MM:DD HH:MM:SS" (UTC) of $SOURCE_DATE_EPOCH (https://reproducible-builds.org/specs/
+// source-date-epoch/), or of 0 when it is unset or not a number.
+std::string ReproducibleDateTime() {
+  std::time_t t = 0;
+  if (const char* env = std::getenv("SOURCE_DATE_EPOCH")) {
+    char* end = nullptr;
+    const long long v = std::strtoll(env, &end, 10);
+    if (end != env && *end == '\0' && v >= 0) t = static_cast<std::time_t>(v);
+  }
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y:%m:%d %H:%M:%S", &tm);
+  return buf;
 }
 
 void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type,
@@ -103,6 +121,11 @@ void WriteExr(const std::string& path, const Image& image, const ImageMetadata& 
     spec.alpha_channel = 3;
   }
   spec.attribute("compression", "zip");
+  // OpenImageIO's EXR writer stores "DateTime" as capDate and fills in the wall-clock time when
+  // it is absent, which made every render differ from the last in its header. A render is a
+  // function of its inputs, so it gets the reproducible-builds timestamp: $SOURCE_DATE_EPOCH
+  // when set, else the epoch (not a capture date; the sidecar holds the provenance).
+  spec.attribute("DateTime", ReproducibleDateTime());
   for (const auto& [key, value] : metadata) spec.attribute(key, value);
   WriteWithOiio(path, spec, OIIO::TypeDesc::FLOAT, image.data.data());
 }
