@@ -132,8 +132,7 @@ void SubsampleForEnvironment(PreparedReference* r, int want) {
 // defensive spread over the range real materials take (Hesterberg 1995, "Weighted average
 // importance sampling and defensive mixture distributions"); once a lobe width is known, that
 // width and three times it (the tail), so the samples follow the lobe the fit settled on.
-std::vector<double> ProposalAlphas(ModelId model, const std::vector<double>& params,
-                                   bool fitted) {
+std::vector<double> ProposalAlphas(ModelId model, const std::vector<double>& params, bool fitted) {
   const double alpha = SpecularLobeAlpha(model, params.data());
   if (!(alpha > 0)) return {};
   if (!fitted) return {0.02, 0.08, 0.3};
@@ -324,7 +323,8 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
       r.environment = true;
       SubsampleForEnvironment(&r, std::max(64, options.environment_pixels));
     }
-    AttachQuadrature(refs, ProposalAlphas(model.id, param.ToNatural(param.DefaultInternal()), false),
+    AttachQuadrature(refs,
+                     ProposalAlphas(model.id, param.ToNatural(param.DefaultInternal()), false),
                      std::max(4, options.environment_twin_samples));
   }
 
@@ -786,7 +786,8 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
           for (int i = 0; i < n; ++i) {
             ParameterEstimate& pe = result.parameters[i];
             if (pe.fixed || pe.undetermined || pe.at_bound) continue;
-            pe.std_error = std::abs(param.NaturalDerivative(i, u[i])) * std::sqrt(std::max(0.0, cuu[i * n + i] * s2));
+            pe.std_error = std::abs(param.NaturalDerivative(i, u[i])) *
+                           std::sqrt(std::max(0.0, cuu[i * n + i] * s2));
           }
         }
         if (result.exposure_free) {

@@ -81,7 +81,8 @@ Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::
     // ended in a dielectric local minimum with RMSE 0.97).
     double du = ToInternal(i, defaults[i]);
     constexpr double kInside = 0.98;  // |sin u| at the default: 1% of the box from the bound.
-    if (!is_fixed[i] && std::abs(std::sin(du)) > kInside) du = std::asin(std::sin(du) > 0 ? kInside : -kInside);
+    if (!is_fixed[i] && std::abs(std::sin(du)) > kInside)
+      du = std::asin(std::sin(du) > 0 ? kInside : -kInside);
     entries_.back().default_u = du;
   }
 }

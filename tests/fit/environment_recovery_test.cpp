@@ -9,9 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "fit_test_util.h"
 #include "shadefit/fit/fitter.h"
@@ -60,8 +59,7 @@ TEST_P(EnvironmentRecoveryTest, DefaultStartRecoversRoughnessAndBaseColour) {
   // worse than a few times that anywhere.
   EXPECT_LT(r.rmse, 0.04);
   std::printf("[ env fit ] %s: roughness %.4f (truth %.4f), %d iterations, %.2f s, RMSE %.4f\n",
-              GetParam().c_str(), value("roughness"), roughness, r.iterations, r.seconds,
-              r.rmse);
+              GetParam().c_str(), value("roughness"), roughness, r.iterations, r.seconds, r.rmse);
 }
 
 INSTANTIATE_TEST_SUITE_P(Studio, EnvironmentRecoveryTest,

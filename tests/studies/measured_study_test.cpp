@@ -44,10 +44,10 @@ std::string BrdfData() {
   return fs::is_directory(dir) ? fs::canonical(dir).string() : std::string();
 }
 
-#define REQUIRE_BRDF_DATA()                                                               \
-  if (BrdfData().empty()) {                                                               \
-    GTEST_SKIP() << "../shared/brdf-data absent (set SHADEFIT_BRDF_DATA): the measured "  \
-                    "materials are data from outside the repository";                     \
+#define REQUIRE_BRDF_DATA()                                                              \
+  if (BrdfData().empty()) {                                                              \
+    GTEST_SKIP() << "../shared/brdf-data absent (set SHADEFIT_BRDF_DATA): the measured " \
+                    "materials are data from outside the repository";                    \
   }
 
 std::string Bytes(const fs::path& p) {
@@ -60,10 +60,15 @@ std::string Bytes(const fs::path& p) {
 std::string StudyText(const std::string& folder, const std::string& quick) {
   const std::string scenes = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles/scenes";
   return "[study]\nname = \"measured_test\"\n"
-         "[[measured]]\nfolder = \"" + folder + "\"\n"
-         "scenes = [\"" + scenes + "/sphere-*.toml\", \"" + scenes + "/plane-mirror60.toml\"]\n"
+         "[[measured]]\nfolder = \"" +
+         folder +
+         "\"\n"
+         "scenes = [\"" +
+         scenes + "/sphere-*.toml\", \"" + scenes +
+         "/plane-mirror60.toml\"]\n"
          "exclude = [\"*-env.toml\"]\n"
-         "[fit]\nmodels = [\"ggx\"]\ntrain = [[\"key\"]]\n" + quick;
+         "[fit]\nmodels = [\"ggx\"]\ntrain = [[\"key\"]]\n" +
+         quick;
 }
 
 StudySpec LoadText(const fs::path& dir, const std::string& text, bool quick) {
@@ -215,9 +220,10 @@ TEST(MeasuredStudy, FittedLobeWidthsRankAsNgan2005) {
   }
   ASSERT_GE(ggx_alpha.size(), 15u);
   const double rho_ggx = Spearman(ggx_alpha, ngan_m), rho_bp = Spearman(bp_n, ngan_n);
-  std::printf("[ ngan2005 ] %zu materials: Spearman rho GGX alpha vs Cook-Torrance m %.3f, "
-              "Blinn-Phong n vs n %.3f\n",
-              ggx_alpha.size(), rho_ggx, rho_bp);
+  std::printf(
+      "[ ngan2005 ] %zu materials: Spearman rho GGX alpha vs Cook-Torrance m %.3f, "
+      "Blinn-Phong n vs n %.3f\n",
+      ggx_alpha.size(), rho_ggx, rho_bp);
   EXPECT_GE(rho_ggx, 0.9);
   // Blinn-Phong measured 0.858 with these settings: below the issue's 0.9 floor, held where it is
   // so that a regression shows (docs/studies.md says why the exponent ranks worse).

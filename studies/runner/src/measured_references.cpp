@@ -102,10 +102,9 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
         }
         group.references.push_back(ref);
       }
-      std::sort(group.references.begin(), group.references.end(),
-                [](const ReferenceSpec& a, const ReferenceSpec& b) {
-                  return a.lighting < b.lighting;
-                });
+      std::sort(
+          group.references.begin(), group.references.end(),
+          [](const ReferenceSpec& a, const ReferenceSpec& b) { return a.lighting < b.lighting; });
       spec->groups.push_back(std::move(group));
     }
   }

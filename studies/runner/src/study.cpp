@@ -227,12 +227,16 @@ nlohmann::json StudySpec::ToJson() const {
           {"path", path},
           {"quick", quick},
           {"groups", groups_json},
-          {"measured", [&] {
+          {"measured",
+           [&] {
              nlohmann::json m = nlohmann::json::array();
              for (const MeasuredSource& src : measured) {
-               m.push_back({{"folder", src.folder}, {"present", src.present},
-                            {"materials", src.materials}, {"lightings", src.lightings},
-                            {"scenes", src.scenes}, {"samples", src.samples}});
+               m.push_back({{"folder", src.folder},
+                            {"present", src.present},
+                            {"materials", src.materials},
+                            {"lightings", src.lightings},
+                            {"scenes", src.scenes},
+                            {"samples", src.samples}});
              }
              return m;
            }()},
@@ -267,8 +271,9 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     throw Error(fmt::format("{}:{}", path, e.source().begin.line), "",
                 "malformed TOML: " + std::string(e.description()));
   }
-  r.CheckKeys(root, "", {"study", "group", "measured", "fit", "metrics", "probes", "verdicts",
-                        "outputs", "quick"});
+  r.CheckKeys(
+      root, "",
+      {"study", "group", "measured", "fit", "metrics", "probes", "verdicts", "outputs", "quick"});
 
   // [study]
   const toml::table* study = r.Table(root, "", "study");
@@ -326,9 +331,8 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
           if (const auto dash = lighting.find('-'); dash != std::string::npos) {
             lighting = lighting.substr(dash + 1);
           }
-          if (!quick_lightings.empty() &&
-              std::find(quick_lightings.begin(), quick_lightings.end(), lighting) ==
-                  quick_lightings.end()) {
+          if (!quick_lightings.empty() && std::find(quick_lightings.begin(), quick_lightings.end(),
+                                                    lighting) == quick_lightings.end()) {
             continue;
           }
           if (std::find(src.lightings.begin(), src.lightings.end(), lighting) !=
@@ -356,9 +360,8 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
         std::sort(files.begin(), files.end());
         for (const fs::path& f : files) {
           const std::string material = f.stem().string();
-          if (!quick_materials.empty() &&
-              std::find(quick_materials.begin(), quick_materials.end(), material) ==
-                  quick_materials.end()) {
+          if (!quick_materials.empty() && std::find(quick_materials.begin(), quick_materials.end(),
+                                                    material) == quick_materials.end()) {
             continue;
           }
           if (std::find(src.materials.begin(), src.materials.end(), material) !=
