@@ -7,7 +7,6 @@
 // form at a constant theta_d; `fit` of the environment-lit Cycles reference red-plastic-env
 // against its sidecar's material.
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -49,8 +48,8 @@ std::string ReadText(const fs::path& p) {
 // Runs `shadefit <args>`, stdout to <dir>/stdout.txt and stderr to <dir>/stderr.txt.
 int Shadefit(const std::string& args, const fs::path& dir) {
   const std::string cmd = std::string("'") + SHADEFIT_EXE + "' " + args + " > '" +
-                          (dir / "stdout.txt").string() + "' 2> '" +
-                          (dir / "stderr.txt").string() + "'";
+                          (dir / "stdout.txt").string() + "' 2> '" + (dir / "stderr.txt").string() +
+                          "'";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -117,9 +116,15 @@ TEST(CliHappyPath, MetricsJsonMatchesRecomputedStatistics) {
   const fs::path dir = OutputDir("metrics");
   const std::string a = (dir / "a.exr").string(), b = (dir / "b.exr").string();
   ASSERT_EQ(Shadefit("render --scene '" + kScene + "' --model lambert --set kd=0.5,0.5,0.5 -o '" +
-                         a + "'", dir), 0);
-  ASSERT_EQ(Shadefit("render --scene '" + kScene + "' --model ggx --set kd=0.6,0.5,0.4 "
-                         "--set f0=0.04 --set roughness=0.3 -o '" + b + "'", dir), 0);
+                         a + "'",
+                     dir),
+            0);
+  ASSERT_EQ(Shadefit("render --scene '" + kScene +
+                         "' --model ggx --set kd=0.6,0.5,0.4 "
+                         "--set f0=0.04 --set roughness=0.3 -o '" +
+                         b + "'",
+                     dir),
+            0);
   ASSERT_EQ(Shadefit("metrics '" + a + "' '" + b + "' --json", dir), 0)
       << ReadText(dir / "stderr.txt");
   const json j = json::parse(ReadText(dir / "stdout.txt"));
@@ -152,7 +157,9 @@ TEST(CliHappyPath, FitRecoversRenderedLambert) {
   const fs::path dir = OutputDir("fit");
   const std::string ref = (dir / "ref.exr").string();
   ASSERT_EQ(Shadefit("render --scene '" + kScene + "' --model lambert --set kd=0.7,0.4,0.2 -o '" +
-                         ref + "'", dir), 0);
+                         ref + "'",
+                     dir),
+            0);
   std::ofstream(dir / "ref.json") << json{{"scene_file", kScene}}.dump();
   const std::string out = (dir / "fit.json").string();
   ASSERT_EQ(Shadefit("fit --ref '" + ref + "' --model lambert -o '" + out + "'", dir), 0)
@@ -185,7 +192,8 @@ void PutBe32(std::vector<unsigned char>* out, std::uint32_t v) {
 
 void WriteBytes(const fs::path& p, const std::vector<unsigned char>& bytes) {
   std::ofstream out(p, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
 }
 
 // MERL .binary as published (Matusik et al. 2003; MERL's BRDFRead.cpp): three little-endian
@@ -334,13 +342,15 @@ TEST(CliHappyPath, RefsImportPngDecodesSrgbAndMasksClipped) {
   // Codes that sweep 0..255 in every channel, so the linear segment, the power segment, 253
   // (kept) and 254, 255 (clipped at the default threshold 254) all occur, on and off the sphere.
   auto code = [](int x, int y, int c) {
-    return c == 0 ? (7 * x + 3 * y) % 256 : c == 1 ? (5 * x + 11 * y + 40) % 256
-                                                   : (x * y + 2 * x + 17) % 256;
+    return c == 0   ? (7 * x + 3 * y) % 256
+           : c == 1 ? (5 * x + 11 * y + 40) % 256
+                    : (x * y + 2 * x + 17) % 256;
   };
   std::vector<unsigned char> rgb(64 * 64 * 3);
   for (int y = 0; y < 64; ++y) {
     for (int x = 0; x < 64; ++x) {
-      for (int c = 0; c < 3; ++c) rgb[(y * 64 + x) * 3 + c] = static_cast<unsigned char>(code(x, y, c));
+      for (int c = 0; c < 3; ++c)
+        rgb[(y * 64 + x) * 3 + c] = static_cast<unsigned char>(code(x, y, c));
     }
   }
   WritePngRgb8(png, 64, 64, rgb);
@@ -375,7 +385,9 @@ TEST(CliHappyPath, RefsImportPngDecodesSrgbAndMasksClipped) {
             << "pixel " << x << ", " << y << " channel " << c << " code " << code(x, y, c);
         ++checked_linear;
       }
-      if (sure) EXPECT_EQ(img.at(x, y, 3), hit ? 1.0f : 0.0f) << x << ", " << y;
+      if (sure) {
+        EXPECT_EQ(img.at(x, y, 3), hit ? 1.0f : 0.0f) << x << ", " << y;
+      }
     }
   }
   ASSERT_GT(clipped, 50);
@@ -415,18 +427,21 @@ TEST(CliHappyPath, ProbeFresnelGivesSchlickAtConstantThetaD) {
   const std::string model =
       "--model ggx --set kd=0.3,0.2,0.1 --set f0=0.9,0.6,0.3 --set roughness=0.3";
   std::string refs;
-  for (const auto& [name, theta_d] : {std::pair<std::string, double>{"camera", 0.0}, {"rim", 75.0}}) {
+  for (const auto& [name, theta_d] :
+       {std::pair<std::string, double>{"camera", 0.0}, {"rim", 75.0}}) {
     const fs::path scene = dir / (name + ".toml"), ref = dir / ("ggx-" + name + ".exr");
     std::ofstream(scene) << ConstantThetaDScene(theta_d);
-    ASSERT_EQ(Shadefit("render --scene '" + scene.string() + "' " + model + " -o '" +
-                           ref.string() + "'", dir), 0)
+    ASSERT_EQ(
+        Shadefit("render --scene '" + scene.string() + "' " + model + " -o '" + ref.string() + "'",
+                 dir),
+        0)
         << ReadText(dir / "stderr.txt");
     std::ofstream(dir / ("ggx-" + name + ".json")) << json{{"scene_file", scene.string()}}.dump();
     refs += " --ref '" + ref.string() + "'";
   }
-  ASSERT_EQ(Shadefit("probe fresnel" + refs + " " + model + " -o '" + (dir / "out").string() + "'",
-                     dir),
-            0)
+  ASSERT_EQ(
+      Shadefit("probe fresnel" + refs + " " + model + " -o '" + (dir / "out").string() + "'", dir),
+      0)
       << ReadText(dir / "stderr.txt");
   const json j = json::parse(ReadText(dir / "out" / "fresnel.json"));
   // Effective Fresnel = sum(specular luminance) / sum(unit-Fresnel lobe) (docs/probes.md); with
@@ -452,8 +467,11 @@ TEST(CliHappyPath, FitEnvironmentLitCyclesReferenceRecoversRoughness) {
   const std::string ref =
       std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles/red-plastic-env.exr";
   const std::string out = (dir / "fit.json").string();
-  ASSERT_EQ(Shadefit("fit --ref '" + ref + "' --model cycles-principled --fix specular=0.5 "
-                     "--no-images -o '" + out + "'", dir),
+  ASSERT_EQ(Shadefit("fit --ref '" + ref +
+                         "' --model cycles-principled --fix specular=0.5 "
+                         "--no-images -o '" +
+                         out + "'",
+                     dir),
             0)
       << ReadText(dir / "stderr.txt");
   const json j = json::parse(ReadText(out));
