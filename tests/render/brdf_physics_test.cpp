@@ -2,6 +2,8 @@
 // docs/models.md are the lines this test prints ("[ albedo ]", "[ furnace ]").
 #include <gtest/gtest.h>
 
+#include <ostream>
+
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -91,6 +93,20 @@ struct LobeCase {
   const char* model;
   std::vector<double> params;
 };
+// What gtest prints for a case (and CTest puts in the test's name): the model and parameters.
+void PrintTo(const LobeCase& c, std::ostream* os) {
+  *os << c.model;
+  for (double v : c.params) *os << " " << v;
+}
+
+
+// Stable test names, "<index>_<model>": the default prints the struct's bytes (a pointer among
+// them), so the CTest names changed with every build.
+std::string LobeCaseName(const ::testing::TestParamInfo<LobeCase>& info) {
+  std::string name = std::to_string(info.index) + "_" + info.param.model;
+  for (char& c : name) c = (c == '-') ? '_' : c;
+  return name;
+}
 
 class EnergyConservationTest : public ::testing::TestWithParam<LobeCase> {};
 
@@ -117,7 +133,8 @@ INSTANTIATE_TEST_SUITE_P(
         LobeCase{"ggx-separable", {0, 0, 0, 1, 1, 1, 0.5}},
         LobeCase{"beckmann", {0, 0, 0, 1, 1, 1, 0.5}},
         LobeCase{"ggx-conductor", {0.2, 0.9, 1.1, 3.9, 2.4, 2.2, 0.4}},
-        LobeCase{"lambert", {1, 1, 1}}));
+        LobeCase{"lambert", {1, 1, 1}}),
+    LobeCaseName);
 
 // Normalised Blinn-Phong does not conserve energy: its (n + 8) / (8 pi) normalisation is an
 // approximation. Its bound is the closed form at normal view (NormalisedBlinnPhongAlbedoMatches-
@@ -140,7 +157,9 @@ TEST_P(NormalisedBlinnPhongEnergyTest, AlbedoAtMostClosedFormAtNormalView) {
     const AlbedoEstimate e = DirectionalAlbedo(model.id, p, cv);
     EXPECT_LE(e.value[0], bound + 2e-3)
         << "shininess " << p[6] << " cos_v " << cv << " sigma " << e.std_error[0];
-    if (cv == 1.0) EXPECT_NEAR(e.value[0], bound, 2e-3) << "shininess " << p[6];
+    if (cv == 1.0) {
+      EXPECT_NEAR(e.value[0], bound, 2e-3) << "shininess " << p[6];
+    }
   }
   std::printf("[ albedo ] blinn-phong-normalized n %g: bound %.4f\n", p[6], bound);
 }
@@ -153,7 +172,8 @@ INSTANTIATE_TEST_SUITE_P(
         LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 10}},
         LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 100}},
         LobeCase{"blinn-phong-normalized", {0, 0, 0, 1, 1, 1, 1000}},
-        LobeCase{"blinn-phong-normalized", {0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 50}}));
+        LobeCase{"blinn-phong-normalized", {0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 50}}),
+    LobeCaseName);
 
 // The classic model is not normalised: with ks = 1 and a broad lobe it reflects more than
 // arrives (documented in docs/models.md as the expected failure the study measures).

@@ -5,6 +5,8 @@
 // The tolerances here are the numbers stated in docs/environment.md.
 #include <gtest/gtest.h>
 
+#include <ostream>
+
 #include <cmath>
 #include <cstdio>
 #include <algorithm>
@@ -100,6 +102,12 @@ struct EnvCase {
   // the opposite rotation fail it (checked below).
   double quadrature_tolerance = 0.01;
 };
+// What gtest prints for a case (and CTest puts in the test's name): the model and parameters.
+void PrintTo(const EnvCase& c, std::ostream* os) {
+  *os << c.model;
+  for (double v : c.params) *os << " " << v;
+}
+
 
 class EnvironmentTest : public ::testing::TestWithParam<EnvCase> {};
 
@@ -263,7 +271,14 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(EnvCase{"lambert", {0.8, 0.8, 0.8}, 0.01},
                       EnvCase{"ggx", {0.5, 0.2, 0.1, 0.04, 0.04, 0.04, 0.5}, 0.02},
                       EnvCase{"ggx", {0.0, 0.0, 0.0, 0.9, 0.7, 0.3, 0.15}, 0.03, 16, 0.005},
-                      EnvCase{"blinn-phong-normalized", {0.3, 0.3, 0.3, 0.5, 0.5, 0.5, 80}, 0.03}));
+                      EnvCase{"blinn-phong-normalized", {0.3, 0.3, 0.3, 0.5, 0.5, 0.5, 80}, 0.03}),
+    // Stable names ("<index>_<model>"): the default prints the struct's bytes, pointers
+    // included, so the CTest names changed with every build.
+    [](const ::testing::TestParamInfo<EnvCase>& info) {
+      std::string name = std::to_string(info.index) + "_" + info.param.model;
+      for (char& c : name) c = (c == '-') ? '_' : c;
+      return name;
+    });
 
 // White furnace: Lambert kd = 1 under a uniform environment of radiance 1 is 1 everywhere.
 TEST(Environment, UniformFurnaceLambert) {
