@@ -8,10 +8,12 @@
 #include <fmt/chrono.h>
 #include <fmt/core.h>
 #include <sys/utsname.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -248,6 +250,34 @@ class StudyRun {
   std::string first_error_;
 };
 
+// Hidden temporaries are named "<dir>/.<name>.<pid>.<n>.tmp" (TemporaryPathFor, render/files.h)
+// or ".<probe>.<pid>.tmp.<ext>" (the probes' plot files). True when `leaf` is one of them and no
+// process with that pid is running.
+bool IsTemporaryOfDeadProcess(const std::string& leaf) {
+  if (leaf.size() < 6 || leaf[0] != '.') return false;
+  std::vector<std::string> parts;
+  std::size_t start = 1;
+  while (true) {
+    const std::size_t dot = leaf.find('.', start);
+    parts.push_back(leaf.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  auto numeric = [](const std::string& x) {
+    return !x.empty() && x.size() < 10 &&
+           std::all_of(x.begin(), x.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  const std::size_t n = parts.size();
+  long pid = -1;
+  if (n >= 4 && parts[n - 1] == "tmp" && numeric(parts[n - 2]) && numeric(parts[n - 3])) {
+    pid = std::stol(parts[n - 3]);
+  } else if (n >= 4 && parts[n - 2] == "tmp" && numeric(parts[n - 3])) {
+    pid = std::stol(parts[n - 3]);
+  }
+  if (pid <= 0) return false;
+  return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+}
+
 void StudyRun::Prepare() {
   dir_ = fs::absolute(fs::path(options_.out_dir) / spec_.name).lexically_normal();
   std::error_code ec;
@@ -255,14 +285,15 @@ void StudyRun::Prepare() {
     fs::create_directories(dir_ / sub, ec);
     if (ec) throw Error((dir_ / sub).string(), "", "cannot create directory: " + ec.message());
   }
-  // Temporary files of an interrupted (killed) run: never results, safe to remove.
+  // Temporary files of an interrupted (killed) run: never results. Removed when the process
+  // that wrote them is gone; a live one (another run in the same folder) keeps its own.
+  std::vector<fs::path> stale;
   for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
-    const std::string leaf = entry.path().filename().string();
-    if (entry.is_regular_file() && leaf.size() > 4 && leaf[0] == '.' &&
-        leaf.ends_with(".tmp")) {
-      fs::remove(entry.path(), ec);
+    if (entry.is_regular_file() && IsTemporaryOfDeadProcess(entry.path().filename().string())) {
+      stale.push_back(entry.path());
     }
   }
+  for (const fs::path& p : stale) fs::remove(p, ec);
   log_ = std::make_unique<Log>((dir_ / "study.log").string(), options_.progress_bar,
                                options_.quiet);
   json study = spec_.ToJson();
