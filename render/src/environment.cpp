@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <mutex>
 #include <tuple>
@@ -20,15 +21,6 @@ constexpr int kMaxPdfWidth = 512;
 // Every cell keeps at least this fraction of the mean weight, so no direction has zero density.
 constexpr double kPdfFloor = 1e-3;
 
-double RadicalInverse2(unsigned int bits) {
-  bits = (bits << 16u) | (bits >> 16u);
-  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-  return static_cast<double>(bits) * 2.3283064365386963e-10;
-}
-
 // Index i with cdf[i] <= x < cdf[i + 1] and the position of x inside that interval.
 int SampleCdf(const double* cdf, int n, double x, double* frac) {
   const double* it = std::upper_bound(cdf, cdf + n + 1, x);
@@ -39,6 +31,15 @@ int SampleCdf(const double* cdf, int n, double x, double* frac) {
 }
 
 }  // namespace
+
+double RadicalInverseBase2(std::uint32_t bits) {
+  bits = (bits << 16u) | (bits >> 16u);
+  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
+  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
+  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
+  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
+  return static_cast<double>(bits) * 2.3283064365386963e-10;
+}
 
 void DirectionToEquirect(const Vec3d& d, double* u, double* v) {
   *u = -std::atan2(d.y, d.x) / (2.0 * kPi) + 0.5;
@@ -162,7 +163,7 @@ std::vector<float> EnvironmentMap::SampleSetMapSpace(int n) const {
   for (int i = 0; i < n; ++i) {
     double u, v;
     const Vec3d d =
-        SampleMapSpace((i + 0.5) / n, RadicalInverse2(static_cast<unsigned>(i)), &u, &v);
+        SampleMapSpace((i + 0.5) / n, RadicalInverseBase2(static_cast<std::uint32_t>(i)), &u, &v);
     out[4 * i + 0] = static_cast<float>(d.x);
     out[4 * i + 1] = static_cast<float>(d.y);
     out[4 * i + 2] = static_cast<float>(d.z);

@@ -17,14 +17,6 @@ namespace {
 // Same offset as kRayEpsilon in render/shaders/render.frag.
 constexpr double kOcclusionEpsilon = 1e-4;
 
-double RadicalInverseBase2(std::uint32_t bits) {
-  bits = (bits << 16u) | (bits >> 16u);
-  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-  return static_cast<double>(bits) * 2.3283064365386963e-10;
-}
 
 // Per-pixel Cranley-Patterson rotation of the Hammersley set: decorrelates pixels, and is a
 // function of the pixel and the seed only.

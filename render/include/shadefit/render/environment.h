@@ -2,6 +2,7 @@
 // luminance distribution used to importance-sample them (render/shaders/environment.glsl).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,6 +47,10 @@ class EnvironmentMap {
   double strength_ = 1.0;
   double world_to_map_[9];
 };
+
+// Van der Corput radical inverse in base 2 (bit reversal): the second coordinate of the
+// Hammersley point sets of the environment samplers.
+double RadicalInverseBase2(std::uint32_t bits);
 
 // Directions in map space <-> equirectangular (u, v), v = 0 at the bottom (Cycles).
 void DirectionToEquirect(const Vec3d& d, double* u, double* v);
