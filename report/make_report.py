@@ -225,6 +225,7 @@ def judge(kind, tol, ref, val, floor=0.0):
 def compute_verdicts(study, rows, probes):
     """One record per phenomenon x material x fit (worst quantity), plus every quantity."""
     labels = labels_of(study)
+    model_of = {f["label"]: f["model"] for f in study["fits"]}
     detail, summary = [], []
     for name, v in study.get("verdicts", {}).items():
         tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
@@ -246,6 +247,11 @@ def compute_verdicts(study, rows, probes):
                         # report the true BRDF as "truth".
                         ref = flatten(numbers.get("reference") or numbers.get("truth") or {})
                         mod = flatten(numbers.get(label, {}))
+                        # The energy probe's parameter sweep is per model, not per fit: it says
+                        # whether the model's form conserves energy over its parameter range.
+                        sweep = (numbers.get("sweep") or {}).get(model_of.get(label, ""))
+                        if sweep:
+                            mod.update(flatten({"sweep": sweep}))
                         patterns = v.get("keys") or []
                         pool = list(mod.keys()) if kind == "max" else \
                             [k for k in ref if k in mod] + [k for k in mod if k not in ref]
