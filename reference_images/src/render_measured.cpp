@@ -59,20 +59,6 @@ struct Frame {
   Vec3d ToWorld(const Vec3d& v) const { return t * v.x + b * v.y + n * v.z; }
 };
 
-// The distant light integrated by Monte Carlo: an environment map or a uniform radiance.
-struct DistantLight {
-  std::shared_ptr<const EnvironmentMap> map;  // null: uniform
-  Vec3d uniform{0, 0, 0};
-  Vec3d Radiance(const Vec3d& d) const { return map ? map->Radiance(d) : uniform; }
-  double Pdf(const Vec3d& d) const { return map ? map->Pdf(d) : 1.0 / (4.0 * kPi); }
-  Vec3d Sample(double u1, double u2) const {
-    if (map) return map->Sample(u1, u2);
-    const double z = 1.0 - 2.0 * u1, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const double phi = 2.0 * kPi * u2;
-    return {r * std::cos(phi), r * std::sin(phi), z};
-  }
-};
-
 // GGX distribution of normals (Walter et al. 2007, eq. 33), cos theta_h = h.z.
 double D_GGX(double alpha, double NoH) {
   const double a2 = alpha * alpha;

@@ -41,6 +41,17 @@ double RadicalInverseBase2(std::uint32_t bits) {
   return static_cast<double>(bits) * 2.3283064365386963e-10;
 }
 
+double DistantLight::Pdf(const Vec3d& d) const {
+  return map ? map->Pdf(d) : 1.0 / (4.0 * kPi);
+}
+
+Vec3d DistantLight::Sample(double u1, double u2) const {
+  if (map) return map->Sample(u1, u2);
+  const double z = 1.0 - 2.0 * u1, r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const double phi = 2.0 * kPi * u2;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
 void DirectionToEquirect(const Vec3d& d, double* u, double* v) {
   *u = -std::atan2(d.y, d.x) / (2.0 * kPi) + 0.5;
   *v = std::atan2(d.z, std::hypot(d.x, d.y)) / kPi + 0.5;

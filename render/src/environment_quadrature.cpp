@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/gbuffer.h"
@@ -32,18 +33,12 @@ void PixelOffset(int x, int y, std::uint32_t seed, double* o1, double* o2) {
 
 double Fract(double x) { return x - std::floor(x); }
 
-// Orthonormal frame (t, b, n) around a unit normal.
+// Orthonormal frame (t, b, n) around a unit normal, built as the GL shader's FrameAround
+// (render/shaders/environment.glsl) builds it, so both estimators orient their samples alike.
 void Frame(const Vec3d& n, Vec3d* t, Vec3d* b) {
   *t = std::abs(n.z) < 0.999 ? Normalize(Cross(Vec3d{0, 0, 1}, n))
                              : Normalize(Cross(Vec3d{1, 0, 0}, n));
   *b = Cross(n, *t);
-}
-
-// GGX (Trowbridge-Reitz) normal distribution D(h) for cos(theta_h) = c.
-double GgxD(double c, double alpha) {
-  const double a2 = alpha * alpha;
-  const double d = c * c * (a2 - 1.0) + 1.0;
-  return a2 / (kPi * d * d);
 }
 
 // Density over solid angle of l = reflect(v, h) with h ~ D(h) (n.h): D (n.h) / (4 v.h).
@@ -52,21 +47,9 @@ double GgxLightPdf(const Vec3d& n, const Vec3d& v, const Vec3d& l, double alpha)
   const Vec3d h = Normalize(l + v);
   const double noh = Dot(n, h), voh = Dot(v, h);
   if (noh <= 0 || voh <= 0) return 0;
-  return GgxD(noh, alpha) * noh / (4.0 * voh);
+  const Vec3d nxh = Cross(n, h);
+  return D_GGX(noh, Dot(nxh, nxh), alpha) * noh / (4.0 * voh);
 }
-
-struct LightSource {
-  const EnvironmentMap* map = nullptr;  // nullptr: uniform radiance
-  Vec3d uniform{0, 0, 0};
-
-  Vec3d Radiance(const Vec3d& l) const { return map ? map->Radiance(l) : uniform; }
-  double Pdf(const Vec3d& l) const { return map ? map->Pdf(l) : 1.0 / (4.0 * kPi); }
-  Vec3d Sample(double u1, double u2) const {
-    if (map) return map->Sample(u1, u2);
-    const double z = 1.0 - 2.0 * u1, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    return {r * std::cos(2 * kPi * u2), r * std::sin(2 * kPi * u2), z};
-  }
-};
 
 }  // namespace
 
@@ -75,11 +58,9 @@ void AttachEnvironmentSamples(const Scene& scene, const EnvironmentQuadrature& q
   const int index = scene.EnvironmentLight();
   if (index < 0) return;
   const Light& source = scene.lights[index];
-  std::shared_ptr<const EnvironmentMap> map;
-  LightSource light;
+  DistantLight light;
   if (source.type == Light::Type::kEnvironment) {
-    map = LoadEnvironmentCached(source.file, source.strength, source.rotation_z_deg);
-    light.map = map.get();
+    light.map = LoadEnvironmentCached(source.file, source.strength, source.rotation_z_deg);
   } else {
     light.uniform = source.value;
   }

@@ -56,6 +56,18 @@ double RadicalInverseBase2(std::uint32_t bits);
 void DirectionToEquirect(const Vec3d& d, double* u, double* v);
 Vec3d EquirectToDirection(double u, double v);
 
+// The distant light that the CPU integrators (the twin's quadrature, gbuffer.h; the measured
+// renderer, reference_images/) sample: an equirectangular map, or a uniform radiance when `map`
+// is null (uniform density over the sphere).
+struct DistantLight {
+  std::shared_ptr<const EnvironmentMap> map;
+  Vec3d uniform{0, 0, 0};
+
+  Vec3d Radiance(const Vec3d& d) const { return map ? map->Radiance(d) : uniform; }
+  double Pdf(const Vec3d& d) const;
+  Vec3d Sample(double u1, double u2) const;
+};
+
 // Loads once per (path, strength, rotation) and shares the result between renderers.
 std::shared_ptr<const EnvironmentMap> LoadEnvironmentCached(const std::string& path,
                                                             double strength,
