@@ -1,5 +1,7 @@
-// `shadefit study run S.toml [-j N] [-o OUT] [--quick] [--force] [--no-report]`: runs a study
-// (docs/studies.md) and, when every job succeeded, makes its report.
+// `shadefit study run S.toml [-j N] [-o OUT] [--quick] [--force] [--no-report] [--shard i/N]`:
+// runs a study (docs/studies.md), or one shard of it, and, when every job succeeded, makes its
+// report. `shadefit study merge OUT/STUDY` merges the shards' outputs; `shadefit study slurm`
+// writes the sbatch scripts that run the shards and the merge on a cluster (docs/cluster.md).
 //
 // Links: shadefit::studies, CLI11::CLI11, fmt::fmt.
 #include <fmt/core.h>
@@ -9,12 +11,15 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
+#include <set>
 #include <string>
 
 #include "commands.h"
 #include "report_command.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
 
@@ -44,25 +49,40 @@ struct StudyRunOptions {
   bool force = false;
   bool no_report = false;
   bool quiet = false;
+  std::string shard;  // "i/N"; empty: the whole study.
 };
+
+// The report, which reads the finished results.
+void FinishStudy(const studies::StudySpec& spec, const std::string& study_dir, bool report) {
+  if (spec.report && report) MakeReport(study_dir);
+}
 
 void RunStudyCommand(const StudyRunOptions& o) {
   studies::StudySpec spec = studies::LoadStudy(o.study, o.quick);
+  const studies::Shard shard =
+      o.shard.empty() ? studies::Shard{} : studies::ParseShard(o.shard, "--shard");
   if (const std::string skip = studies::MeasuredSkipReason(spec); !skip.empty()) {
     std::fprintf(stderr, "shadefit: study %s: %s\n", spec.name.c_str(), skip.c_str());
   }
-  const studies::MeasuredSummary measured =
-      studies::MaterialiseMeasuredReferences(&spec, o.out, o.quiet);
+  std::set<std::string> shard_materials;
+  studies::MeasuredOptions mo;
+  mo.quiet = o.quiet;
+  if (!shard.whole()) {
+    shard_materials = studies::RestrictToShard(&spec, shard);
+    mo.materials = &shard_materials;
+  }
+  const studies::MeasuredSummary measured = studies::MaterialiseMeasuredReferences(&spec, o.out, mo);
   if (measured.rendered + measured.unchanged > 0 && !o.quiet) {
     std::fprintf(stderr, "study %s: %d measured reference(s) rendered (%.1f s), %d unchanged\n",
                  spec.name.c_str(), measured.rendered, measured.seconds, measured.unchanged);
   }
-  if (spec.groups.empty()) {
+  if (spec.groups.empty() && shard.whole()) {
     std::fprintf(stderr, "shadefit: study %s: no material to study; nothing run\n",
                  spec.name.c_str());
     return;
   }
   studies::RunOptions ro;
+  ro.shard = shard;
   ro.jobs = o.jobs;
   ro.out_dir = o.out;
   ro.force = o.force;
@@ -92,8 +112,59 @@ void RunStudyCommand(const StudyRunOptions& o) {
                 fmt::format("{} job(s) failed ({}...), {} not run", s.failed, s.failed_ids.front(),
                             s.not_run));
   }
-  if (spec.report && !o.no_report) MakeReport(s.study_dir);
+  if (shard.whole()) FinishStudy(spec, s.study_dir, !o.no_report);
   fmt::print("{}\n", s.study_dir);
+}
+
+struct StudyMergeOptions {
+  std::string study_dir;
+  std::string study;  // Overrides the study path the shards recorded (a moved checkout).
+  bool no_report = false;
+  bool quiet = false;
+};
+
+// Every shard has finished: check that the whole job graph is done, then write the study-wide
+// outputs exactly as a single-machine run would, and the report.
+void MergeStudyCommand(const StudyMergeOptions& o) {
+  const studies::ShardedRun sharded = studies::ReadShardManifests(o.study_dir);
+  const std::string path = o.study.empty() ? sharded.study_path : o.study;
+  studies::StudySpec spec = studies::LoadStudy(path, sharded.quick);
+  if (Sha256String(spec.text) != sharded.study_sha256) {
+    throw Error(path, "", "differs from the study file the shards ran (its SHA-256 changed); "
+                          "rerun the shards, or pass the original with --study");
+  }
+  const std::filesystem::path dir = std::filesystem::absolute(o.study_dir).lexically_normal();
+  if (dir.filename() != spec.name) {
+    throw Error(o.study_dir, "", "is not the output folder of study '" + spec.name + "'");
+  }
+  studies::MeasuredOptions mo;
+  mo.quiet = o.quiet;
+  mo.render = false;
+  studies::MaterialiseMeasuredReferences(&spec, dir.parent_path().string(), mo);
+  studies::RunOptions ro;
+  ro.out_dir = dir.parent_path().string();
+  ro.merge_only = true;
+  ro.shard_manifests = sharded.manifests;
+  ro.quiet = o.quiet;
+  const studies::RunSummary s = studies::RunStudy(spec, ro);
+  FinishStudy(spec, s.study_dir, !o.no_report);
+  fmt::print("{}\n", s.study_dir);
+}
+
+struct StudySlurmOptions {
+  std::string study;
+  studies::SlurmOptions slurm;
+};
+
+void SlurmStudyCommand(const StudySlurmOptions& o) {
+  const studies::StudySpec spec = studies::LoadStudy(o.study, o.slurm.quick);
+  studies::SlurmOptions so = o.slurm;
+  std::error_code ec;
+  so.executable = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+  const studies::SlurmScripts s = studies::WriteSlurmScripts(spec, so);
+  std::fprintf(stderr, "wrote %s\n      %s\nsubmit both (on the login node):\n",
+               s.shards_script.c_str(), s.merge_script.c_str());
+  fmt::print("{}\n", s.submit_command);
 }
 
 }  // namespace
@@ -113,7 +184,36 @@ void RegisterStudyCommand(CLI::App& app) {
   run->add_flag("--force", o->force, "Rerun every job, even unchanged ones");
   run->add_flag("--no-report", o->no_report, "Do not make the report at the end");
   run->add_flag("-q,--quiet", o->quiet, "No progress output (study.log is still written)");
+  run->add_option("--shard", o->shard,
+                  "Run share i of N (i/N, 1-based) of the job graph; `study merge` joins them");
   run->callback([o] { RunStudyCommand(*o); });
+
+  auto m = std::make_shared<StudyMergeOptions>();
+  CLI::App* merge = study->add_subcommand(
+      "merge", "Merge the outputs of a sharded run (every shard done) into the study's tables");
+  merge->add_option("study_dir", m->study_dir, "The study's output folder, OUT/<study name>")
+      ->required();
+  merge->add_option("--study", m->study, "Study file, if it moved since the shards ran");
+  merge->add_flag("--no-report", m->no_report, "Do not make the report");
+  merge->add_flag("-q,--quiet", m->quiet, "No progress output");
+  merge->callback([m] { MergeStudyCommand(*m); });
+
+  auto sl = std::make_shared<StudySlurmOptions>();
+  CLI::App* slurm = study->add_subcommand(
+      "slurm", "Write sbatch scripts: a job array of shards and a dependent merge job");
+  slurm->add_option("study", sl->study, "Study file (TOML)")->required();
+  slurm->add_option("--array", sl->slurm.array, "Shards, one per array task")->capture_default_str();
+  slurm->add_option("--partition", sl->slurm.partition, "Slurm partition (default: the cluster's)");
+  slurm->add_option("--time", sl->slurm.time, "Time limit per task (sbatch --time)")
+      ->capture_default_str();
+  slurm->add_option("--cpus", sl->slurm.cpus, "CPUs per task (= the shard's workers)")
+      ->capture_default_str();
+  slurm->add_option("--gpus", sl->slurm.gpus, "GPUs per task (EGL then uses the NVIDIA device)")
+      ->capture_default_str();
+  slurm->add_option("-o,--out", sl->slurm.out_dir, "Output folder, shared by every node")
+      ->capture_default_str();
+  slurm->add_flag("--quick", sl->slurm.quick, "Apply the study's [quick] table");
+  slurm->callback([sl] { SlurmStudyCommand(*sl); });
 }
 
 }  // namespace shadefit::cli

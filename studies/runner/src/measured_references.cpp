@@ -46,7 +46,7 @@ std::string ReferenceKey(const MeasuredSource& src, std::size_t material, std::s
 }  // namespace
 
 MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string& out_dir,
-                                              bool quiet) {
+                                              const MeasuredOptions& options) {
   MeasuredSummary summary;
   bool any = false;
   for (const MeasuredSource& src : spec->measured) any = any || !src.brdfs.empty();
@@ -59,6 +59,9 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
   std::unique_ptr<Renderer> renderer;
   for (const MeasuredSource& src : spec->measured) {
     for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
+      if (options.materials != nullptr && options.materials->count(src.materials[m]) == 0) {
+        continue;
+      }
       for (const ReferenceGroup& g : spec->groups) {
         if (g.material == src.materials[m]) {
           throw Error(spec->path, "measured.folder",
@@ -80,6 +83,9 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
                             fs::exists(key_path) && ReadAll(key_path.string()) == key + "\n";
         if (cached) {
           ++summary.unchanged;
+        } else if (!options.render) {
+          throw Error(ref.image_path, "", "measured reference missing or out of date; rerun the "
+                      "shard that renders material '" + group.material + "'");
         } else {
           if (!renderer) {
             context = std::make_unique<GlContext>();
@@ -96,7 +102,7 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
           WriteTextAtomic(key_path.string(), key + "\n");
           ++summary.rendered;
           summary.seconds += stats.seconds;
-          if (!quiet) {
+          if (!options.quiet) {
             fmt::print(stderr, "measured reference {} ({:.2f} s)\n", ref.name, stats.seconds);
           }
         }

@@ -43,6 +43,7 @@
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/probes/probes.h"
+#include "job_cost.h"
 
 #ifndef SHADEFIT_VERSION_STRING
 #define SHADEFIT_VERSION_STRING "unknown"
@@ -224,6 +225,7 @@ class StudyRun {
 
  private:
   void Prepare();
+  void SweepDeadTemporaries(std::vector<fs::path>* stale);
   void BuildJobs();
   bool UpToDate(const Job& job) const;
   void WorkerLoop(int index);
@@ -232,6 +234,14 @@ class StudyRun {
   void WriteResultsCsv();
   void WriteProvenance(const std::string& gl_renderer);
   std::string JobPath(const Job& job) const { return (dir_ / "jobs" / (job.id + ".json")).string(); }
+  std::string TimingPath(const Job& job) const {
+    return (dir_ / "jobs" / (job.id + ".timing.json")).string();
+  }
+  void WriteTiming(const Job& job, double seconds, double solver_seconds);
+  void WriteTimingsCsv();
+  void WriteShardManifest(double seconds);
+  void CheckMergeable() const;
+  std::string HostName() const;
   double ErrorScale(const fit::FitReference& ref) const;
 
   const StudySpec& spec_;
@@ -240,7 +250,7 @@ class StudyRun {
   std::map<std::string, InputHashes> hashes_;  // By reference image path.
   std::vector<Job> jobs_;
   std::unique_ptr<Log> log_;
-  int threads_per_fit_ = 1;
+  static constexpr int kCeresThreadsPerFit = 1;
 
   std::mutex mutex_;
   std::condition_variable cv_;
@@ -278,6 +288,16 @@ bool IsTemporaryOfDeadProcess(const std::string& leaf) {
   return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
 }
 
+void StudyRun::SweepDeadTemporaries(std::vector<fs::path>* stale) {
+  for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
+    if (entry.is_regular_file() && IsTemporaryOfDeadProcess(entry.path().filename().string())) {
+      stale->push_back(entry.path());
+    }
+  }
+  std::error_code ec;
+  for (const fs::path& p : *stale) fs::remove(p, ec);
+}
+
 void StudyRun::Prepare() {
   dir_ = fs::absolute(fs::path(options_.out_dir) / spec_.name).lexically_normal();
   std::error_code ec;
@@ -285,20 +305,22 @@ void StudyRun::Prepare() {
     fs::create_directories(dir_ / sub, ec);
     if (ec) throw Error((dir_ / sub).string(), "", "cannot create directory: " + ec.message());
   }
+  if (!options_.shard.whole()) fs::create_directories(dir_ / "shards", ec);
   // Temporary files of an interrupted (killed) run: never results. Removed when the process
-  // that wrote them is gone; a live one (another run in the same folder) keeps its own.
+  // that wrote them is gone; a live one (another run in the same folder) keeps its own. A shard
+  // leaves them alone: the folder may be shared with shards on other hosts, whose pids mean
+  // nothing here; the merge, which runs after every shard, removes them.
   std::vector<fs::path> stale;
-  for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
-    if (entry.is_regular_file() && IsTemporaryOfDeadProcess(entry.path().filename().string())) {
-      stale.push_back(entry.path());
-    }
+  if (options_.shard.whole() && !options_.merge_only) SweepDeadTemporaries(&stale);
+  const fs::path log_path = options_.shard.whole()
+                                ? dir_ / "study.log"
+                                : dir_ / "shards" / (options_.shard.Name() + ".log");
+  log_ = std::make_unique<Log>(log_path.string(), options_.progress_bar, options_.quiet);
+  if (options_.shard.whole()) {  // A shard's spec holds only its own materials.
+    json study = spec_.ToJson();
+    study["shadefit_version"] = ShadefitVersion();
+    WriteFileAtomic((dir_ / "study.json").string(), study.dump(2) + "\n");
   }
-  for (const fs::path& p : stale) fs::remove(p, ec);
-  log_ = std::make_unique<Log>((dir_ / "study.log").string(), options_.progress_bar,
-                               options_.quiet);
-  json study = spec_.ToJson();
-  study["shadefit_version"] = ShadefitVersion();
-  WriteFileAtomic((dir_ / "study.json").string(), study.dump(2) + "\n");
   for (const ReferenceGroup& g : spec_.groups) {
     for (const ReferenceSpec& r : g.references) {
       InputHashes h;
@@ -344,8 +366,7 @@ void StudyRun::BuildJobs() {
                         {"previews", spec_.previews},
                         {"references", refs}};
         job.hash = Sha256String(version + "\n" + context.dump());
-        const double pixels_factor = 1.0 / (s.pixel_stride * s.pixel_stride);
-        job.weight = 1.0 + s.starts * train.size() * pixels_factor * 2.0;
+        job.weight = FitJobCost(s, train.size(), g.references.size());
         fit_jobs.push_back(static_cast<int>(jobs_.size()));
         fit_hashes.push_back(job.hash);
         jobs_.push_back(job);
@@ -360,7 +381,7 @@ void StudyRun::BuildJobs() {
       json context = {{"kind", "probe"}, {"probes", spec_.probes}, {"references", refs},
                       {"fits", fit_hashes}};
       job.hash = Sha256String(version + "\n" + context.dump());
-      job.weight = 1.0 + 0.5 * spec_.probes.size();
+      job.weight = ProbeJobCost(spec_.probes.size());
       jobs_.push_back(job);
     }
   }
@@ -458,7 +479,10 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   fo.path = fit::ParsePath(s.path);
   fo.max_iterations = s.max_iterations;
   fo.environment_samples = s.environment_samples;
-  fo.num_threads = threads_per_fit_;
+  // One Ceres thread per fit: a fit's sums then run in one fixed order, so its numbers are the
+  // same bytes for any -j, any shard count and any machine load (the runner parallelises over
+  // jobs instead; docs/studies.md, "Determinism").
+  fo.num_threads = kCeresThreadsPerFit;
   fo.render_outputs = false;  // The evaluation below renders every lighting, training ones too.
   fo.renderer = worker.renderer.get();
   const fit::FitResult result = fit::Fit(problem, fo);
@@ -547,8 +571,11 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
             {"parameters", params},
             {"fit", fit::FitResultToJson(result)},
             {"evaluations", evaluations},
-            {"outputs", outputs},
-            {"seconds", std::chrono::duration<double>(Clock::now() - t0).count()}};
+            {"outputs", outputs}};
+  // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
+  // is the same bytes on every run.
+  j["fit"]["solver"].erase("seconds");
+  WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), result.seconds);
   WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
 }
 
@@ -614,8 +641,8 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
             {"shadefit_version", ShadefitVersion()},
             {"material", g.material},
             {"probes", results},
-            {"outputs", outputs},
-            {"seconds", std::chrono::duration<double>(Clock::now() - t0).count()}};
+            {"outputs", outputs}};
+  WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), 0.0);
   WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
 }
 
@@ -733,7 +760,7 @@ void StudyRun::WriteResultsCsv() {
                                                 "flip_ldr_mean", "flip_hdr_mean"};
   csv << "material,lighting,reference,label,model,train,split,converged";
   for (const auto& c : metric_cols) csv << "," << c;
-  csv << ",fit_seconds\n";
+  csv << "\n";
   for (const Job& job : jobs_) {
     if (job.kind != Job::Kind::kFit) continue;
     std::ifstream in(JobPath(job));
@@ -747,7 +774,7 @@ void StudyRun::WriteResultsCsv() {
         const json& v = e["metrics"][c];
         csv << "," << (v.is_null() ? std::string("") : fmt::format("{:.9g}", v.get<double>()));
       }
-      csv << "," << fmt::format("{:.3f}", j["seconds"].get<double>()) << "\n";
+      csv << "\n";
     }
   }
   WriteFileAtomic((dir_ / "results.csv").string(), csv.str());
@@ -790,8 +817,103 @@ void StudyRun::WriteProvenance(const std::string& gl_renderer) {
       {"gl_renderer", gl_renderer},
       {"machine", {{"uname", fmt::format("{} {} {} {}", u.sysname, u.release, u.version, u.machine)},
                    {"cpu_count", std::thread::hardware_concurrency()}}},
-      {"run", {{"workers", options_.jobs}, {"ceres_threads_per_fit", threads_per_fit_}}}};
+      {"run", {{"workers", options_.jobs}, {"ceres_threads_per_fit", kCeresThreadsPerFit}}}};
+  if (options_.merge_only) {
+    json shards = json::array();
+    for (const json& m : options_.shard_manifests) {
+      shards.push_back({{"shard", m.value("shard", 0)}, {"count", m.value("count", 0)},
+                        {"host", m.value("host", "")}, {"gl_renderer", m.value("gl_renderer", "")},
+                        {"workers", m.value("workers", 0)}, {"seconds", m.value("seconds", 0.0)},
+                        {"materials", m.value("materials", json::array())}});
+    }
+    p["run"]["merged_shards"] = shards;
+  }
   WriteFileAtomic((dir_ / "provenance.json").string(), p.dump(2) + "\n");
+}
+
+std::string StudyRun::HostName() const {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0) return "unknown";
+  return host;
+}
+
+void StudyRun::WriteTiming(const Job& job, double seconds, double solver_seconds) {
+  const json t = {{"schema", "shadefit.study.timing/1"},
+                  {"id", job.id},
+                  {"seconds", seconds},
+                  {"solver_seconds", solver_seconds},
+                  {"host", HostName()},
+                  {"shard", options_.shard.Name()}};
+  WriteFileAtomic(TimingPath(job), t.dump(1) + "\n");
+}
+
+// timings.csv: where the time went, per job (wall seconds, the fit's solver seconds, host and
+// shard). Kept out of results.csv, which holds results only and is the same bytes on every run.
+void StudyRun::WriteTimingsCsv() {
+  std::ostringstream csv;
+  csv << "id,kind,material,label,seconds,solver_seconds,host,shard\n";
+  for (const Job& job : jobs_) {
+    json t = json::object();
+    std::ifstream in(TimingPath(job));
+    if (in) {
+      try {
+        t = json::parse(in);
+      } catch (const json::exception&) {
+        t = json::object();  // A timing is a diagnostic; a bad one leaves its cells empty.
+      }
+    }
+    const auto number = [&](const char* key) {
+      return t.contains(key) && t[key].is_number() ? fmt::format("{:.3f}", t[key].get<double>())
+                                                   : std::string();
+    };
+    const auto text = [&](const char* key) {
+      return t.contains(key) && t[key].is_string() ? t[key].get<std::string>() : std::string();
+    };
+    csv << job.id << "," << (job.kind == Job::Kind::kFit ? "fit" : "probe") << ","
+        << spec_.groups[job.group].material << "," << job.label << "," << number("seconds") << ","
+        << number("solver_seconds") << "," << text("host") << "," << text("shard") << "\n";
+  }
+  WriteFileAtomic((dir_ / "timings.csv").string(), csv.str());
+}
+
+// shards/<i>-of-<N>.json, written last by a shard whose every job is done: what the merge needs
+// to reload the study, and the shard's provenance.
+void StudyRun::WriteShardManifest(double seconds) {
+  json jobs = json::array();
+  std::set<std::string> materials;
+  for (const Job& job : jobs_) {
+    jobs.push_back({{"id", job.id}, {"hash", job.hash}});
+    materials.insert(spec_.groups[job.group].material);
+  }
+  const json m = {{"schema", "shadefit.study.shard/1"},
+                  {"shard", options_.shard.index},
+                  {"count", options_.shard.count},
+                  {"study_path", spec_.path},
+                  {"study_sha256", Sha256String(spec_.text)},
+                  {"quick", spec_.quick},
+                  {"shadefit_version", ShadefitVersion()},
+                  {"materials", materials},
+                  {"jobs", jobs},
+                  {"gl_renderer", gl_renderer_},
+                  {"host", HostName()},
+                  {"workers", options_.jobs},
+                  {"seconds", seconds}};
+  WriteFileAtomic((dir_ / "shards" / (options_.shard.Name() + ".json")).string(),
+                  m.dump(1) + "\n");
+}
+
+// A merge runs nothing: every job of the whole graph must be done with its current hash.
+void StudyRun::CheckMergeable() const {
+  std::vector<const Job*> missing;
+  for (const Job& job : jobs_) {
+    if (job.state != Job::State::kSkipped) missing.push_back(&job);
+  }
+  if (missing.empty()) return;
+  const Job& first = *missing.front();
+  throw Error(JobPath(first), "", fmt::format("{} of {} job(s) not done or out of date (first: "
+                                              "{}); rerun the shard of material '{}'",
+                                              missing.size(), jobs_.size(), first.id,
+                                              spec_.groups[first.group].material));
 }
 
 RunSummary StudyRun::Run() {
@@ -808,14 +930,21 @@ RunSummary StudyRun::Run() {
       log_->Line("skip " + job.id + " (unchanged)");
     }
   }
+  if (options_.merge_only) {
+    CheckMergeable();
+    std::vector<fs::path> stale;
+    SweepDeadTemporaries(&stale);  // Every shard has finished: what is left is dead.
+  }
   const unsigned cpus = std::max(1u, std::thread::hardware_concurrency());
   int workers = options_.jobs > 0 ? options_.jobs : static_cast<int>(cpus);
   const int pending = static_cast<int>(jobs_.size() - summary.skipped_ids.size());
   workers = std::max(1, std::min(workers, pending));
   options_.jobs = workers;
-  threads_per_fit_ = std::max(1, static_cast<int>(cpus) / workers);
-  log_->Say(fmt::format("study {}: {} jobs ({} unchanged), {} worker(s), output {}", spec_.name,
-                        jobs_.size(), summary.skipped_ids.size(), workers, dir_.string()));
+  const std::string part = options_.merge_only      ? " (merge)"
+                           : options_.shard.whole() ? ""
+                                                    : " (shard " + options_.shard.Name() + ")";
+  log_->Say(fmt::format("study {}{}: {} jobs ({} unchanged), {} worker(s), output {}", spec_.name,
+                        part, jobs_.size(), summary.skipped_ids.size(), workers, dir_.string()));
   if (pending > 0) {
     std::vector<std::thread> threads;
     for (int i = 0; i < workers; ++i) threads.emplace_back(&StudyRun::WorkerLoop, this, i);
@@ -835,9 +964,21 @@ RunSummary StudyRun::Run() {
   summary.skipped = static_cast<int>(summary.skipped_ids.size());
   summary.failed = static_cast<int>(summary.failed_ids.size());
   summary.interrupted = options_.interrupt != nullptr && options_.interrupt->load();
-  if (summary.failed == 0 && summary.not_run == 0 && !summary.interrupted) {
+  const bool complete = summary.failed == 0 && summary.not_run == 0 && !summary.interrupted;
+  if (complete && !options_.shard.whole()) {
+    WriteShardManifest(std::chrono::duration<double>(Clock::now() - start_).count());
+  } else if (complete) {
     WriteResultsCsv();
+    WriteTimingsCsv();
     std::string gl = gl_renderer_;
+    if (options_.merge_only) {  // The shards' renderers; the merge makes no context.
+      std::set<std::string> seen;
+      for (const json& m : options_.shard_manifests) {
+        const std::string r = m.value("gl_renderer", "");
+        if (!r.empty() && seen.insert(r).second) gl += (gl.empty() ? "" : "; ") + r;
+      }
+      if (gl.empty()) gl = "unknown (every job of every shard was unchanged)";
+    }
     if (gl.empty()) {  // Every job was skipped: ask a context for the string anyway.
       try {
         GlContext c;

@@ -5,6 +5,8 @@
 #pragma once
 
 #include <atomic>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,29 @@
 #include "shadefit/studies/study.h"
 
 namespace shadefit::studies {
+
+// One share of a study's job graph (`study run --shard i/N`, docs/cluster.md). A material and all
+// of its jobs (its measured references, its fits, then its probes) belong to one shard, so no
+// job of a shard waits on another shard.
+struct Shard {
+  int index = 1;  // 1..count.
+  int count = 1;  // 1: the whole study.
+  bool whole() const { return count == 1; }
+  std::string Name() const;  // "2-of-4".
+};
+
+// Parses "i/N" (1 <= i <= N <= 10000); throws shadefit::Error naming `field` otherwise.
+Shard ParseShard(const std::string& text, const std::string& field = "--shard");
+
+// Which shard each material of the study belongs to (1-based), for `count` shards: longest job
+// first onto the least-loaded shard, by the same cost estimate the progress bar uses; ties go to
+// the lower shard and the earlier material name. A pure function of the study file and the
+// measured folders' file lists, so every shard, and the merge, computes the same assignment.
+std::map<std::string, int> AssignShards(const StudySpec& spec, int count);
+
+// Keeps in `spec` only the Cycles groups of `shard`; returns every material of the shard
+// (measured ones included, for MaterialiseMeasuredReferences).
+std::set<std::string> RestrictToShard(StudySpec* spec, const Shard& shard);
 
 struct RunOptions {
   int jobs = 0;               // Worker threads (each with its own GL context); 0 = CPU count.
@@ -23,6 +48,13 @@ struct RunOptions {
   // Progress: true draws a bar on stderr (a TTY), false prints one line per finished job.
   bool progress_bar = false;
   bool quiet = false;         // No progress output at all (the log is still written).
+  // A shard runs its jobs and writes shards/<i>-of-<N>.json instead of the study-wide outputs
+  // (results.csv, timings.csv, provenance.json), which `merge` writes once every shard is done.
+  Shard shard;
+  // No job is run: every job must already be done (by the shards); writes the study-wide
+  // outputs. Needs no GL context. Throws shadefit::Error naming the first unfinished job.
+  bool merge_only = false;
+  std::vector<nlohmann::json> shard_manifests;  // merge_only: recorded in provenance.json.
 };
 
 struct RunSummary {
@@ -46,8 +78,51 @@ struct MeasuredSummary {
 // Renders the references of the study's [[measured]] sources that are missing or out of date
 // into OUT/<study>/references/ and appends one group per material to spec->groups. Call before
 // RunStudy. Throws shadefit::Error naming the file on an unreadable BRDF or scene.
+struct MeasuredOptions {
+  bool quiet = false;
+  // When set, only these materials are rendered and added as groups (a shard's).
+  const std::set<std::string>* materials = nullptr;
+  // false (merge): a missing or out-of-date reference is an error, not a render.
+  bool render = true;
+};
 MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string& out_dir,
-                                              bool quiet);
+                                              const MeasuredOptions& options);
+inline MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string& out_dir,
+                                                     bool quiet) {
+  MeasuredOptions o;
+  o.quiet = quiet;
+  return MaterialiseMeasuredReferences(spec, out_dir, o);
+}
+
+// What `shadefit study merge` needs to reload the study the shards ran, from their manifests
+// (OUT/<study>/shards/<i>-of-<N>.json). Throws shadefit::Error when a shard of the newest
+// sharding is missing or the manifests disagree.
+struct ShardedRun {
+  std::string study_path;   // As the shards loaded it.
+  std::string study_sha256;
+  bool quick = false;
+  int count = 0;
+  std::vector<nlohmann::json> manifests;  // Sorted by shard index.
+};
+ShardedRun ReadShardManifests(const std::string& study_dir);
+
+// `shadefit study slurm`: an sbatch script for a job array (one shard per task) and one for the
+// merge, which runs after every task succeeded (--dependency=afterok). Paths are absolute.
+struct SlurmOptions {
+  int array = 2;                  // Shards = array tasks.
+  std::string partition;          // Empty: the cluster's default.
+  std::string time = "02:00:00";  // Per task, sbatch --time.
+  int cpus = 2;                   // Per task: --cpus-per-task, and the shard's worker count.
+  int gpus = 0;                   // Per task: --gpus-per-task (EGL then picks the NVIDIA device).
+  std::string out_dir = "out";
+  bool quick = false;
+  std::string executable;         // Absolute path of the shadefit binary.
+};
+struct SlurmScripts {
+  std::string shards_script, merge_script;  // Written files.
+  std::string submit_command;               // The one command that submits both.
+};
+SlurmScripts WriteSlurmScripts(const StudySpec& spec, const SlurmOptions& options);
 
 // Version string recorded in outputs and job hashes ("0.1.0+<git revision>").
 std::string ShadefitVersion();
