@@ -188,6 +188,10 @@ if [ -d "$shared" ]; then
 else
   say "no $shared: the measured-material part runs without it (as for a newcomer)"
 fi
+# Debian's convention for chroots: packages' maintainer scripts start no daemon (munge's would
+# run on in the host's process table after the check and keep the root's mounts busy).
+printf '#!/bin/sh\nexit 101\n' >"$root/usr/sbin/policy-rc.d"
+chmod 755 "$root/usr/sbin/policy-rc.d"
 for m in proc sys dev; do
   mkdir -p "$root/$m"
   mount --rbind "/$m" "$root/$m"

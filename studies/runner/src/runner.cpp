@@ -642,7 +642,7 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
             {"material", g.material},
             {"probes", results},
             {"outputs", outputs}};
-  WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), 0.0);
+  WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
   WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
 }
 
@@ -838,12 +838,12 @@ std::string StudyRun::HostName() const {
 }
 
 void StudyRun::WriteTiming(const Job& job, double seconds, double solver_seconds) {
-  const json t = {{"schema", "shadefit.study.timing/1"},
-                  {"id", job.id},
-                  {"seconds", seconds},
-                  {"solver_seconds", solver_seconds},
-                  {"host", HostName()},
-                  {"shard", options_.shard.Name()}};
+  json t = {{"schema", "shadefit.study.timing/1"},
+            {"id", job.id},
+            {"seconds", seconds},
+            {"host", HostName()},
+            {"shard", options_.shard.Name()}};
+  if (solver_seconds >= 0) t["solver_seconds"] = solver_seconds;  // Fits only.
   WriteFileAtomic(TimingPath(job), t.dump(1) + "\n");
 }
 

@@ -80,9 +80,10 @@ SlurmScripts WriteSlurmScripts(const StudySpec& spec, const SlurmOptions& o) {
   if (o.gpus > 0) shards += fmt::format("#SBATCH --gres=gpu:{}\n", o.gpus);
   shards += fmt::format("#SBATCH --output={}\n", (dir / "shard-%a.out").string());
   shards += fmt::format(
-      "# shadefit study '{}' as {} shards, one per array task (docs/cluster.md). Rendering is\n"
-      "# headless EGL: no display is needed; on a GPU node the NVIDIA device is used, elsewhere\n"
-      "# Mesa's llvmpipe. A task that fails can be rerun alone: sbatch --array=<i> {}\n"
+      "# shadefit study '{}' as {} shards, one per array task (docs/cluster.md). Rendering\n"
+      "# is headless EGL: no display is needed; on a GPU node the NVIDIA device is used,\n"
+      "# elsewhere Mesa's llvmpipe. A task that fails can be rerun alone:\n"
+      "#   sbatch --array=<i> {}\n"
       "set -euo pipefail\n"
       "exec {} study run {} -o {}{} --no-report -j \"${{SLURM_CPUS_PER_TASK:-{}}}\" \\\n"
       "  --shard \"${{SLURM_ARRAY_TASK_ID}}/{}\"\n",
