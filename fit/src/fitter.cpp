@@ -10,12 +10,15 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <list>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <numeric>
 
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 
 #ifndef SHADEFIT_FIT_VERSION
 #define SHADEFIT_FIT_VERSION "unknown"
@@ -31,7 +34,8 @@ Loss ParseLoss(const std::string& name) {
   if (name == "huber") return Loss::kHuber;
   if (name == "cauchy") return Loss::kCauchy;
   throw Error("", "--loss",
-              fmt::format("unknown loss '{}' (known: l2, log, cuberoot, huber, cauchy)", name));
+              fmt::format("unknown loss '{}'{} (known: l2, log, cuberoot, huber, cauchy)", name,
+                          DidYouMean(name, {"l2", "log", "cuberoot", "huber", "cauchy"})));
 }
 
 std::string LossName(Loss loss) {
@@ -1007,6 +1011,10 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
   nlohmann::json j = FitResultToJson(result);
   j["outputs"] = nlohmann::json::array();
   std::map<std::string, int> seen;
+  // Every file is prepared first and written by WriteAllOrNothing, the JSON last: a failure
+  // (a full disk, a folder in the way) leaves none of this fit's files behind.
+  std::vector<OutputWrite> writes;
+  std::list<Image> previews;  // stable addresses for the writers below
   for (const ReferenceResult& ref : result.references) {
     if (ref.prediction.empty()) continue;
     std::string name = ref.name;
@@ -1015,8 +1023,12 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
     ImageMetadata meta{{"shadefit:model", result.model},
                        {"shadefit:version", SHADEFIT_FIT_VERSION},
                        {"shadefit:fit", json.filename().string()}};
-    WriteExr(base + ".fit.exr", ref.prediction, meta);
-    WriteExr(base + ".error.exr", ref.abs_error, meta);
+    writes.push_back({base + ".fit.exr", [&ref, meta, base] {
+                        WriteExr(base + ".fit.exr", ref.prediction, meta);
+                      }});
+    writes.push_back({base + ".error.exr", [&ref, meta, base] {
+                        WriteExr(base + ".error.exr", ref.abs_error, meta);
+                      }});
     // Preview: |error| / p99(|error|) per channel over valid pixels, white = p99 or more.
     std::vector<float> errors;
     for (std::size_t p = 0; p < ref.abs_error.PixelCount(); ++p) {
@@ -1030,19 +1042,23 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
       const float p99 = errors[errors.size() * 99 / 100];
       if (p99 > 0) scale = 1.0f / p99;
     }
-    Image preview(ref.abs_error.width, ref.abs_error.height, 3);
+    Image& preview = previews.emplace_back(ref.abs_error.width, ref.abs_error.height, 3);
     for (std::size_t p = 0; p < ref.abs_error.PixelCount(); ++p) {
       for (int c = 0; c < 3; ++c) {
         preview.data[3 * p + c] = std::min(1.0f, SrgbOetf(ref.abs_error.data[4 * p + c] * scale));
       }
     }
-    WritePng8(base + ".error.png", preview);
+    writes.push_back({base + ".error.png", [&preview, base] {
+                        WritePng8(base + ".error.png", preview);
+                      }});
     for (const char* suffix : {".fit.exr", ".error.exr", ".error.png"}) {
       written.push_back(base + suffix);
       j["outputs"].push_back({{"reference", ref.name}, {"path", base + suffix}});
     }
   }
-  WriteFitJsonAtomic(json_path, j.dump(1) + "\n");
+  const std::string text = j.dump(1) + "\n";
+  writes.push_back({json_path, [&] { WriteFitJsonAtomic(json_path, text); }});
+  WriteAllOrNothing(writes);
   written.push_back(json_path);
   return written;
 }

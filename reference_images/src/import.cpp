@@ -25,35 +25,6 @@ std::string StripPrefix(const std::string& message, const std::string& path) {
   return message.rfind(prefix, 0) == 0 ? message.substr(prefix.size()) : message;
 }
 
-// libjpeg (through OpenImageIO) fills a JPEG cut short with grey and only warns, and PNG
-// decoders may stop at the last complete row: check that the file ends the way the format says.
-void CheckComplete(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
-  auto find_last = [&](unsigned char a, unsigned char b) -> long long {
-    for (long long i = static_cast<long long>(bytes.size()) - 2; i >= 0; --i) {
-      if (bytes[i] == a && bytes[i + 1] == b) return i;
-    }
-    return -1;
-  };
-  if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
-    // JPEG (ITU T.81, B.2): entropy-coded data never holds FF D9 (FF is stuffed), so the image
-    // is complete only if an EOI marker follows the last start-of-scan marker.
-    const long long sos = find_last(0xFF, 0xDA), eoi = find_last(0xFF, 0xD9);
-    if (sos < 0 || eoi < sos) {
-      throw Error(path, "pixels", "truncated JPEG: no end-of-image marker after the last scan");
-    }
-  } else if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' &&
-             bytes[3] == 'G') {
-    // PNG (ISO/IEC 15948, 5.6): the last chunk is IEND.
-    const std::string tail(bytes.end() - std::min<std::size_t>(bytes.size(), 64), bytes.end());
-    if (tail.find("IEND") == std::string::npos) {
-      throw Error(path, "pixels", "truncated PNG: no IEND chunk at the end");
-    }
-  }
-}
-
 nlohmann::json FileRecord(const std::string& path) {
   return {{"path", fs::absolute(path).lexically_normal().string()}, {"sha256", Sha256File(path)}};
 }
@@ -76,8 +47,12 @@ LoadedImage LoadImageForImport(const std::string& path) {
   if (!fs::is_regular_file(path)) throw Error(path, "image", "not a regular file");
   LoadedImage out;
   {
+    StderrCapture quiet;  // libpng's own error lines: the Error says it in one line
     auto in = OIIO::ImageInput::open(path);
-    if (!in) throw Error(path, "image", "cannot read image: " + OneLine(OIIO::geterror()));
+    if (!in) {
+      quiet.Discard();
+      throw Error(path, "image", "cannot read image: " + OneLine(OIIO::geterror()));
+    }
     const OIIO::ImageSpec& spec = in->spec();
     out.is_float = spec.format.is_floating_point();
     out.format = std::string(in->format_name()) + " " + spec.format.c_str();
@@ -89,8 +64,7 @@ LoadedImage LoadImageForImport(const std::string& path) {
                 fmt::format("{} channels; expected 1 (grey), 3 (RGB) or 4 (RGBA, alpha ignored)",
                             out.file_channels));
   }
-  CheckComplete(path);
-  Image raw;
+  Image raw;  // ReadImage also rejects JPEG and PNG files cut short (render/src/image.cpp).
   try {
     raw = ReadImage(path);
   } catch (const Error& e) {

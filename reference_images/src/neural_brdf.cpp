@@ -95,7 +95,7 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
     std::ifstream in(json_path);
     config = nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
-    throw Error(json_path, "", "not valid JSON: " + OneLine(e.what()));
+    throw Error(json_path, "json", "not valid JSON: " + OneLine(e.what()));
   }
   const nlohmann::json* layers = nullptr;
   if (config.contains("config") && config["config"].is_object() &&
@@ -107,11 +107,31 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
   if (!layers) throw Error(json_path, "config.layers", "missing: expected a Keras Sequential");
   std::vector<std::pair<std::string, std::string>> dense;  // name, activation
   std::vector<int> units;
-  for (const auto& layer : *layers) {
-    if (layer.value("class_name", "") != "Dense") continue;
-    const auto& c = layer.at("config");
-    dense.emplace_back(c.value("name", ""), c.value("activation", ""));
-    units.push_back(c.value("units", 0));
+  for (std::size_t i = 0; i < layers->size(); ++i) {
+    const nlohmann::json& layer = (*layers)[i];
+    const std::string field = "config.layers[" + std::to_string(i) + "]";
+    if (!layer.is_object()) throw Error(json_path, field, "expected an object");
+    if (!layer.contains("class_name") || !layer["class_name"].is_string()) {
+      throw Error(json_path, field + ".class_name", "missing or not a string");
+    }
+    if (layer["class_name"] != "Dense") continue;
+    if (!layer.contains("config") || !layer["config"].is_object()) {
+      throw Error(json_path, field + ".config", "missing or not an object");
+    }
+    const nlohmann::json& c = layer["config"];
+    for (const char* key : {"name", "activation"}) {
+      if (!c.contains(key) || !c[key].is_string()) {
+        throw Error(json_path, field + ".config." + key, "missing or not a string");
+      }
+    }
+    // A width beyond 4096 is no network of this family (21 in the published ones) and would
+    // make the dataset shapes overflow.
+    if (!c.contains("units") || !c["units"].is_number_integer() || c["units"].get<std::int64_t>() < 1 ||
+        c["units"].get<std::int64_t>() > 4096) {
+      throw Error(json_path, field + ".config.units", "expected an integer in [1, 4096]");
+    }
+    dense.emplace_back(c["name"].get<std::string>(), c["activation"].get<std::string>());
+    units.push_back(c["units"].get<int>());
   }
   static const char* kActivation[3] = {"relu", "relu", "linear"};
   if (dense.size() != 3) {
@@ -130,9 +150,9 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
 
   std::lock_guard<std::mutex> lock(Hdf5Mutex());
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // Errors come back as ours, not printed stacks.
-  if (H5Fis_hdf5(h5_path.c_str()) <= 0) throw Error(h5_path, "", "not an HDF5 file");
+  if (H5Fis_hdf5(h5_path.c_str()) <= 0) throw Error(h5_path, "format", "not an HDF5 file");
   H5Handle file(H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!file.ok()) throw Error(h5_path, "", "cannot open HDF5 file (truncated or corrupt?)");
+  if (!file.ok()) throw Error(h5_path, "format", "cannot open HDF5 file (truncated or corrupt?)");
   int in = 6;  // (sin theta_h, 0, cos theta_h, d.x, d.y, d.z)
   for (int l = 0; l < 3; ++l) {
     const std::string& name = dense[l].first;

@@ -1,14 +1,17 @@
 #include "shadefit/render/files.h"
 
 #include <fmt/format.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 #include <sstream>
 
 #include "shadefit/render/error.h"
@@ -138,11 +141,29 @@ std::string TemporaryPathFor(const std::string& path) {
       .string();
 }
 
-void WriteTextAtomic(const std::string& path, const std::string& text) {
+void CheckOutputPath(const std::string& path) {
   const fs::path p(path);
   if (!p.parent_path().empty() && !fs::is_directory(p.parent_path())) {
     throw Error(path, "", "output directory does not exist");
   }
+  if (fs::is_directory(p)) throw Error(path, "output", "is a directory");
+}
+
+void WriteAllOrNothing(const std::vector<OutputWrite>& writes) {
+  for (const auto& [path, write] : writes) CheckOutputPath(path);
+  std::size_t done = 0;
+  try {
+    for (; done < writes.size(); ++done) writes[done].second();
+  } catch (...) {
+    std::error_code ec;
+    for (std::size_t i = 0; i < done; ++i) fs::remove(writes[i].first, ec);
+    throw;
+  }
+}
+
+void WriteTextAtomic(const std::string& path, const std::string& text) {
+  const fs::path p(path);
+  CheckOutputPath(path);
   const fs::path tmp = TemporaryPathFor(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -160,6 +181,49 @@ void WriteTextAtomic(const std::string& path, const std::string& text) {
     fs::remove(tmp, ec);
     throw Error(path, "", "cannot write file (rename failed)");
   }
+}
+
+namespace {
+std::recursive_mutex& StderrMutex() {
+  static std::recursive_mutex m;
+  return m;
+}
+int& StderrDepth() {
+  static int depth = 0;
+  return depth;
+}
+}  // namespace
+
+StderrCapture::StderrCapture() {
+  StderrMutex().lock();
+  if (StderrDepth()++ > 0) return;
+  std::fflush(stderr);
+  held_fd_ = memfd_create("shadefit-stderr", MFD_CLOEXEC);
+  if (held_fd_ < 0) return;
+  saved_fd_ = dup(STDERR_FILENO);
+  if (saved_fd_ < 0 || dup2(held_fd_, STDERR_FILENO) < 0) {
+    if (saved_fd_ >= 0) close(saved_fd_);
+    close(held_fd_);
+    saved_fd_ = held_fd_ = -1;
+  }
+}
+
+StderrCapture::~StderrCapture() {
+  if (saved_fd_ >= 0) {
+    std::fflush(stderr);
+    dup2(saved_fd_, STDERR_FILENO);
+    close(saved_fd_);
+    if (!discard_) {
+      char buffer[4096];
+      lseek(held_fd_, 0, SEEK_SET);
+      for (ssize_t n; (n = read(held_fd_, buffer, sizeof buffer)) > 0;) {
+        if (write(STDERR_FILENO, buffer, static_cast<std::size_t>(n)) < 0) break;
+      }
+    }
+  }
+  if (held_fd_ >= 0) close(held_fd_);
+  --StderrDepth();
+  StderrMutex().unlock();
 }
 
 std::string OneLine(const std::string& text) {

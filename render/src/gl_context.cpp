@@ -72,6 +72,11 @@ struct GlContext::Impl {
 GlContext::GlContext() : impl_(std::make_unique<Impl>()) {
   const char* client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   const char* force = std::getenv("SHADEFIT_EGL_DEVICE");
+  // Unset or empty: hardware first. Any other value is a typo that would silently do nothing.
+  if (force != nullptr && *force != '\0' && std::strcmp(force, "software") != 0) {
+    throw Error("", "SHADEFIT_EGL_DEVICE",
+                std::string("unknown value '") + force + "' (expected 'software' or unset)");
+  }
   const bool force_software = force && std::strcmp(force, "software") == 0;
 
   if (HasExtension(client_ext, "EGL_EXT_device_enumeration") &&

@@ -1,5 +1,6 @@
 #include "shadefit/render/image.h"
 
+#include <fmt/format.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 
@@ -12,7 +13,11 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
@@ -21,6 +26,8 @@ namespace shadefit {
 namespace {
 
 namespace fs = std::filesystem;
+
+constexpr int kMaxImageSide = 16384;
 
 // Temporary sibling path, unique per process and call so that concurrent writers of the same
 // file (two study jobs writing one reference preview) never share it; the rename that follows
@@ -50,12 +57,44 @@ std::string ReproducibleDateTime() {
   return buf;
 }
 
+// libjpeg (through OpenImageIO) fills a JPEG cut short with grey and only warns, and PNG
+// decoders may stop at the last complete row: check that the file ends the way the format says.
+void CheckComplete(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  in.read(magic, sizeof magic);
+  const bool jpeg = magic[0] == '\xFF' && magic[1] == '\xD8' && magic[2] == '\xFF';
+  const bool png = magic[0] == '\x89' && magic[1] == 'P' && magic[2] == 'N' && magic[3] == 'G';
+  if (!jpeg && !png) return;  // Other formats' decoders report short files themselves.
+  in.seekg(0);
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  auto find_last = [&](unsigned char a, unsigned char b) -> long long {
+    for (long long i = static_cast<long long>(bytes.size()) - 2; i >= 0; --i) {
+      if (bytes[i] == a && bytes[i + 1] == b) return i;
+    }
+    return -1;
+  };
+  if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
+    // JPEG (ITU T.81, B.2): entropy-coded data never holds FF D9 (FF is stuffed), so the image
+    // is complete only if an EOI marker follows the last start-of-scan marker.
+    const long long sos = find_last(0xFF, 0xDA), eoi = find_last(0xFF, 0xD9);
+    if (sos < 0 || eoi < sos) {
+      throw Error(path, "pixels", "truncated JPEG: no end-of-image marker after the last scan");
+    }
+  } else if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' &&
+             bytes[3] == 'G') {
+    // PNG (ISO/IEC 15948, 5.6): the last chunk is IEND.
+    const std::string tail(bytes.end() - std::min<std::size_t>(bytes.size(), 64), bytes.end());
+    if (tail.find("IEND") == std::string::npos) {
+      throw Error(path, "pixels", "truncated PNG: no IEND chunk at the end");
+    }
+  }
+}
+
 void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type,
                    const void* pixels) {
-  const fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) {
-    throw Error(path, "", "output directory does not exist");
-  }
+  CheckOutputPath(path);
   const std::string tmp = TemporaryPathFor(path);
   auto out = OIIO::ImageOutput::create(path);  // Format from the final name, not the temp one.
   if (!out) throw Error(path, "", "no writer for this file type: " + OIIO::geterror());
@@ -63,7 +102,7 @@ void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::T
     std::string msg = out->geterror();
     std::error_code ec;
     fs::remove(tmp, ec);
-    throw Error(path, "", "write failed: " + msg);
+    throw Error(path, "", "write failed: " + OneLine(msg));
   }
   CommitTemp(tmp, path);
 }
@@ -88,17 +127,29 @@ float SrgbToLinear(float v) {
   return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
 }
 
-Image ReadImage(const std::string& path, ImageMetadata* metadata) {
-  if (!fs::exists(path)) throw Error(path, "", "file not found");
+namespace {
+
+Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
   auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(path, "", "cannot read image: " + OIIO::geterror());
+  // The header is what OpenImageIO could not make sense of: the format, the size, the channels.
+  if (!in) throw Error(path, "header", "cannot read image: " + OneLine(OIIO::geterror()));
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
     throw Error(path, "resolution", "image has no pixels");
   }
+  // A header may claim any size; allocate only what a reference can be. Scenes render at most
+  // 8192 x 8192 (docs/scenes.md), so 16384 per side and 64 channels (the G-buffer AOVs have 10)
+  // leave room while keeping a forged header from asking for terabytes.
+  if (spec.width > kMaxImageSide || spec.height > kMaxImageSide || spec.nchannels > 64) {
+    throw Error(path, "resolution",
+                fmt::format("{}x{} with {} channel(s) is beyond what shadefit reads ({} per side, "
+                            "64 channels)", spec.width, spec.height, spec.nchannels,
+                            kMaxImageSide));
+  }
+  CheckComplete(path);
   Image image(spec.width, spec.height, spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.data.data())) {
-    throw Error(path, "pixels", "truncated or corrupt image: " + in->geterror());
+    throw Error(path, "pixels", "truncated or corrupt image: " + OneLine(in->geterror()));
   }
   if (metadata) {
     metadata->clear();
@@ -110,6 +161,20 @@ Image ReadImage(const std::string& path, ImageMetadata* metadata) {
   }
   in->close();
   return image;
+}
+
+}  // namespace
+
+Image ReadImage(const std::string& path, ImageMetadata* metadata) {
+  if (!fs::exists(path)) throw Error(path, "", "file not found");
+  if (fs::is_directory(path)) throw Error(path, "", "is a directory, not an image");
+  StderrCapture quiet;  // libpng prints its errors itself; the Error below says it in one line
+  try {
+    return ReadImageQuietly(path, metadata);
+  } catch (...) {
+    quiet.Discard();
+    throw;
+  }
 }
 
 void WriteExr(const std::string& path, const Image& image, const ImageMetadata& metadata,

@@ -118,11 +118,14 @@ const std::vector<ModelInfo>& AllModels() {
 
 const ModelInfo& FindModel(const std::string& name) {
   std::string known;
+  std::vector<std::string> names;
   for (const auto& m : AllModels()) {
     if (m.name == name) return m;
     known += (known.empty() ? "" : ", ") + m.name;
+    names.push_back(m.name);
   }
-  throw Error("", "model", fmt::format("unknown model '{}' (known: {})", name, known));
+  throw Error("", "model",
+              fmt::format("unknown model '{}'{} (known: {})", name, DidYouMean(name, names), known));
 }
 
 const ModelInfo& GetModel(ModelId id) {
@@ -144,9 +147,14 @@ void SetParam(const ModelInfo& model, const std::string& name, const std::vector
   const ParamSpec* spec = model.Find(name);
   if (!spec) {
     std::string known;
-    for (const auto& p : model.params) known += (known.empty() ? "" : ", ") + p.name;
+    std::vector<std::string> names;
+    for (const auto& p : model.params) {
+      known += (known.empty() ? "" : ", ") + p.name;
+      names.push_back(p.name);
+    }
     throw Error(context, name,
-                fmt::format("unknown parameter for model {} (known: {})", model.name, known));
+                fmt::format("unknown parameter for model {}{} (known: {})", model.name,
+                            DidYouMean(name, names), known));
   }
   if (values.size() != 1 && static_cast<int>(values.size()) != spec->size) {
     throw Error(context, name, fmt::format("expected {} value(s), got {}", spec->size,

@@ -18,6 +18,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+constexpr double kMaxMagnitude = 1e9;  // Largest vector component a scene may give.
+
 // Reads typed, validated values out of one TOML table, naming file, line and key on error.
 class TableReader {
  public:
@@ -35,7 +37,8 @@ class TableReader {
   void CheckKeys(const std::set<std::string>& allowed) const {
     for (const auto& [key, node] : table_) {
       if (!allowed.count(std::string(key.str()))) {
-        Fail(std::string(key.str()), "unknown key", &node);
+        Fail(std::string(key.str()),
+             "unknown key" + DidYouMean(key.str(), {allowed.begin(), allowed.end()}), &node);
       }
     }
   }
@@ -87,7 +90,7 @@ class TableReader {
 
   // A 3-vector; with allow_scalar a single number fills all three (colours, powers).
   Vec3d Vector(const std::string& key, const Vec3d& def, bool required = false,
-               bool allow_scalar = false, double min = -1e30) const {
+               bool allow_scalar = false, double min = -kMaxMagnitude) const {
     const toml::node* node = table_.get(key);
     if (!node) {
       if (required) Fail(key, "missing");
@@ -113,6 +116,10 @@ class TableReader {
       if (!std::isfinite(out[i]) || out[i] < min) {
         Fail(key, fmt::format("component {} = {} is not allowed (minimum {})", i, out[i], min),
              node);
+      }
+      // The GL renderer works in float32: beyond 1e9 squared distances and powers overflow.
+      if (std::abs(out[i]) > kMaxMagnitude) {
+        Fail(key, fmt::format("component {} = {} is beyond +-{}", i, out[i], kMaxMagnitude), node);
       }
     }
     return out;
@@ -141,7 +148,9 @@ void ParseCamera(const TableReader& r, Camera* cam) {
   } else if (type == "orthographic") {
     cam->type = Camera::Type::kOrthographic;
   } else {
-    r.Fail("type", "expected \"perspective\" or \"orthographic\"");
+    r.Fail("type", "expected \"perspective\" or \"orthographic\"" +
+                       DidYouMean(type, {"perspective", "orthographic"}),
+           r.table().get("type"));
   }
   cam->position = r.Vector("position", cam->position, true);
   cam->look_at = r.Vector("look_at", cam->look_at, true);
@@ -192,7 +201,8 @@ SceneObject ParseObject(const TableReader& r) {
       if (!(o.half_u > 0) || !(o.half_v > 0)) r.Fail("half_size", "must be positive", node);
     }
   } else {
-    r.Fail("type", "expected \"sphere\" or \"plane\"");
+    r.Fail("type", "expected \"sphere\" or \"plane\"" + DidYouMean(type, {"sphere", "plane"}),
+           r.table().get("type"));
   }
   return o;
 }
@@ -226,8 +236,10 @@ Light ParseLight(const TableReader& r, const std::string& scene_dir) {
     fs::path file = r.String("file", "", true);
     if (file.is_relative()) file = fs::path(scene_dir) / file;
     if (!fs::exists(file)) {
-      r.Fail("file", fmt::format("'{}' not found (the Blender maps come with Debian's "
-                                 "blender-data package)", file.string()));
+      r.Fail("file",
+             fmt::format("'{}' not found (the Blender maps come with Debian's blender-data "
+                         "package)", file.string()),
+             r.table().get("file"));
     }
     l.file = file.string();
     l.strength = r.Number("strength", 1.0, 0.0, 1e9);
@@ -239,7 +251,10 @@ Light ParseLight(const TableReader& r, const std::string& scene_dir) {
     l.value = r.Vector("radiance", {}, true, true, 0.0);
     l.samples = r.Integer("samples", 256, 1, 65536);
   } else {
-    r.Fail("type", "expected point, directional, ambient, environment or uniform");
+    r.Fail("type",
+           "expected point, directional, ambient, environment or uniform" +
+               DidYouMean(type, {"point", "directional", "ambient", "environment", "uniform"}),
+           r.table().get("type"));
   }
   return l;
 }
@@ -322,6 +337,10 @@ Scene ParseScene(const std::string& text, const std::string& name) {
 }
 
 Scene LoadScene(const std::string& path) {
+  // Not a FIFO or a device: a scene named /dev/zero would be read forever.
+  if (fs::exists(path) && !fs::is_regular_file(path)) {
+    throw Error(path, "", "scene file is not a regular file");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "scene file not found or unreadable");
   std::stringstream ss;

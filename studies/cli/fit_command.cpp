@@ -3,6 +3,8 @@
 // one-line shadefit::Error and leaves no output file.
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -99,6 +101,12 @@ void RegisterFitCommand(CLI::App& app) {
     options.central_differences = opt->central;
     options.render_outputs = !opt->no_images;
     if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+    if (opt->max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");
+    if (opt->threads < 1) throw Error("", "--threads", "must be >= 1");
+    if (opt->env_samples < 0) throw Error("", "--env-samples", "must be >= 0");
+    if (!(opt->loss_scale >= 0) || !std::isfinite(opt->loss_scale)) {
+      throw Error("", "--loss-scale", fmt::format("{} is not a finite number >= 0", opt->loss_scale));
+    }
 
     fit::FitProblem problem;
     problem.model = opt->model;

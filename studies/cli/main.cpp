@@ -4,6 +4,7 @@
 
 #include "commands.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"shadefit: fit Blinn-Phong and microfacet shading models to reference images"};
@@ -22,7 +23,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version are ParseErrors with exit code 0: CLI11 prints them. A real parse
+    // error gets the one-line form of every other error (CLI11 would add a second line).
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "shadefit: error: %s\n", shadefit::OneLine(e.what()).c_str());
+    return e.get_exit_code();
   } catch (const shadefit::Error& e) {
     std::fprintf(stderr, "shadefit: error: %s\n", e.what());
     return 1;

@@ -67,6 +67,14 @@ void RunMetrics(const MetricsOptions& o) {
   if (!o.maps.empty() && !std::filesystem::is_directory(o.maps)) {
     throw Error(o.maps, "--maps", "directory does not exist");
   }
+  // CLI11 reads "nan" and "inf" as numbers; no display transform or observer means them. FLIP's
+  // filters grow with ppd, so it is also bounded above (67 is a 0.7 m view of a 24" 4K screen).
+  if (!std::isfinite(o.exposure) || std::abs(o.exposure) > 64) {
+    throw Error("", "--exposure", fmt::format("{} stops is not in [-64, 64]", o.exposure));
+  }
+  if (!std::isfinite(o.ppd) || o.ppd > 1000) {
+    throw Error("", "--ppd", fmt::format("{} pixels per degree is not in (0, 1000]", o.ppd));
+  }
   const Image reference = ReadImage(o.reference);
   const Image test = ReadImage(o.test);
   std::optional<Image> mask;
@@ -108,7 +116,7 @@ void RegisterMetricsCommand(CLI::App& app) {
                   "Display-transform exposure in stops (PSNR, SSIM, CIEDE2000, LDR-FLIP)")
       ->capture_default_str();
   cmd->add_option("--ppd", options->ppd, "FLIP observer pixels per degree")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1e-3, 1000.0))
       ->capture_default_str();
   cmd->add_option("--maps", options->maps,
                   "Existing directory for false-colour maps (abs/rel error, SSIM, CIEDE2000, FLIP)");

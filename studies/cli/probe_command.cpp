@@ -19,6 +19,7 @@
 #include "shadefit/fit/fitter.h"
 #include "shadefit/probes/probes.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 
@@ -45,7 +46,7 @@ nlohmann::json ReadJson(const std::string& path) {
   try {
     return nlohmann::json::parse(f);
   } catch (const nlohmann::json::exception& e) {
-    throw Error(path, "", std::string("malformed JSON: ") + e.what());
+    throw Error(path, "json", "malformed JSON: " + OneLine(e.what()));
   }
 }
 
@@ -56,7 +57,13 @@ probes::ModelUnderTest ModelFromFit(const std::string& path) {
   probes::ModelUnderTest m;
   if (!j.contains("model") || !j["model"].is_string()) throw Error(path, "model", "missing");
   m.model = j["model"].get<std::string>();
-  const ModelInfo& info = FindModel(m.model);
+  const ModelInfo* found = nullptr;
+  try {
+    found = &FindModel(m.model);
+  } catch (const Error& e) {
+    throw Error(path, "", e.what());  // "<fit.json>: model: unknown model ..."
+  }
+  const ModelInfo& info = *found;
   m.label = fs::path(path).stem().string();
   m.params = DefaultParams(info);
   if (!j.contains("values") || !j["values"].is_object()) throw Error(path, "values", "missing");

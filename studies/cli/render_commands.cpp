@@ -1,6 +1,7 @@
 // info, models and render: the renderer's own subcommands.
 #include <fmt/format.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -8,6 +9,7 @@
 
 #include "commands.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
@@ -76,6 +78,9 @@ void RegisterRenderCommand(CLI::App& app) {
   cmd->add_option("--exposure", opt->exposure, "Exposure in stops for the PNG preview");
   cmd->add_flag("--no-preview", opt->no_preview, "Do not write the sRGB PNG preview");
   cmd->callback([opt] {
+    if (!std::isfinite(opt->exposure) || std::abs(opt->exposure) > 64) {
+      throw Error("", "--exposure", fmt::format("{} stops is not in [-64, 64]", opt->exposure));
+    }
     const ModelInfo& model = FindModel(opt->model);
     std::vector<double> params = DefaultParams(model);
     for (const auto& s : opt->sets) SetParamFromString(model, s, "--set", &params);
@@ -95,13 +100,15 @@ void RegisterRenderCommand(CLI::App& app) {
     // Everything is rendered before anything is written; each write is atomic.
     GBuffer gbuffer;
     if (!opt->aov.empty()) gbuffer = renderer.RenderGBuffer(scene);
-    WriteExr(opt->output, image, meta);
+    // All or nothing: a preview or AOV that cannot be written takes the EXR with it.
+    std::vector<OutputWrite> writes = {
+        {opt->output, [&] { WriteExr(opt->output, image, meta); }}};
+    const std::string png = std::filesystem::path(opt->output).replace_extension(".png").string();
     if (!opt->no_preview) {
-      const std::string png =
-          std::filesystem::path(opt->output).replace_extension(".png").string();
-      WritePngPreview(png, image, opt->exposure);
+      writes.push_back({png, [&] { WritePngPreview(png, image, opt->exposure); }});
     }
-    if (!opt->aov.empty()) WriteAov(opt->aov, gbuffer, meta);
+    if (!opt->aov.empty()) writes.push_back({opt->aov, [&] { WriteAov(opt->aov, gbuffer, meta); }});
+    WriteAllOrNothing(writes);
     fmt::print("wrote {}\n", opt->output);
   });
 }

@@ -38,6 +38,11 @@ void MakeReport(const std::string& study_dir) {
                                  ? env_script
                                  : std::string(SHADEFIT_SOURCE_DIR) + "/report/make_report.py";
   if (!fs::exists(script)) throw Error(script, "", "report script not found");
+  // Checked here, before the fork: a child that cannot exec would add a second error line.
+  if (access(python.c_str(), X_OK) != 0) {
+    throw Error(python, env_python != nullptr && *env_python ? "SHADEFIT_PYTHON" : "python",
+                "not found or not executable (set SHADEFIT_PYTHON to a Python 3 interpreter)");
+  }
   std::vector<std::string> args = {python, script, study_dir};
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());

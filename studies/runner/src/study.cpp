@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
@@ -39,7 +40,8 @@ class Reader {
                  const std::set<std::string>& allowed) const {
     for (const auto& [key, node] : table) {
       if (!allowed.contains(std::string(key.str()))) {
-        Fail(&node, prefix + std::string(key.str()), "unknown key");
+        Fail(&node, prefix + std::string(key.str()),
+             "unknown key" + DidYouMean(key.str(), {allowed.begin(), allowed.end()}));
       }
     }
   }
@@ -51,20 +53,28 @@ class Reader {
     if (!n->is_string()) Fail(n, prefix + key, "expected a string");
     return *n->value<std::string>();
   }
+  // A finite number in [min, max] (TOML allows nan and inf; no setting here means them).
   double Number(const toml::table& t, const std::string& prefix, const std::string& key,
-                double fallback) const {
+                double fallback, double min = -1e300, double max = 1e300) const {
     const toml::node* n = t.get(key);
     if (n == nullptr) return fallback;
     if (!n->is_number()) Fail(n, prefix + key, "expected a number");
-    return *n->value<double>();
+    const double v = *n->value<double>();
+    if (!(v >= min && v <= max)) {
+      Fail(n, prefix + key, fmt::format("value {} outside [{}, {}]", v, min, max));
+    }
+    return v;
   }
+  // An integer in [min, max]; the default max keeps every value inside the int it is stored in.
   std::int64_t Integer(const toml::table& t, const std::string& prefix, const std::string& key,
-                       std::int64_t fallback, std::int64_t min) const {
+                       std::int64_t fallback, std::int64_t min,
+                       std::int64_t max = std::numeric_limits<int>::max()) const {
     const toml::node* n = t.get(key);
     if (n == nullptr) return fallback;
     if (!n->is_integer()) Fail(n, prefix + key, "expected an integer");
     const std::int64_t v = *n->value<std::int64_t>();
     if (v < min) Fail(n, prefix + key, fmt::format("value {} below the minimum {}", v, min));
+    if (v > max) Fail(n, prefix + key, fmt::format("value {} above the maximum {}", v, max));
     return v;
   }
   bool Bool(const toml::table& t, const std::string& prefix, const std::string& key,
@@ -109,19 +119,25 @@ const std::set<std::string> kFitKeys = {"loss",           "loss_scale",   "start
 void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& prefix,
                      FitSettings* s) {
   s->loss = r.String(t, prefix, "loss", s->loss);
-  s->loss_scale = r.Number(t, prefix, "loss_scale", s->loss_scale);
-  s->starts = static_cast<int>(r.Integer(t, prefix, "starts", s->starts, 1));
-  s->seed = static_cast<std::uint64_t>(r.Integer(t, prefix, "seed", s->seed, 0));
+  s->loss_scale = r.Number(t, prefix, "loss_scale", s->loss_scale, 0.0);
+  // Bounds say what a fit can use: more starts than 10000 or iterations than 100000 per start is
+  // a typo, not a plan, and would run for days.
+  s->starts = static_cast<int>(r.Integer(t, prefix, "starts", s->starts, 1, 10000));
+  s->seed = static_cast<std::uint64_t>(
+      r.Integer(t, prefix, "seed", s->seed, 0, std::numeric_limits<std::int64_t>::max()));
   s->exposure = r.String(t, prefix, "exposure", s->exposure);
   s->path = r.String(t, prefix, "path", s->path);
-  s->max_iterations = static_cast<int>(r.Integer(t, prefix, "max_iterations", s->max_iterations, 1));
+  s->max_iterations =
+      static_cast<int>(r.Integer(t, prefix, "max_iterations", s->max_iterations, 1, 100000));
   s->pixel_stride = static_cast<int>(r.Integer(t, prefix, "pixel_stride", s->pixel_stride, 1));
   s->environment_samples =
       static_cast<int>(r.Integer(t, prefix, "environment_samples", s->environment_samples, 0));
   if (t.contains("fixed")) s->fixed = r.Strings(t, prefix, "fixed");
   const std::set<std::string> losses = {"l2", "log", "cuberoot", "huber", "cauchy"};
   if (!losses.contains(s->loss)) {
-    r.Fail(t.get("loss"), prefix + "loss", "unknown loss '" + s->loss + "' (l2, log, cuberoot, huber, cauchy)");
+    r.Fail(t.get("loss"), prefix + "loss",
+           "unknown loss '" + s->loss + "'" + DidYouMean(s->loss, {losses.begin(), losses.end()}) +
+               " (l2, log, cuberoot, huber, cauchy)");
   }
   if (s->exposure != "fixed" && s->exposure != "free") {
     r.Fail(t.get("exposure"), prefix + "exposure", "expected \"fixed\" or \"free\"");
@@ -255,6 +271,7 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   StudySpec spec;
   const fs::path file = fs::absolute(path).lexically_normal();
   if (!fs::exists(file)) throw Error(path, "", "study file not found");
+  if (!fs::is_regular_file(file)) throw Error(path, "", "study file is not a regular file");
   {
     std::ifstream in(file, std::ios::binary);
     std::ostringstream ss;
@@ -309,8 +326,7 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
       const std::string folder = r.String(t, "measured.", "folder", "");
       if (folder.empty()) r.Fail(&e, "measured.folder", "missing");
       src.folder = (base / folder).lexically_normal().string();
-      src.samples = static_cast<int>(r.Number(t, "measured.", "samples", 0.0));
-      if (src.samples < 0) r.Fail(t.get("samples"), "measured.samples", "must be >= 0");
+      src.samples = static_cast<int>(r.Integer(t, "measured.", "samples", 0, 0, 65536));
       const std::vector<std::string> exclude = r.Strings(t, "measured.", "exclude");
       auto excluded = [&](const std::string& leaf) {
         return std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
@@ -561,8 +577,8 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   if (const toml::table* m = r.Table(root, "", "metrics")) {
     r.CheckKeys(*m, "metrics.", {"exposure_stops", "ppd"});
     spec.metrics_exposure_stops =
-        static_cast<float>(r.Number(*m, "metrics.", "exposure_stops", 0.0));
-    spec.metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0);
+        static_cast<float>(r.Number(*m, "metrics.", "exposure_stops", 0.0, -64.0, 64.0));
+    spec.metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0, 1e-3, 1e6);
   }
 
   // [probes]
@@ -573,7 +589,15 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   if (q != nullptr && q->contains("probes")) spec.probes = r.Strings(*q, "quick.", "probes");
   for (const std::string& p : spec.probes) {
     if (!kKnownProbes.contains(p)) {
-      r.Fail(nullptr, "probes.run", "unknown probe '" + p + "' (fresnel, highlight, energy, portability)");
+      const bool from_quick = q != nullptr && q->contains("probes");
+      const toml::table* probes_table = r.Table(root, "", "probes");
+      const toml::node* where = from_quick ? q->get("probes")
+                                : probes_table ? probes_table->get("run")
+                                               : nullptr;
+      r.Fail(where, from_quick ? "quick.probes" : "probes.run",
+             "unknown probe '" + p + "'" +
+                 DidYouMean(p, {kKnownProbes.begin(), kKnownProbes.end()}) +
+                 " (fresnel, highlight, energy, portability)");
     }
   }
 
@@ -591,8 +615,8 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
       j["source"] = r.String(t, prefix, "source", "");
       j["kind"] = r.String(t, prefix, "kind", "relative");
       if (!t.contains("tolerance")) r.Fail(&node, prefix + "tolerance", "missing");
-      j["tolerance"] = r.Number(t, prefix, "tolerance", 0.0);
-      j["floor"] = r.Number(t, prefix, "floor", 0.0);
+      j["tolerance"] = r.Number(t, prefix, "tolerance", 0.0, 0.0);
+      j["floor"] = r.Number(t, prefix, "floor", 0.0, 0.0);
       j["keys"] = r.Strings(t, prefix, "keys");
       j["metric"] = r.String(t, prefix, "metric", "");
       j["split"] = r.String(t, prefix, "split", "test");

@@ -3,6 +3,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace shadefit {
 
@@ -24,5 +26,17 @@ class Error : public std::runtime_error {
     return out;
   }
 };
+
+// For an unknown key or name: " (did you mean 'x'?)" with the candidate closest to `name` by
+// edit distance, or "" when none is close enough to be a likely typo. Every parser that rejects
+// an unknown key, model, loss, probe, parameter or light type appends this to its message, so a
+// misspelling is answered with the valid spelling (docs/inputs.md).
+std::string DidYouMean(std::string_view name, const std::vector<std::string>& candidates);
+
+// The candidate behind DidYouMean ("" when none is close): the smallest optimal-string-alignment
+// distance (Levenshtein 1966 plus Damerau 1964's adjacent transpositions, each costing 1), at
+// most max(2, |name| / 3), ties to the earlier candidate; failing that, a candidate whose first
+// |name| characters are within one edit of `name` (4 characters or more: a shortened name).
+std::string ClosestName(std::string_view name, const std::vector<std::string>& candidates);
 
 }  // namespace shadefit

@@ -2,7 +2,10 @@
 // text writes, and one-line error text.
 #pragma once
 
+#include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace shadefit {
 
@@ -16,9 +19,41 @@ std::string Sha256String(const std::string& bytes);
 // rename stays on one file system). Every atomic writer in shadefit names its temporary here.
 std::string TemporaryPathFor(const std::string& path);
 
+// Throws shadefit::Error naming `path` unless a file can be created there: its folder exists (and
+// is a folder) and the path itself is not a folder. Every writer calls it before it writes, and
+// commands with several outputs call it for all of them first, so that a bad path fails before
+// anything is written.
+void CheckOutputPath(const std::string& path);
+
+// For commands with several outputs (an EXR and its PNG preview, a fit's images and JSON): checks
+// every path first (CheckOutputPath), then runs the writers in order; when one throws, removes
+// what the earlier ones wrote and rethrows, so the command leaves all of its outputs or none.
+using OutputWrite = std::pair<std::string, std::function<void()>>;  // path, its atomic writer
+void WriteAllOrNothing(const std::vector<OutputWrite>& writes);
+
 // Writes text to a temporary sibling and renames it over `path`, so a reader never sees a partial
 // file and a failure leaves nothing. Throws shadefit::Error naming the file.
 void WriteTextAtomic(const std::string& path, const std::string& text);
+
+// Holds back what C libraries print on stderr while it lives (libpng prints "libpng error: ..."
+// itself before OpenImageIO reports the same failure), so that a bad file gives our one error
+// line and nothing else. Discard() drops the held text (the failure is being reported in our
+// words); otherwise the destructor passes it on to stderr, so warnings of a successful read and
+// other threads' output are delayed, never lost. Process-wide and serialised; nested captures
+// are no-ops.
+class StderrCapture {
+ public:
+  StderrCapture();
+  ~StderrCapture();
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+  void Discard() { discard_ = true; }
+
+ private:
+  int saved_fd_ = -1;   // the real stderr while captured; -1 when this capture is nested
+  int held_fd_ = -1;    // the anonymous file that stands in for it
+  bool discard_ = false;
+};
 
 // Collapses line breaks and runs of blanks so that library messages (OpenImageIO, HDF5) fit the
 // one-line error format of shadefit::Error.

@@ -40,7 +40,9 @@ using ImageMetadata = std::map<std::string, std::string>;
 
 // Reads any image OpenImageIO understands. 8-bit files are returned as values in [0, 1] without
 // any transfer-function conversion (callers decide: see reference import). Throws shadefit::Error
-// naming the file on a missing, truncated or unreadable file.
+// naming the file and the field (header, resolution, pixels) on a missing, unreadable, truncated
+// or corrupt file (JPEG and PNG files cut short included, which decoders fill silently) and on a
+// size beyond 16384 per side or 64 channels.
 Image ReadImage(const std::string& path, ImageMetadata* metadata = nullptr);
 
 // Writes a linear float EXR (half is never used: references need float). Written to a temporary
