@@ -20,6 +20,7 @@
 #include "report_command.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
+#include "shadefit/studies/parameter_charts.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
 
@@ -52,8 +53,9 @@ struct StudyRunOptions {
   std::string shard;  // "i/N"; empty: the whole study.
 };
 
-// The report, which reads the finished results.
+// Sphere grids over each model's parameters, then the report (both read the finished results).
 void FinishStudy(const studies::StudySpec& spec, const std::string& study_dir, bool report) {
+  studies::WriteParameterCharts(spec, study_dir);  // Sphere grids the report lays out.
   if (spec.report && report) MakeReport(study_dir);
 }
 
