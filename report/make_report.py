@@ -12,22 +12,19 @@ import csv
 import fnmatch
 import datetime
 import glob
-import html
+import io
 import json
 import math
 import os
 import sys
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # Files only: no display.
-import matplotlib.image as mpimg  # noqa: E402
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import report_charts  # noqa: E402
+import report_figures  # noqa: E402
+import report_page  # noqa: E402
 
-# Figure resolution: every PNG is figsize * DPI pixels exactly (no bbox_inches="tight"), so the
-# sizes recorded in figures.json are the sizes on disk and LaTeX sees stable files.
-DPI = 100
 METRIC_COLUMNS = [
     ("rmse", "RMSE", "{:.4g}"),
     ("relative_rmse", "rel. RMSE", "{:.3f}"),
@@ -43,25 +40,102 @@ METRIC_COLUMNS = [
 # Reading
 
 
+class ReportInputError(Exception):
+    """Bad input: the message is one line naming the file and the field."""
+
+
 def load_json(path):
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except OSError as e:
+        raise ReportInputError(f"{path}: cannot read ({e.strerror})")
+    except ValueError as e:
+        raise ReportInputError(f"{path}: not JSON ({e})")
+
+
+def need(obj, field, path, kind, where=""):
+    """obj[field], which must be a `kind`; else a ReportInputError naming path and field."""
+    name = f"{where}.{field}" if where else field
+    if not isinstance(obj, dict) or field not in obj:
+        raise ReportInputError(f"{path}: {name}: missing")
+    if not isinstance(obj[field], kind):
+        raise ReportInputError(f"{path}: {name}: want {getattr(kind, '__name__', 'a value')}, "
+                               f"got {type(obj[field]).__name__}")
+    return obj[field]
+
+
+RESULT_COLUMNS = ["material", "lighting", "label", "split", "converged"] + \
+    [c[0] for c in METRIC_COLUMNS]
+
+
+def check_study(study, path):
+    need(study, "name", path, str)
+    for i, f in enumerate(need(study, "fits", path, list)):
+        need(f, "label", path, str, f"fits[{i}]")
+        need(f, "model", path, str, f"fits[{i}]")
+    for i, g in enumerate(need(study, "groups", path, list)):
+        need(g, "material", path, str, f"groups[{i}]")
+        for j, r in enumerate(need(g, "references", path, list, f"groups[{i}]")):
+            need(r, "lighting", path, str, f"groups[{i}].references[{j}]")
+    need(study, "training_sets", path, list)
+    for name, v in (study.get("verdicts") or {}).items():
+        for field, kind in [("source", str), ("kind", str), ("tolerance", (int, float))]:
+            need(v, field, path, kind, f"verdicts.{name}")
+        if v["kind"] not in ("relative", "absolute", "max"):
+            raise ReportInputError(f"{path}: verdicts.{name}.kind: unknown kind '{v['kind']}'")
+
+
+def check_fit_job(job, path):
+    for field, kind in [("material", str), ("label", str), ("parameters", list),
+                        ("evaluations", list)]:
+        need(job, field, path, kind)
+    for i, p in enumerate(job["parameters"]):
+        need(p, "name", path, str, f"parameters[{i}]")
+        if "value" not in p:
+            raise ReportInputError(f"{path}: parameters[{i}].value: missing")
+    for i, e in enumerate(job["evaluations"]):
+        need(e, "lighting", path, str, f"evaluations[{i}]")
 
 
 def load_study(study_dir):
-    study = load_json(os.path.join(study_dir, "study.json"))
-    with open(os.path.join(study_dir, "results.csv"), newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
+    study_path = os.path.join(study_dir, "study.json")
+    study = load_json(study_path)
+    check_study(study, study_path)
+    csv_path = os.path.join(study_dir, "results.csv")
+    try:
+        with open(csv_path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            missing = [c for c in RESULT_COLUMNS if c not in (reader.fieldnames or [])]
+    except (OSError, csv.Error, UnicodeDecodeError) as e:
+        raise ReportInputError(f"{csv_path}: cannot read ({e})")
+    if missing:
+        raise ReportInputError(f"{csv_path}: column {missing[0]}: missing")
+    for n, r in enumerate(rows, 2):
+        if None in r or any(r[c] is None for c in RESULT_COLUMNS):
+            raise ReportInputError(f"{csv_path}:{n}: wrong number of cells")
     fits, probes = {}, {}
     for path in sorted(glob.glob(os.path.join(study_dir, "jobs", "*.json"))):
         job = load_json(path)
         if job.get("kind") == "fit":
+            check_fit_job(job, path)
             fits[(job["material"], job["label"])] = job
         elif job.get("kind") == "probe":
+            need(job, "material", path, str)
+            need(job, "probes", path, dict)
             probes[job["material"]] = job
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = load_json(prov_path) if os.path.exists(prov_path) else {}
     return study, rows, fits, probes, provenance
+
+
+def write_text(path, text):
+    """Writes through a temporary file in the same folder and a rename: never a partial file."""
+    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    with open(tmp, "w", encoding="utf-8", newline="") as f:
+        f.write(text)
+    os.replace(tmp, path)
 
 
 def labels_of(study):
@@ -109,7 +183,11 @@ def latex_escape(s):
     repl = {"\\": "\\textbackslash{}", "&": "\\&", "%": "\\%", "$": "\\$", "#": "\\#",
             "_": "\\_", "{": "\\{", "}": "\\}", "~": "\\textasciitilde{}",
             "^": "\\textasciicircum{}"}
-    return "".join(repl.get(c, c) for c in s).replace("±", "$\\pm$")
+    # Text mode has no |, and the figure captions' units use Unicode superscripts.
+    repl.update({"|": "$|$", "\u207b": "$^{-}$", "\u00b2": "$^{2}$", "\u00b9": "$^{1}$",
+                 "±": "$\\pm$", "\u2212": "$-$"})
+    # Adjacent superscripts join: m$^{-}$$^{2}$ -> m$^{-2}$.
+    return "".join(repl.get(c, c) for c in s).replace("}$$^{", "")
 
 
 def md_escape(s):
@@ -117,27 +195,32 @@ def md_escape(s):
 
 
 def write_table(out_dir, name, columns, rows, caption, numeric_from=1):
+    """tables/<name>.{csv,md,tex}; the .tex is a booktabs tabular for \\input, and
+    <name>.long.tex the same rows as a longtable (header repeated on every page) for report.tex."""
     os.makedirs(out_dir, exist_ok=True)
     plain_cols = [c.replace("$\\Delta E_{00}$", "dE00") for c in columns]
-    with open(os.path.join(out_dir, name + ".csv"), "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(plain_cols)
-        w.writerows(rows)
-    with open(os.path.join(out_dir, name + ".md"), "w", encoding="utf-8") as f:
-        f.write(f"<!-- {caption} -->\n")
-        f.write("| " + " | ".join(md_escape(c) for c in plain_cols) + " |\n")
-        f.write("|" + "|".join("---" if i < numeric_from else "---:"
-                               for i in range(len(columns))) + "|\n")
-        for r in rows:
-            f.write("| " + " | ".join(md_escape(c) for c in r) + " |\n")
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(plain_cols)
+    w.writerows(rows)
+    write_text(os.path.join(out_dir, name + ".csv"), buf.getvalue())
+    md = [f"<!-- {caption} -->",
+          "| " + " | ".join(md_escape(c) for c in plain_cols) + " |",
+          "|" + "|".join("---" if i < numeric_from else "---:" for i in range(len(columns))) + "|"]
+    md += ["| " + " | ".join(md_escape(c) for c in r) + " |" for r in rows]
+    write_text(os.path.join(out_dir, name + ".md"), "\n".join(md) + "\n")
     align = "l" * numeric_from + "r" * (len(columns) - numeric_from)
-    with open(os.path.join(out_dir, name + ".tex"), "w", encoding="utf-8") as f:
-        f.write(f"% {caption}. Generated by report/make_report.py; needs \\usepackage{{booktabs}}.\n")
-        f.write(f"\\begin{{tabular}}{{{align}}}\n\\toprule\n")
-        f.write(" & ".join(latex_escape(c) for c in columns) + " \\\\\n\\midrule\n")
-        for r in rows:
-            f.write(" & ".join(latex_escape(c) for c in r) + " \\\\\n")
-        f.write("\\bottomrule\n\\end{tabular}\n")
+    head = " & ".join(latex_escape(c) for c in columns) + " \\\\"
+    body = [" & ".join(latex_escape(c) for c in r) + " \\\\" for r in rows]
+    write_text(os.path.join(out_dir, name + ".tex"), "\n".join(
+        [f"% {caption}. Generated by report/make_report.py; needs \\usepackage{{booktabs}}.",
+         f"\\begin{{tabular}}{{{align}}}", "\\toprule", head, "\\midrule"] + body
+        + ["\\bottomrule", "\\end{tabular}"]) + "\n")
+    write_text(os.path.join(out_dir, name + ".long.tex"), "\n".join(
+        [f"% {caption}. Generated by report/make_report.py; needs booktabs and longtable.",
+         f"\\begin{{longtable}}{{{align}}}", f"\\caption{{{latex_escape(caption)}}}\\\\",
+         "\\toprule", head, "\\midrule", "\\endfirsthead", "\\toprule", head, "\\midrule",
+         "\\endhead", "\\bottomrule", "\\endfoot"] + body + ["\\end{longtable}"]) + "\n")
     return {"name": name, "caption": caption, "columns": plain_cols, "rows": rows}
 
 
@@ -317,234 +400,7 @@ def verdict_tables(study, summary, detail):
 
 
 # ------------------------------------------------------------------------------------------------
-# Figures
-
-
-def save_figure(fig, fig_dir, name, manifest, caption):
-    os.makedirs(fig_dir, exist_ok=True)
-    png = os.path.join(fig_dir, name + ".png")
-    pdf = os.path.join(fig_dir, name + ".pdf")
-    w, h = fig.get_size_inches()
-    fig.savefig(png + ".tmp.png", dpi=DPI)
-    os.replace(png + ".tmp.png", png)
-    fig.savefig(pdf + ".tmp.pdf")
-    os.replace(pdf + ".tmp.pdf", pdf)
-    plt.close(fig)
-    manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
-                     "width": int(round(w * DPI)), "height": int(round(h * DPI)),
-                     "caption": caption})
-
-
-def image_grid(study_dir, study, fits, material, fig_dir, manifest):
-    labels = [l for l in labels_of(study) if (material, l) in fits]
-    if not labels:
-        return
-    evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
-    lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
-                 for r in g["references"]]
-    cols = 1 + 2 * len(labels)
-    cell = 1.6
-    fig = plt.figure(figsize=(cell * cols, cell * len(lightings) + 0.5))
-    for i, light in enumerate(lightings):
-        panels = []
-        first = evals[labels[0]].get(light, {}).get("images", {})
-        panels.append(("reference", first.get("reference")))
-        for l in labels:
-            panels.append((l, evals[l].get(light, {}).get("images", {}).get("fit")))
-        for l in labels:
-            panels.append((f"|error| {l}", evals[l].get(light, {}).get("images", {}).get("error")))
-        for j, (title, rel) in enumerate(panels):
-            ax = fig.add_axes([j / cols, 1 - (i + 1) * cell / (cell * len(lightings) + 0.5),
-                               1 / cols, cell / (cell * len(lightings) + 0.5) * 0.86])
-            ax.set_xticks([])
-            ax.set_yticks([])
-            for s in ax.spines.values():
-                s.set_visible(False)
-            if rel and os.path.exists(os.path.join(study_dir, rel)):
-                ax.imshow(mpimg.imread(os.path.join(study_dir, rel)), interpolation="nearest")
-            split = ""
-            if j > 0:
-                lab = labels[(j - 1) % len(labels)]
-                split = evals[lab].get(light, {}).get("split", "")
-            ax.set_title(f"{title}" + (f"\n{light} ({split})" if j == 0 or split else ""),
-                         fontsize=6)
-    fig.text(0.005, 0.005, f"{material}: rows = lightings; error maps: |fit - reference| "
-             "(mean RGB, linear), colour bar range 0..max shared per row", fontsize=6)
-    save_figure(fig, fig_dir, f"grid-{material}", manifest,
-                f"{material}: reference, fits and error maps per lighting")
-
-
-
-# Lighting shown per probe: one per panel keeps a figure readable (all lightings stay in the JSON
-# and the tables). Back light for Fresnel, key light for the highlight shape.
-PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key", "camera"]}
-
-
-def plot_probe_curves(fig, ax, probe, curves):
-    """One panel per curve kind ("<label> @ <reference>: <kind>"); models in fixed colours, the
-    reference dashed black; one lighting per panel. Returns whether anything was drawn."""
-    parsed = []
-    for name, c in curves.items():
-        xs, ys = c.get("x", []), c.get("y", [])
-        if not xs or len(xs) != len(ys):
-            continue
-        head, _, kind = name.rpartition(": ")
-        label, _, ref = head.partition(" @ ")
-        parsed.append((kind or name, label or name, ref, c))
-    if not parsed:
-        return False
-    kinds = sorted({k for k, _, _, _ in parsed})
-    fig.clf()
-    axes = fig.subplots(1, len(kinds), squeeze=False)[0]
-    fig.set_size_inches(4.2 * len(kinds) + 2.0, 3.6)
-    labels = sorted({lab for _, lab, _, _ in parsed if lab != "reference"})
-    colours = {lab: plt.cm.tab10(i % 10) for i, lab in enumerate(labels)}
-    for ax_k, kind in zip(axes, kinds):
-        items = [p for p in parsed if p[0] == kind]
-        refs = sorted({r for _, _, r, _ in items if r})
-        chosen = None
-        for want in PREFERRED_LIGHTING.get(probe, []):
-            chosen = next((r for r in refs if r.endswith("-" + want)), None)
-            if chosen:
-                break
-        chosen = chosen or (refs[0] if refs else None)
-        for _, lab, ref, c in items:
-            if ref and ref != chosen:
-                continue
-            ys = np.array([np.nan if y is None else y for y in c["y"]], dtype=float)
-            if lab == "reference":
-                ax_k.plot(c["x"], ys, "--", color="black", linewidth=1.6, label="reference")
-            else:
-                ax_k.plot(c["x"], ys, "-", color=colours[lab], linewidth=1.2, label=lab)
-            ax_k.set_xlabel(c.get("x_label", ""), fontsize=8)
-            ax_k.set_ylabel(c.get("y_label", ""), fontsize=8)
-            if c.get("y_scale") == "log" or probe == "highlight":
-                ax_k.set_yscale("log")
-        ax_k.set_title(kind + (f" ({chosen})" if chosen else ""), fontsize=8)
-        ax_k.tick_params(labelsize=7)
-    handles, names = axes[-1].get_legend_handles_labels()
-    for ax_k in axes[:-1]:
-        for h, n in zip(*ax_k.get_legend_handles_labels()):
-            if n not in names:
-                handles.append(h)
-                names.append(n)
-    fig.legend(handles, names, loc="center right", fontsize=7, frameon=False)
-    fig.subplots_adjust(left=0.08, right=1.0 - 1.9 / fig.get_size_inches()[0], bottom=0.16,
-                        top=0.86, wspace=0.3)
-    return True
-
-
-def probe_figures(study, probes, fig_dir, manifest):
-    for material, job in sorted(probes.items()):
-        for probe, result in job.get("probes", {}).items():
-            curves = result.get("curves") or {}
-            numbers = result.get("numbers") or {}
-            fig, ax = plt.subplots(figsize=(6.4, 4.0))
-            plotted = False
-            if probe == "portability" or not curves:
-                # Bars: every number each fit reports (and the reference's, if any).
-                series = [k for k in numbers.keys()]
-                keys = []
-                for s in series:
-                    keys += [k for k in flatten(numbers[s]) if k not in keys]
-                keys = keys[:12]
-                if keys and series:
-                    width = 0.8 / len(series)
-                    x = np.arange(len(keys))
-                    for i, s in enumerate(series):
-                        f = flatten(numbers[s])
-                        ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s)
-                    ax.set_xticks(x + 0.4 - width / 2)
-                    ax.set_xticklabels(keys, rotation=30, ha="right", fontsize=6)
-                    plotted = True
-            else:
-                plotted = plot_probe_curves(fig, ax, probe, curves)
-            if not plotted:
-                ax.set_title(f"{material}: {probe}", fontsize=9)
-                ax.text(0.5, 0.5, "no curves reported", ha="center", transform=ax.transAxes)
-            elif probe == "portability" or not curves:
-                ax.set_title(f"{material}: {probe}", fontsize=9)
-                ax.legend(fontsize=6)
-            else:
-                fig.suptitle(f"{material}: {probe}", fontsize=9)
-            fig.subplots_adjust(bottom=0.2)
-            save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
-                        f"{material}: {probe} probe")
-
-
-def metric_bars(study, rows, fig_dir, manifest, metric="flip_ldr_mean"):
-    materials, labels = materials_of(study), labels_of(study)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.0), sharey=True)
-    for ax, split in zip(axes, ["train", "test"]):
-        width = 0.8 / max(1, len(labels))
-        x = np.arange(len(materials))
-        for i, l in enumerate(labels):
-            vals = []
-            for m in materials:
-                v = [to_float(r[metric]) for r in rows
-                     if r["material"] == m and r["label"] == l and r["split"] == split]
-                v = [a for a in v if a is not None]
-                vals.append(np.mean(v) if v else np.nan)
-            ax.bar(x + i * width, vals, width, label=l)
-        ax.set_xticks(x + 0.4 - width / 2)
-        ax.set_xticklabels(materials, rotation=30, ha="right", fontsize=7)
-        ax.set_title(f"{metric} on {split} lightings (lower is better)", fontsize=9)
-    axes[0].legend(fontsize=7)
-    fig.subplots_adjust(bottom=0.25)
-    save_figure(fig, fig_dir, f"metric-{metric}", manifest,
-                f"{metric} per material and fit, training vs test lightings")
-
-
-# ------------------------------------------------------------------------------------------------
 # Pages
-
-
-def html_table(t):
-    cols, rows = t
-    out = ["<table><thead><tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cols)
-           + "</tr></thead><tbody>"]
-    for r in rows:
-        cells = []
-        for c in r:
-            cls = {"yes": ' class="yes"', "no": ' class="no"', "NO": ' class="no"'}.get(c, "")
-            cells.append(f"<td{cls}>{html.escape(str(c))}</td>")
-        out.append("<tr>" + "".join(cells) + "</tr>")
-    out.append("</tbody></table>")
-    return "\n".join(out)
-
-
-def write_index(report_dir, study, tables, figures, provenance, summary_md):
-    css = ("body{font-family:sans-serif;max-width:1300px;margin:auto;padding:1em}"
-           "table{border-collapse:collapse;font-size:12px;margin:1em 0}"
-           "td,th{border-bottom:1px solid #ccc;padding:2px 6px;text-align:right}"
-           "td:first-child,th:first-child{text-align:left}.yes{background:#d4f4d4}"
-           ".no{background:#f8d0d0}img{max-width:100%}")
-    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(study['name'])}"
-             f"</title><style>{css}</style></head><body>",
-             f"<h1>Study {html.escape(study['name'])}</h1><p>{html.escape(study.get('description', ''))}</p>",
-             "<h2>Verdicts</h2><p>Materials whose numbers are within the study's tolerance, per "
-             "phenomenon and fit (rules in docs/studies.md).</p>", html_table(tables["matrix"]),
-             html_table(tables["verdicts"])]
-    if "ngan2005_spearman" in tables:
-        parts += ["<h2>Against Ngan, Durand and Matusik 2005</h2><p>Rank correlation (Spearman) "
-                  "of our fitted lobe widths with the published BRDF-space fits of the same "
-                  "measured materials; the per-material numbers follow.</p>",
-                  html_table(tables["ngan2005_spearman"]), html_table(tables["ngan2005"])]
-    parts += ["<h2>Figures</h2>"]
-    for f in figures:
-        parts.append(f"<figure><img src='{f['png']}' alt='{html.escape(f['name'])}'>"
-                     f"<figcaption>{html.escape(f['caption'])} "
-                     f"(<a href='{f['pdf']}'>PDF</a>)</figcaption></figure>")
-    for key, title in [("metrics", "Image metrics per reference and fit"),
-                       ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
-                       ("verdict_details", "Verdicts per quantity")]:
-        parts.append(f"<h2>{title}</h2>" + html_table(tables[key]))
-    parts.append("<h2>Provenance</h2><pre>" + html.escape(json.dumps(
-        {k: provenance.get(k) for k in ["shadefit", "dependencies", "gl_renderer", "machine"]},
-        indent=2)) + "</pre>")
-    parts.append("<h2>Summary</h2><pre>" + html.escape(summary_md) + "</pre></body></html>")
-    with open(os.path.join(report_dir, "index.html"), "w", encoding="utf-8") as f:
-        f.write("\n".join(parts))
 
 
 def summary_markdown(study, summary, matrix, provenance):
@@ -673,31 +529,32 @@ def ngan_comparison(study, fits):
 
 
 def write_latex_document(report_dir, tables, figures):
-    """report.tex: every table and figure in one document (compiles with pdflatex)."""
-    body = ["\\documentclass[10pt]{article}", "\\usepackage[margin=1.5cm,landscape]{geometry}",
-            "\\usepackage{booktabs}", "\\usepackage{graphicx}", "\\begin{document}"]
-    for key in ["matrix", "verdicts", "metrics", "parameters", "probes"]:
-        body += [f"\\section*{{{key.replace('_', ' ')}}}", "{\\scriptsize",
-                 f"\\input{{tables/{key}.tex}}", "}", "\\clearpage"]
+    """report.tex: every table (longtable, booktabs) and every figure at its printed size, so
+    the text in a figure reads at the size it was laid out for (compiles with pdflatex)."""
+    body = ["\\documentclass[10pt]{article}", "\\usepackage[a4paper,margin=1.5cm]{geometry}",
+            "\\usepackage{booktabs}", "\\usepackage{longtable}", "\\usepackage{graphicx}",
+            "\\setlength{\\LTcapwidth}{\\textwidth}", "\\begin{document}",
+            "\\section*{Tables}"]
+    for key in ["matrix", "verdicts", "verdict_details", "metrics", "parameters", "probes",
+                "ngan2005_spearman", "ngan2005"]:
+        if key in tables:
+            body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",
+                     f"\\input{{tables/{key}.long.tex}}", "}"]
+    body += ["\\clearpage", "\\section*{Figures}"]
     for f in figures:
+        # Natural size: 3.3 in (one column) or 7 in (two); a page here is 6.9 in wide.
         body += ["\\begin{figure}[p]\\centering",
-                 f"\\includegraphics[width=\\linewidth,height=0.8\\textheight,keepaspectratio]{{{f['pdf']}}}",
+                 f"\\includegraphics[width={f['width_in']:g}in,height=0.85\\textheight,"
+                 f"keepaspectratio]{{{f['pdf']}}}",
                  f"\\caption{{{latex_escape(f['caption'])}}}\\end{{figure}}"]
     body.append("\\end{document}")
-    with open(os.path.join(report_dir, "report.tex"), "w", encoding="utf-8") as f:
-        f.write("\n".join(body) + "\n")
+    write_text(os.path.join(report_dir, "report.tex"), "\n".join(body) + "\n")
 
 
-def main(argv):
-    if len(argv) != 2:
-        print("usage: make_report.py OUT/STUDY", file=sys.stderr)
-        return 2
-    study_dir = os.path.abspath(argv[1])
-    for need in ["study.json", "results.csv"]:
-        if not os.path.exists(os.path.join(study_dir, need)):
-            print(f"make_report: {study_dir}/{need}: missing (run the study first)", file=sys.stderr)
-            return 1
+def make_report(study_dir):
+    # Every input is read and checked before the first file is written.
     study, rows, fits, probes, provenance = load_study(study_dir)
+    charts_in = report_charts.load_charts(study_dir)
     report_dir = os.path.join(study_dir, "report")
     table_dir = os.path.join(report_dir, "tables")
     fig_dir = os.path.join(report_dir, "figures")
@@ -719,16 +576,16 @@ def main(argv):
                         "verdict_details": 4, "matrix": 2}[key]
         write_table(table_dir, key, cols, trows, captions[key], numeric_from)
     # The verdicts also as JSON for tools and tests.
-    with open(os.path.join(report_dir, "verdicts.json"), "w", encoding="utf-8") as f:
-        json.dump({"summary": summary, "detail": detail}, f, indent=1)
+    write_text(os.path.join(report_dir, "verdicts.json"),
+               json.dumps({"summary": summary, "detail": detail}, indent=1))
 
     figures = []
     for m in materials_of(study):
-        image_grid(study_dir, study, fits, m, fig_dir, figures)
-    probe_figures(study, probes, fig_dir, figures)
-    metric_bars(study, rows, fig_dir, figures)
-    with open(os.path.join(report_dir, "figures.json"), "w", encoding="utf-8") as f:
-        json.dump(figures, f, indent=1)
+        report_figures.image_grid(study_dir, study, fits, m, fig_dir, figures)
+    report_figures.probe_figures(study, probes, fig_dir, figures, flatten)
+    report_figures.metric_bars(study, rows, fig_dir, figures, to_float)
+    charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in)
+    write_text(os.path.join(report_dir, "figures.json"), json.dumps(figures + charts, indent=1))
 
     ngan = ngan_comparison(study, fits)
     if ngan is not None:
@@ -743,8 +600,7 @@ def main(argv):
         tables["ngan2005_spearman"] = (corr_cols, corr_rows)
         write_table(table_dir, "ngan2005_spearman", corr_cols, corr_rows,
                     "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
-        with open(os.path.join(report_dir, "ngan2005.json"), "w", encoding="utf-8") as f:
-            json.dump(ngan, f, indent=1)
+        write_text(os.path.join(report_dir, "ngan2005.json"), json.dumps(ngan, indent=1))
     summary_md = summary_markdown(study, summary, matrix, provenance)
     if ngan is not None:
         summary_md += "\n## Against Ngan, Durand and Matusik 2005\n\n" + "".join(
@@ -752,11 +608,28 @@ def main(argv):
             f"{c['materials']} materials: "
             + (f"{c['spearman']:.3f}" if c["spearman"] is not None else "n/a") + "\n"
             for c in ngan["correlations"])
-    with open(os.path.join(report_dir, "summary.md"), "w", encoding="utf-8") as f:
-        f.write(summary_md)
-    write_index(report_dir, study, tables, figures, provenance, summary_md)
-    write_latex_document(report_dir, tables, figures)
-    print(os.path.join(report_dir, "index.html"))
+    write_text(os.path.join(report_dir, "summary.md"), summary_md)
+    report_page.write_index(report_dir, study, tables, figures, provenance, summary, rows, fits,
+                            charts, write_text)
+    write_latex_document(report_dir, tables, figures + charts)
+    return os.path.join(report_dir, "index.html")
+
+
+def main(argv):
+    if len(argv) != 2:
+        print("usage: make_report.py OUT/STUDY", file=sys.stderr)
+        return 2
+    study_dir = os.path.abspath(argv[1])
+    for need_file in ["study.json", "results.csv"]:
+        if not os.path.exists(os.path.join(study_dir, need_file)):
+            print(f"make_report: {study_dir}/{need_file}: missing (run the study first)",
+                  file=sys.stderr)
+            return 1
+    try:
+        print(make_report(study_dir))
+    except (ReportInputError, report_charts.ChartInputError) as e:
+        print(f"make_report: {e}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -1,0 +1,382 @@
+"""Figures for a paper: every figure is one column (3.3 in) or two columns (7 in) wide, saved as a
+PNG of exactly width_in x height_in x DPI pixels and as a vector PDF with its fonts embedded
+(TrueType, not Type 3); curves use the Okabe-Ito colour-blind-safe palette with a line style
+each; no text overlaps other text or leaves the figure (checked here at save time and recorded
+in figures.json, which tests/report/ reads).
+
+Called by make_report.py; reads only result files (preview PNGs, job and probe JSON, the
+study's parameter charts).
+"""
+
+import os
+import textwrap
+
+import matplotlib
+
+matplotlib.use("Agg")  # Files only: no display.
+import matplotlib.image as mpimg  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+DPI = 200
+COLUMN_IN = 3.3  # One column of a two-column paper (ACM, IEEE: 3.3-3.5 in).
+PAGE_IN = 7.0    # Both columns.
+FONT_PT = 7      # Text at the printed size (captions of the paper itself are ~8-9 pt).
+
+plt.rcParams.update({
+    "pdf.fonttype": 42,  # TrueType fonts embedded in the PDF (journals reject Type 3).
+    "ps.fonttype": 42,
+    "font.family": "DejaVu Sans",
+    "font.size": FONT_PT,
+    "axes.titlesize": FONT_PT + 1,
+    "axes.labelsize": FONT_PT,
+    "xtick.labelsize": FONT_PT - 1,
+    "ytick.labelsize": FONT_PT - 1,
+    "legend.fontsize": FONT_PT - 1,
+    "axes.linewidth": 0.6,
+    "lines.linewidth": 1.2,
+    "svg.fonttype": "none",
+})
+
+# Okabe and Ito 2008, "Color Universal Design": distinguishable with any colour vision
+# deficiency. Black is kept for the reference; fits take the others in study order, each with
+# its own line style so the curves also separate in greyscale.
+OKABE_ITO = ["#E69F00", "#56B4E9", "#009E73", "#0072B2", "#D55E00", "#CC79A7", "#F0E442"]
+LINE_STYLES = ["-", "--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 1, 1, 1, 1, 1)), (0, (1, 1))]
+UNITS_RADIANCE = "W m\u207b\u00b2 sr\u207b\u00b9"  # W m^-2 sr^-1, as Unicode superscripts.
+
+
+def style_of(label, labels):
+    i = labels.index(label) if label in labels else len(labels)
+    return {"color": OKABE_ITO[i % len(OKABE_ITO)], "linestyle": LINE_STYLES[i % len(LINE_STYLES)]}
+
+
+# --- Saving and checking ------------------------------------------------------------------------
+
+
+def drawn_texts(fig):
+    """The texts a renderer draws: figure texts, legends, axes titles, labels and texts, and the
+    tick labels of the ticks inside the view (matplotlib keeps labels of ticks outside it)."""
+    texts = list(fig.texts) + [t for lg in fig.legends for t in lg.get_texts()]
+    if fig._suptitle is not None:
+        texts.append(fig._suptitle)
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        texts += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label]
+        texts += list(ax.texts)
+        if ax.get_legend() is not None:
+            texts += list(ax.get_legend().get_texts())
+        for axis in (ax.xaxis, ax.yaxis):
+            for tick in axis._update_ticks():
+                texts += [t for t in (tick.label1, tick.label2) if t.get_visible()]
+        texts.append(ax.yaxis.get_offset_text())
+        texts.append(ax.xaxis.get_offset_text())
+    unique = {id(t): t for t in texts}
+    return [t for t in unique.values() if t.get_visible() and t.get_text().strip()]
+
+
+def text_problems(fig):
+    """Pairs of overlapping texts and texts outside the figure, in pixels at the figure's DPI."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = []
+    for t in drawn_texts(fig):
+        bb = t.get_window_extent(renderer)
+        if bb.width > 0 and bb.height > 0:
+            boxes.append((t.get_text().replace("\n", " "), bb))
+    w, h = fig.get_size_inches() * fig.dpi
+    outside = [s for s, b in boxes if b.x0 < -0.5 or b.y0 < -0.5 or b.x1 > w + 0.5 or b.y1 > h + 0.5]
+    overlaps = []
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            a, b = boxes[i][1], boxes[j][1]
+            # Touching is fine; a shared strip wider than a pixel both ways is an overlap.
+            if min(a.x1, b.x1) - max(a.x0, b.x0) > 1 and min(a.y1, b.y1) - max(a.y0, b.y0) > 1:
+                overlaps.append([boxes[i][0], boxes[j][0]])
+    return overlaps, outside
+
+
+def save_figure(fig, fig_dir, name, manifest, caption):
+    os.makedirs(fig_dir, exist_ok=True)
+    fig.set_dpi(DPI)
+    overlaps, outside = text_problems(fig)
+    png = os.path.join(fig_dir, name + ".png")
+    pdf = os.path.join(fig_dir, name + ".pdf")
+    w, h = fig.get_size_inches()
+    fig.savefig(png + ".tmp.png", dpi=DPI, format="png")
+    os.replace(png + ".tmp.png", png)
+    # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
+    fig.savefig(pdf + ".tmp.pdf", format="pdf", metadata={"CreationDate": None})
+    os.replace(pdf + ".tmp.pdf", pdf)
+    plt.close(fig)
+    manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
+                     "width_in": round(float(w), 3), "height_in": round(float(h), 3),
+                     "width": int(round(w * DPI)), "height": int(round(h * DPI)),
+                     "caption": caption, "text_overlaps": overlaps, "text_outside": outside})
+
+
+# --- Image grids --------------------------------------------------------------------------------
+
+
+def srgb_to_linear(v):
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(v):
+    v = np.clip(v, 0.0, 1.0)
+    return np.where(v <= 0.0031308, v * 12.92, 1.055 * np.power(v, 1 / 2.4) - 0.055)
+
+
+def read_rgb(path):
+    img = mpimg.imread(path)
+    if img.dtype != np.float32 and img.dtype != np.float64:
+        img = img.astype(np.float32) / 255.0
+    return img[..., :3]
+
+
+def row_exposure(reference_rgb):
+    """Whole stops that bring a dim reference's bright pixels (99th percentile of the lit ones)
+    up to mid-grey-to-white; 0 for lightings that already read. At most +6."""
+    lin = srgb_to_linear(reference_rgb).mean(axis=2)
+    lit = lin[lin > 1e-4]
+    if lit.size == 0:
+        return 0
+    p99 = float(np.percentile(lit, 99))
+    if p99 >= 0.25:
+        return 0
+    return int(min(6, max(0, np.floor(np.log2(0.6 / max(p99, 1e-6))))))
+
+
+def exposed(rgb, stops):
+    return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(rgb) * 2.0 ** stops)
+
+
+def image_grid(study_dir, study, fits, material, fig_dir, manifest):
+    """Rows = lightings; columns = reference, each fit, each fit's error map; one colour bar per
+    row (the error maps of a reference share their range) with its ticks in radiance units."""
+    labels = [f["label"] for f in study["fits"] if (material, f["label"]) in fits]
+    if not labels:
+        return
+    evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
+    lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
+                 for r in g["references"]]
+    ncols = 1 + 2 * len(labels)
+    left_in, bar_in, right_in = 0.42, 0.08, 0.52  # Row labels; colour bar; its ticks and label.
+    gap_in = 0.03
+    top_in, bottom_in = 0.30, 0.02
+    cell = (PAGE_IN - left_in - bar_in - right_in - gap_in * (ncols + 1)) / ncols
+    height = top_in + bottom_in + len(lightings) * (cell + gap_in)
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    fx = lambda inch: inch / PAGE_IN  # noqa: E731
+    fy = lambda inch: inch / height  # noqa: E731
+    exposures = []
+    for i, light in enumerate(lightings):
+        y0 = height - top_in - (i + 1) * (cell + gap_in) + gap_in
+        first = evals[labels[0]].get(light, {}).get("images", {})
+        ref_path = os.path.join(study_dir, first["reference"]) if first.get("reference") else None
+        ref = read_rgb(ref_path) if ref_path and os.path.exists(ref_path) else None
+        stops = row_exposure(ref) if ref is not None else 0
+        exposures.append((light, stops))
+        panels = [("reference", first.get("reference"), False)]
+        panels += [(l, evals[l].get(light, {}).get("images", {}).get("fit"), False) for l in labels]
+        panels += [(f"|error| {l}", evals[l].get(light, {}).get("images", {}).get("error"), True)
+                   for l in labels]
+        error_scale = None
+        for j, (title, rel, is_error) in enumerate(panels):
+            x0 = left_in + gap_in + j * (cell + gap_in)
+            ax = fig.add_axes([fx(x0), fy(y0), fx(cell), fy(cell)])
+            ax.set_xticks([])
+            ax.set_yticks([])
+            for s in ax.spines.values():
+                s.set_visible(False)
+            if i == 0:
+                ax.set_title(title, fontsize=FONT_PT - 1, pad=2)
+            if not rel or not os.path.exists(os.path.join(study_dir, rel)):
+                ax.text(0.5, 0.5, "missing", ha="center", va="center", transform=ax.transAxes)
+                continue
+            img = read_rgb(os.path.join(study_dir, rel))
+            if is_error:
+                # The preview's error PNG carries its own small bar to the right of the image:
+                # keep the square image part; the row's bar is drawn here, readable in print.
+                img = img[:, :img.shape[0]]
+                lab = labels[j - 1 - len(labels)]
+                error_scale = evals[lab].get(light, {}).get("images", {}).get("error_scale")
+            else:
+                img = exposed(img, stops)
+            ax.imshow(img, interpolation="nearest")
+        split = next((evals[l].get(light, {}).get("split") for l in labels
+                      if evals[l].get(light, {}).get("split")), "")
+        row_label = light + (f"\n({split})" if split else "") + (f"\n+{stops} EV" if stops else "")
+        fig.text(fx(left_in - 0.02), fy(y0 + cell / 2), row_label, ha="right", va="center",
+                 fontsize=FONT_PT - 1)
+        if error_scale:
+            cax = fig.add_axes([fx(PAGE_IN - right_in - bar_in), fy(y0), fx(bar_in), fy(cell)])
+            sm = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, error_scale),
+                                              cmap="viridis")
+            cb = fig.colorbar(sm, cax=cax)
+            cb.set_ticks([0, error_scale / 2, error_scale])
+            cb.ax.set_yticklabels([f"{t:.2g}" for t in (0, error_scale / 2, error_scale)])
+            cb.ax.tick_params(labelsize=FONT_PT - 2, length=2, pad=1)
+            # The end labels stay inside the bar's height, clear of the next row's.
+            tl = cb.ax.get_yticklabels()
+            tl[0].set_verticalalignment("bottom")
+            tl[-1].set_verticalalignment("top")
+            cb.outline.set_linewidth(0.4)
+            if i == 0:
+                fig.text(fx(PAGE_IN - 0.04), fy(y0 + cell + 0.03), UNITS_RADIANCE, ha="right",
+                         va="bottom", fontsize=FONT_PT - 2)
+    dim = [f"{l} +{s} EV" for l, s in exposures if s]
+    caption = (f"{material}: reference, fits and |fit - reference| (mean RGB, linear radiance, "
+               f"colour bar in {UNITS_RADIANCE} shared by the fits of a row) per lighting; "
+               "images at the study's display exposure"
+               + (f", dim lightings brightened: {', '.join(dim)}" if dim else "") + ".")
+    save_figure(fig, fig_dir, f"grid-{material}", manifest, caption)
+
+
+# --- Probe curves and bars ----------------------------------------------------------------------
+
+# Lighting shown per probe: one per panel keeps a figure readable (all lightings stay in the JSON
+# and the tables). Back light for Fresnel, key light for the highlight shape.
+PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key", "camera"]}
+
+
+def parse_curve_names(curves):
+    """(kind, label, reference, curve) per curve named "<label> @ <reference>: <kind>" or
+    "<label>: <kind>"; the energy probe's "sweep: <model ...>" curves share one "sweep" panel."""
+    parsed = []
+    for name, c in curves.items():
+        xs, ys = c.get("x", []), c.get("y", [])
+        if not xs or len(xs) != len(ys):
+            continue
+        head, _, kind = name.partition(": ")
+        if head == "sweep":
+            parsed.append(("sweep of the lobe width", kind, "", c))
+            continue
+        head, _, kind = name.rpartition(": ")
+        label, _, ref = head.partition(" @ ")
+        parsed.append((kind or name, label or name, ref, c))
+    return parsed
+
+
+def probe_curve_figure(probe, material, curves, labels):
+    parsed = parse_curve_names(curves)
+    if not parsed:
+        return None
+    kinds = []
+    for k, _, _, _ in parsed:
+        if k not in kinds:
+            kinds.append(k)
+    n = len(kinds)
+    width = COLUMN_IN if n == 1 else PAGE_IN
+    panel_h = 1.9
+    legend_h = 0.55
+    fig = plt.figure(figsize=(width, panel_h + legend_h + 0.25))
+    handles = {}
+    series = sorted({lab for _, lab, _, _ in parsed if lab not in ("reference", "truth")},
+                    key=lambda x: (labels.index(x) if x in labels else len(labels), x))
+    for k_i, kind in enumerate(kinds):
+        left_in = 0.72  # Room for a two-line axis label and its tick labels.
+        ax = fig.add_axes([(left_in + k_i * width / n) / width,
+                           (legend_h + 0.3) / (panel_h + legend_h + 0.25),
+                           (width / n - left_in - 0.2) / width,
+                           (panel_h - 0.45) / (panel_h + legend_h + 0.25)])
+        items = [p for p in parsed if p[0] == kind]
+        refs = sorted({r for _, _, r, _ in items if r})
+        chosen = None
+        for want in PREFERRED_LIGHTING.get(probe, []):
+            chosen = next((r for r in refs if r.endswith("-" + want)), None)
+            if chosen:
+                break
+        chosen = chosen or (refs[0] if refs else None)
+        for _, lab, ref, c in items:
+            if ref and ref != chosen:
+                continue
+            ys = np.array([np.nan if y is None else y for y in c["y"]], dtype=float)
+            if lab in ("reference", "truth"):
+                h, = ax.plot(c["x"], ys, color="black", linestyle=(0, (2, 1)), linewidth=1.4,
+                             label=lab)
+            else:
+                h, = ax.plot(c["x"], ys, linewidth=1.1, label=lab, **style_of(lab, series))
+            handles.setdefault(lab, h)
+            ax.set_xlabel(textwrap.fill(c.get("x_label", ""), 40))
+            ax.set_ylabel(textwrap.fill(c.get("y_label", ""), 26))
+            if c.get("y_scale") == "log" or probe == "highlight" or kind.startswith("sweep"):
+                ax.set_yscale("log")
+            if kind.startswith("sweep"):
+                ax.set_xscale("log")
+        title = kind + (f" ({chosen})" if chosen else "")
+        ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
+    names = sorted(handles, key=lambda x: (x not in ("reference", "truth"), x))
+    fig.legend([handles[x] for x in names], names, loc="lower center", ncol=min(3, len(names)),
+               frameon=False, bbox_to_anchor=(0.5, 0.0))
+    fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=0.99)
+    return fig
+
+
+def probe_bar_figure(probe, material, numbers, flatten):
+    series = list(numbers.keys())
+    keys = []
+    for s in series:
+        keys += [k for k in flatten(numbers[s]) if k not in keys]
+    keys = keys[:12]
+    fig = plt.figure(figsize=(PAGE_IN, 2.6))
+    ax = fig.add_axes([0.08, 0.42, 0.9, 0.48])
+    if not keys or not series:
+        ax.text(0.5, 0.5, "no numbers reported", ha="center", transform=ax.transAxes)
+    else:
+        width = 0.8 / len(series)
+        x = np.arange(len(keys))
+        for i, s in enumerate(series):
+            f = flatten(numbers[s])
+            colour = "black" if s in ("reference", "truth") else OKABE_ITO[i % len(OKABE_ITO)]
+            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s, color=colour)
+        ax.set_xticks(x + 0.4 - width / 2)
+        ax.set_xticklabels([k if len(k) < 30 else k[:27] + "..." for k in keys], rotation=30,
+                           ha="right", fontsize=FONT_PT - 2)
+        ax.legend(frameon=False, ncol=len(series), loc="upper left", bbox_to_anchor=(0, 1.18))
+    ax.set_title(f"{material}: {probe}", loc="right")
+    return fig
+
+
+def probe_figures(study, probes, fig_dir, manifest, flatten):
+    labels = [f["label"] for f in study["fits"]]
+    for material, job in sorted(probes.items()):
+        for probe, result in job.get("probes", {}).items():
+            curves = result.get("curves") or {}
+            fig = None
+            if probe != "portability" and curves:
+                fig = probe_curve_figure(probe, material, curves, labels)
+            if fig is None:
+                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten)
+            save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
+                        f"{material}: {probe} probe (reference dashed black)")
+
+
+def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"):
+    materials = [g["material"] for g in study["groups"]]
+    labels = [f["label"] for f in study["fits"]]
+    fig = plt.figure(figsize=(PAGE_IN, 2.8))
+    axes = [fig.add_axes([0.07, 0.3, 0.42, 0.55]), fig.add_axes([0.56, 0.3, 0.42, 0.55])]
+    for ax, split in zip(axes, ["train", "test"]):
+        width = 0.8 / max(1, len(labels))
+        x = np.arange(len(materials))
+        for i, l in enumerate(labels):
+            vals = []
+            for m in materials:
+                v = [to_float(r[metric]) for r in rows
+                     if r["material"] == m and r["label"] == l and r["split"] == split]
+                v = [a for a in v if a is not None]
+                vals.append(np.mean(v) if v else np.nan)
+            ax.bar(x + i * width, vals, width, label=l, color=OKABE_ITO[i % len(OKABE_ITO)],
+                   hatch=["", "///", "...", "xx", "\\\\", "++"][i % 6], edgecolor="white",
+                   linewidth=0)
+        ax.set_xticks(x + 0.4 - width / 2)
+        ax.set_xticklabels(materials, rotation=30, ha="right")
+        ax.set_title(f"{split} lightings", fontsize=FONT_PT)
+        ax.set_ylabel(f"{metric} (lower is better)" if split == "train" else "")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=len(labels),
+               frameon=False, bbox_to_anchor=(0.5, 1.0))
+    save_figure(fig, fig_dir, f"metric-{metric}", manifest,
+                f"Mean {metric} per material and fit: training lighting (left) and test "
+                "lightings (right)")

@@ -1,0 +1,317 @@
+"""index.html: the verdicts first, then one section per question led by the figure that answers
+it, one image comparison viewer per material, the detail tables (collapsed, sortable) and the
+provenance. Self-contained: the style sheet and script (report/page/) are inlined and every image
+is a relative path inside the study folder, so the page works from file:// with no network.
+
+Called by make_report.py; reads only what make_report.py hands it (tables, verdicts, figures,
+results rows, the study's job files).
+"""
+
+import html
+import json
+import os
+import re
+
+PAGE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "page")
+
+# The questions a shading report answers, in reading order, and which verdicts answer each:
+# a verdict belongs to the first family whose test accepts it (source, and split for metrics).
+FAMILIES = [
+    ("fresnel", "Fresnel", lambda v: v["source"] == "fresnel"),
+    ("energy", "Energy", lambda v: v["source"] == "energy"),
+    ("lobe", "Lobe shape", lambda v: v["source"] == "highlight"),
+    ("image", "Image closeness", lambda v: v["source"] == "metrics" and v.get("split") == "train"),
+    ("transfer", "New lighting",
+     lambda v: v["source"] == "portability" or (v["source"] == "metrics" and v.get("split") == "test")),
+]
+
+
+def esc(s):
+    return html.escape(str(s), quote=True)
+
+
+def anchor(*parts):
+    return "-".join(re.sub(r"[^A-Za-z0-9_-]+", "_", str(p)) for p in parts)
+
+
+def read_asset(name):
+    with open(os.path.join(PAGE_DIR, name), encoding="utf-8") as f:
+        return f.read()
+
+
+def html_table(t, sortable=False, cls=""):
+    cols, rows = t
+    classes = " ".join(c for c in [cls, "sortable" if sortable else ""] if c)
+    out = [f"<table class='{classes}'><thead><tr>" if classes else "<table><thead><tr>"]
+    out[0] += "".join(f"<th>{esc(c)}</th>" for c in cols) + "</tr></thead><tbody>"
+    for r in rows:
+        cells = []
+        for c in r:
+            k = {"yes": " class='yes'", "no": " class='no'", "NO": " class='no'"}.get(c, "")
+            cells.append(f"<td{k}>{esc(c)}</td>")
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def family_of(verdict):
+    for key, title, test in FAMILIES:
+        if test(verdict):
+            return key
+    return None
+
+
+def fmt_num(v):
+    return "n/a" if v is None else f"{v:.3g}"
+
+
+def statement(name, v, summary, labels):
+    """Two sentences computed from the verdict records: the count per fit, then the worst case
+    (or, when every fit reproduces everything, the closest margin)."""
+    counts, judged_all = [], []
+    for label in labels:
+        judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
+                  and s["reproduced"] is not None]
+        judged_all += judged
+        if judged:
+            counts.append(f"{label} on {sum(1 for s in judged if s['reproduced'])} of {len(judged)}")
+    if not judged_all:
+        return (f"No fit could be judged on this question: the numbers it needs were not "
+                f"measured (tolerance {v['kind']} {v['tolerance']:g}).")
+    first = (f"Within the tolerance ({v['kind']} {v['tolerance']:g}), the phenomenon is "
+             f"reproduced by {', '.join(counts)} materials.")
+    failed = [s for s in judged_all if not s["reproduced"]]
+    tol = v["tolerance"]
+    ratio = (lambda s: s["error"] / tol) if tol > 0 else (lambda s: s["error"])
+    if failed:
+        w = max(failed, key=ratio)
+        ref = "" if v["kind"] == "max" else f" against the reference's {fmt_num(w['reference'])}"
+        second = (f"Furthest off is {w['fit']} on {w['material']}: {w['quantity']} = "
+                  f"{fmt_num(w['model'])}{ref} (error {fmt_num(w['error'])}, "
+                  f"{ratio(w):.1f} times the tolerance).")
+    else:
+        w = max(judged_all, key=ratio)
+        second = (f"Every judged fit is within it; the closest to the limit is {w['fit']} on "
+                  f"{w['material']} ({w['quantity']}: error {fmt_num(w['error'])}, "
+                  f"{ratio(w):.2f} of the tolerance).")
+    return first + " " + second
+
+
+def lead_figure(family, verdict_names, summary, figures, materials):
+    """The figure that answers a family's question: the probe figure of the material where the
+    fits disagree most (or the first material), the metric bars for the image questions."""
+    by_name = {f["name"]: f for f in figures}
+    if family in ("image", "transfer"):
+        return [f for f in figures if f["name"].startswith("metric-")][:1]
+    probe = {"fresnel": "fresnel", "energy": "energy", "lobe": "highlight"}.get(family)
+    if probe is None:
+        return []
+
+    def disagreement(m):
+        outcomes = {s["reproduced"] for s in summary
+                    if s["material"] == m and s["phenomenon"] in verdict_names
+                    and s["reproduced"] is not None}
+        return len(outcomes)
+
+    candidates = [m for m in materials if f"probe-{probe}-{m}" in by_name]
+    if not candidates:
+        return []
+    best = max(candidates, key=lambda m: (disagreement(m), -materials.index(m)))
+    return [by_name[f"probe-{probe}-{best}"]]
+
+
+def figure_html(f, extra_caption=""):
+    return (f"<figure id='{esc(anchor('fig', f['name']))}'><img src='{esc(f['png'])}' "
+            f"alt='{esc(f['caption'])}' width='{f['width']}' height='{f['height']}' "
+            f"style='width:{min(100, round(100 * f['width_in'] / 7.0))}%;height:auto'>"
+            f"<figcaption>{esc(f['caption'])}{esc(extra_caption)} "
+            f"(<a href='{esc(f['pdf'])}'>PDF</a>, {f['width_in']:g} in)</figcaption></figure>")
+
+
+def matrix_html(study, summary, labels):
+    """The verdict matrix; each cell links to the question's section, where its evidence is."""
+    out = ["<table class='matrix'><thead><tr><th>question</th>"
+           + "".join(f"<th>{esc(l)}</th>" for l in labels) + "</tr></thead><tbody>"]
+    for name, v in study.get("verdicts", {}).items():
+        fam = family_of(v)
+        target = anchor("q", fam) if fam else anchor("v", name)
+        row = [f"<td><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
+        for label in labels:
+            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
+                      and s["reproduced"] is not None]
+            good = sum(1 for s in judged if s["reproduced"])
+            text = f"{good}/{len(judged)}" if judged else "n/a"
+            cls = "" if not judged else (" class='yes'" if good == len(judged) else
+                                         (" class='no'" if good == 0 else ""))
+            row.append(f"<td{cls}><a href='#{anchor('v', name)}' title='evidence: "
+                       f"{esc(name)}, {esc(label)}'>{text}</a></td>")
+        out.append("<tr>" + "".join(row) + "</tr>")
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def metric_of(rows, material, lighting, label, key):
+    for r in rows:
+        if r["material"] == material and r["lighting"] == lighting and r["label"] == label:
+            try:
+                return float(r[key])
+            except (TypeError, ValueError):
+                return None
+    return None
+
+
+def viewer_html(material, study, fits, rows, labels):
+    """Reference and each fit of one material at one exposure, stacked so one shows at a time;
+    the error map of the fit shown (or last shown); an exposure slider (an SVG filter in linear
+    RGB, so the slider scales radiance, not display values)."""
+    have = [l for l in labels if (material, l) in fits]
+    if not have:
+        return ""
+    evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in have}
+    lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
+                 for r in g["references"]]
+    fid = anchor("exposure", material)
+    out = [f"<div class='viewer' tabindex='0' id='{esc(anchor('viewer', material))}' "
+           f"data-filter='{esc(fid)}' data-material='{esc(material)}'>",
+           f"<svg width='0' height='0' style='position:absolute'><filter id='{esc(fid)}' "
+           "color-interpolation-filters='linearRGB'><feComponentTransfer>"
+           "<feFuncR type='linear' slope='1'/><feFuncG type='linear' slope='1'/>"
+           "<feFuncB type='linear' slope='1'/></feComponentTransfer></filter></svg>",
+           "<div class='lightings'>"
+           + "".join(f"<button type='button'>{esc(l)}</button>" for l in lightings) + "</div>",
+           "<div class='controls'><label>exposure <input class='exposure' type='range' "
+           "min='-4' max='6' step='0.5' value='0'></label> <span class='ev'>0 EV</span></div>"]
+    for light in lightings:
+        first = evals[have[0]].get(light, {}).get("images", {})
+        panes = [("reference", first.get("reference"), "reference")]
+        for l in have:
+            e = evals[l].get(light, {})
+            flip = metric_of(rows, material, light, l, "flip_ldr_mean")
+            rel = metric_of(rows, material, light, l, "relative_rmse")
+            desc = f"{l} ({e.get('split', '')}): LDR-FLIP {fmt_num(flip)}, rel. RMSE {fmt_num(rel)}"
+            panes.append((l, e.get("images", {}).get("fit"), desc))
+        stack, thumbs, errors = [], [], []
+        for i, (name, src, desc) in enumerate(panes):
+            if not src:
+                continue
+            rel_src = "../" + src
+            stack.append(f"<img src='{esc(rel_src)}' alt='{esc(material)} {esc(light)}: "
+                         f"{esc(name)}' data-name='{esc(name)}'"
+                         + (" class='hidden'" if i else "") + ">")
+            thumbs.append(f"<div class='thumb{' on' if i == 0 else ''}' data-label='{esc(desc)}'"
+                          f" title='key {i}'><img src='{esc(rel_src)}' alt=''>{esc(name)}</div>")
+        for j, l in enumerate(have):
+            src = evals[l].get(light, {}).get("images", {}).get("error")
+            hidden = " class='hidden'" if j else ""
+            errors.append(f"<figure{hidden}>" + (
+                f"<img src='../{esc(src)}' alt='{esc(material)} {esc(light)}: |error| {esc(l)}'>"
+                if src else "no error map") +
+                f"<figcaption>|{esc(l)} - reference| (mean RGB, linear radiance; colour bar "
+                "range shared by every fit of this reference)</figcaption></figure>")
+        out.append(f"<div class='lighting-group' data-lighting='{esc(light)}'>"
+                   f"<div class='shown-label'>{esc(panes[0][2])}</div><div class='panes'><div>"
+                   f"<div class='stack'>{''.join(stack)}</div>"
+                   f"<div class='thumbs'>{''.join(thumbs)}</div></div>"
+                   f"<div class='error'>{''.join(errors)}</div></div></div>")
+    out.append("<p class='help'>Keys (click the viewer or point at it): space or f flips between "
+               "the reference and the last fit; 1-9 pick a fit, 0 or r the reference; left/right "
+               "step through them; [ and ] change the lighting; + and - change the exposure. "
+               "Hovering a thumbnail shows it. Previews are 8-bit at the study's display "
+               "exposure: raising the exposure brightens dim lightings, clipped pixels stay "
+               "clipped.</p></div>")
+    return "\n".join(out)
+
+
+def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
+                write_text):
+    labels = [f["label"] for f in study["fits"]]
+    materials = [g["material"] for g in study["groups"]]
+    verdicts = study.get("verdicts", {})
+    families = {k: [] for k, _, _ in FAMILIES}  # Reading order: the FAMILIES order.
+    for name, v in verdicts.items():
+        families.setdefault(family_of(v) or anchor("other", name), []).append(name)
+    families = {k: names for k, names in families.items() if names}
+    titles = {k: t for k, t, _ in FAMILIES}
+
+    nav = ["<nav><a href='#verdicts'>Verdicts</a>"]
+    nav += [f"<a href='#{anchor('q', k)}'>{esc(titles.get(k, k))}</a>" for k in families]
+    if charts:
+        nav.append("<a href='#charts'>Parameter charts</a>")
+    nav += [f"<a href='#{anchor('m', m)}'>{esc(m)}</a>" for m in materials]
+    nav += ["<a href='#details'>Tables</a><a href='#provenance'>Provenance</a></nav>"]
+
+    parts = ["<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+             f"<title>{esc(study['name'])}</title><style>{read_asset('report.css')}</style>"
+             "</head><body>",
+             f"<h1>{esc(study['name'])}</h1><p>{esc(study.get('description', ''))}</p>",
+             "".join(nav),
+             "<h2 id='verdicts'>Verdicts</h2><p>Materials whose numbers are within the study's "
+             "tolerance, out of those judged, per question and fit. Every number is computed "
+             "from the result files (rules: docs/studies.md). A cell links to its evidence.</p>",
+             matrix_html(study, summary, labels)]
+
+    for fam, names in families.items():
+        parts.append(f"<section id='{anchor('q', fam)}'><h2>{esc(titles.get(fam, names[0]))}</h2>")
+        for f in lead_figure(fam, names, summary, figures, materials):
+            parts.append(figure_html(f))
+        for name in names:
+            v = verdicts[name]
+            parts.append(f"<h3 id='{anchor('v', name)}'>{esc(v.get('question', name))}</h3>"
+                         f"<p class='statement'>{esc(statement(name, v, summary, labels))}</p>")
+            rows_v = [r for r in tables["verdicts"][1] if r[0] == name]
+            parts.append(f"<details><summary>Per material ({len(rows_v)} rows)</summary>"
+                         + html_table((tables["verdicts"][0], rows_v), sortable=True)
+                         + "</details>")
+        if fam == "energy" and charts:
+            parts.append("<p>The parameter charts below show the same on spheres: "
+                         "<a href='#charts'>Parameter charts</a>.</p>")
+        parts.append("</section>")
+
+    if charts:
+        parts.append("<section id='charts'><h2>Parameter charts</h2><p>Each fitted model "
+                     "rendered over its two main parameters under one light and one exposure; "
+                     "the fitted materials are marked. A normalised lobe keeps its energy as "
+                     "it narrows (the highlight gets brighter as it gets smaller); the classic "
+                     "Blinn-Phong lobe keeps its peak and loses energy.</p>")
+        parts += [figure_html(f) for f in charts]
+        parts.append("</section>")
+
+    grids = {f["name"]: f for f in figures}
+    for m in materials:
+        parts.append(f"<section id='{anchor('m', m)}'><h2>{esc(m)}</h2>")
+        parts.append(viewer_html(m, study, fits, rows, labels))
+        if f"grid-{m}" in grids:
+            g = grids[f"grid-{m}"]
+            parts.append(f"<p>All lightings at once: <a href='{esc(g['png'])}'>grid figure</a> "
+                         f"(<a href='{esc(g['pdf'])}'>PDF</a>).</p>")
+        parts.append("</section>")
+
+    parts.append("<h2 id='details'>Tables</h2><p>Click a heading to open a table, a column "
+                 "heading to sort it. The same rows are in tables/ as CSV, Markdown and "
+                 "LaTeX.</p>")
+    named = [("matrix", "Verdict matrix"), ("verdicts", "Verdicts: worst quantity"),
+             ("verdict_details", "Verdicts per quantity"),
+             ("metrics", "Image metrics per reference and fit"),
+             ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
+             ("ngan2005_spearman", "Against Ngan, Durand and Matusik 2005: rank correlation"),
+             ("ngan2005", "Against Ngan, Durand and Matusik 2005: per material")]
+    for key, title in named:
+        if key in tables:
+            parts.append(f"<details id='{anchor('t', key)}'><summary>{esc(title)} "
+                         f"({len(tables[key][1])} rows)</summary>"
+                         + html_table(tables[key], sortable=True) + "</details>")
+    parts.append("<details id='all-figures'><summary>Every figure "
+                 f"({len(figures) + len(charts)})</summary>"
+                 + "".join(f"<p><a href='{esc(f['png'])}'>{esc(f['name'])}</a> "
+                           f"(<a href='{esc(f['pdf'])}'>PDF</a>): {esc(f['caption'])}</p>"
+                           for f in figures + charts) + "</details>")
+    sf = provenance.get("shadefit", {})
+    prov = {k: provenance.get(k) for k in ["shadefit", "dependencies", "gl_renderer", "machine"]}
+    parts.append("<h2 id='provenance'>Provenance</h2>"
+                 f"<p>shadefit {esc(sf.get('version', '?'))}; GL renderer "
+                 f"{esc(provenance.get('gl_renderer', '?'))}. Inputs and their SHA-256 are in "
+                 "provenance.json.</p><details><summary>Versions and machine</summary><pre>"
+                 + esc(json.dumps(prov, indent=2)) + "</pre></details>")
+    parts.append(f"<script>{read_asset('viewer.js')}</script></body></html>")
+    write_text(os.path.join(report_dir, "index.html"), "\n".join(parts))
