@@ -25,6 +25,7 @@ packages=(
 test_packages=(
   blender
   texlive-latex-base texlive-latex-recommended
+  chromium chromium-driver python3-selenium  # report_browser: index.html in headless Chromium
   slurm-wlm munge  # slurm_cluster_test: a one-node Slurm cluster on localhost (docs/cluster.md)
 )
 [ "$mode" = test ] && packages+=("${test_packages[@]}")
