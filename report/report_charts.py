@@ -135,13 +135,15 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts):
                 (gx, ox), (gy, oy) = grid_coordinate(c["x"], x), grid_coordinate(c["y"], y)
                 colour = rf.OKABE_ITO[k % len(rf.OKABE_ITO)]
                 outside = ox or oy
-                ax.plot([gx], [gy], marker="o", markersize=6, linestyle="none",
-                        markerfacecolor="none" if outside else colour, markeredgecolor=colour,
-                        markeredgewidth=1.4,
+                # Rings, so the sphere under a mark stays visible; a diamond at the chart's
+                # edge for a fit outside its range.
+                ax.plot([gx], [gy], marker="D" if outside else "o", markersize=7,
+                        linestyle="none", markerfacecolor="none", markeredgecolor=colour,
+                        markeredgewidth=1.6,
                         label=f"{m}" + (f" ({label})" if len(fit_labels) > 1 else "")
                         + (" (outside)" if outside else ""))
                 notes.append(f"{m}: {c['x']['parameter']} {x:.3g}, {c['y']['parameter']} {y:.3g}"
-                             + (" (outside the chart: marked at its edge, hollow)" if outside else ""))
+                             + (" (outside the chart: a diamond at its edge)" if outside else ""))
         ax.set_xlim(-0.5, nx - 0.5)
         ax.set_ylim(-0.5, ny - 0.5)
         if notes:

@@ -123,7 +123,7 @@ def lead_figure(family, verdict_names, summary, figures, materials):
 def figure_html(f, extra_caption=""):
     return (f"<figure id='{esc(anchor('fig', f['name']))}'><img src='{esc(f['png'])}' "
             f"alt='{esc(f['caption'])}' width='{f['width']}' height='{f['height']}' "
-            f"style='width:{min(100, round(100 * f['width_in'] / 7.0))}%;height:auto'>"
+            f"style='width:{round(f['width_in'] * 128)}px;max-width:100%;height:auto'>"
             f"<figcaption>{esc(f['caption'])}{esc(extra_caption)} "
             f"(<a href='{esc(f['pdf'])}'>PDF</a>, {f['width_in']:g} in)</figcaption></figure>")
 
@@ -132,7 +132,10 @@ def matrix_html(study, summary, labels):
     """The verdict matrix; each cell links to the question's section, where its evidence is."""
     out = ["<table class='matrix'><thead><tr><th>question</th>"
            + "".join(f"<th>{esc(l)}</th>" for l in labels) + "</tr></thead><tbody>"]
-    for name, v in study.get("verdicts", {}).items():
+    order = [k for k, _, _ in FAMILIES]
+    verdicts = sorted(study.get("verdicts", {}).items(),  # Questions in reading order.
+                      key=lambda kv: order.index(family_of(kv[1])) if family_of(kv[1]) else len(order))
+    for name, v in verdicts:
         fam = family_of(v)
         target = anchor("q", fam) if fam else anchor("v", name)
         row = [f"<td><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
@@ -201,13 +204,15 @@ def viewer_html(material, study, fits, rows, labels):
             thumbs.append(f"<div class='thumb{' on' if i == 0 else ''}' data-label='{esc(desc)}'"
                           f" title='key {i}'><img src='{esc(rel_src)}' alt=''>{esc(name)}</div>")
         for j, l in enumerate(have):
-            src = evals[l].get(light, {}).get("images", {}).get("error")
+            images = evals[l].get(light, {}).get("images", {})
+            src, scale = images.get("error"), images.get("error_scale")
             hidden = " class='hidden'" if j else ""
+            bar = f"0 to {scale:.3g} W m<sup>-2</sup> sr<sup>-1</sup>, " if scale else ""
             errors.append(f"<figure{hidden}>" + (
                 f"<img src='../{esc(src)}' alt='{esc(material)} {esc(light)}: |error| {esc(l)}'>"
                 if src else "no error map") +
                 f"<figcaption>|{esc(l)} - reference| (mean RGB, linear radiance; colour bar "
-                "range shared by every fit of this reference)</figcaption></figure>")
+                f"{bar}the same for every fit of this reference)</figcaption></figure>")
         out.append(f"<div class='lighting-group' data-lighting='{esc(light)}'>"
                    f"<div class='shown-label'>{esc(panes[0][2])}</div><div class='panes'><div>"
                    f"<div class='stack'>{''.join(stack)}</div>"
