@@ -85,13 +85,16 @@ GlContext::GlContext() : impl_(std::make_unique<Impl>()) {
     eglQueryDevicesEXT(0, nullptr, &num);
     std::vector<EGLDeviceEXT> devices(static_cast<std::size_t>(num > 0 ? num : 0));
     if (num > 0) eglQueryDevicesEXT(num, devices.data(), &num);
-    // Two passes: hardware devices first, then software ones.
-    for (int pass = force_software ? 1 : 0; pass < 2 && impl_->display == EGL_NO_DISPLAY;
+    // Three passes: NVIDIA devices (EGL_NV_device_cuda: a GPU node of a cluster, where Slurm's
+    // device cgroup leaves only the job's GPUs openable, so the first that initialises is the
+    // job's own), then other hardware, then software ones (Mesa's llvmpipe).
+    for (int pass = force_software ? 2 : 0; pass < 3 && impl_->display == EGL_NO_DISPLAY;
          ++pass) {
       for (EGLDeviceEXT dev : devices) {
         const char* dev_ext = eglQueryDeviceStringEXT(dev, EGL_EXTENSIONS);
         const bool software = HasExtension(dev_ext, "EGL_MESA_device_software");
-        if (software != (pass == 1)) continue;
+        const bool nvidia = HasExtension(dev_ext, "EGL_NV_device_cuda");
+        if (pass != (software ? 2 : nvidia ? 0 : 1)) continue;
         EGLDisplay d = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, dev, nullptr);
         if (impl_->TryDisplay(d)) {
           info_.platform = "device";

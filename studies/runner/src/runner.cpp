@@ -12,11 +12,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cerrno>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <deque>
 #include <filesystem>
@@ -61,6 +63,36 @@ void WriteFileAtomic(const std::string& path, const std::string& text) {
 }
 
 namespace {
+
+// A test hook for the interruption tests (tests/studies/kill_test.sh, docs/testing.md):
+// SHADEFIT_KILL_AT=<site>:<n> kills the process with SIGKILL the n-th time it reaches <site>:
+// "fit" (a fit job, after the solve, before any of its outputs), "result" (a job's JSON half
+// written to its temporary file, before the rename). Unset, it costs one getenv per job.
+bool KillPointArmed(const char* site) {
+  static const std::string spec = [] {
+    const char* v = std::getenv("SHADEFIT_KILL_AT");
+    return std::string(v != nullptr ? v : "");
+  }();
+  if (spec.empty()) return false;
+  const auto colon = spec.find(':');
+  if (spec.substr(0, colon) != site) return false;
+  static std::atomic<int> reached{0};
+  const int n = colon == std::string::npos ? 1 : std::atoi(spec.c_str() + colon + 1);
+  return ++reached == n;
+}
+
+void KillPoint(const char* site) {
+  if (KillPointArmed(site)) ::kill(::getpid(), SIGKILL);
+}
+
+// A job's JSON, its last file: a job is done exactly when it exists (with the job's hash).
+void WriteJobJson(const std::string& path, const std::string& text) {
+  if (KillPointArmed("result")) {
+    std::ofstream(TemporaryPathFor(path), std::ios::binary) << text.substr(0, text.size() / 2);
+    ::kill(::getpid(), SIGKILL);
+  }
+  WriteFileAtomic(path, text);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Inputs and jobs
@@ -260,8 +292,8 @@ class StudyRun {
   std::string first_error_;
 };
 
-// Hidden temporaries are named "<dir>/.<name>.<pid>.<n>.tmp" (TemporaryPathFor, render/files.h)
-// or ".<probe>.<pid>.tmp.<ext>" (the probes' plot files). True when `leaf` is one of them and no
+// Hidden temporaries are named "<dir>/.<name>.<pid>.<n>.tmp" (TemporaryPathFor, render/files.h),
+// ".<probe>.<pid>.tmp.<ext>" (the probes' plot files) or ".<name>.<pid>.tmp" (the report's). True when `leaf` is one of them and no
 // process with that pid is running.
 bool IsTemporaryOfDeadProcess(const std::string& leaf) {
   if (leaf.size() < 6 || leaf[0] != '.') return false;
@@ -283,6 +315,8 @@ bool IsTemporaryOfDeadProcess(const std::string& leaf) {
     pid = std::stol(parts[n - 3]);
   } else if (n >= 4 && parts[n - 2] == "tmp" && numeric(parts[n - 3])) {
     pid = std::stol(parts[n - 3]);
+  } else if (n >= 3 && parts[n - 1] == "tmp" && numeric(parts[n - 2])) {
+    pid = std::stol(parts[n - 2]);  // ".<name>.<pid>.tmp": the report's (report/*.py).
   }
   if (pid <= 0) return false;
   return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
@@ -486,6 +520,7 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   fo.render_outputs = false;  // The evaluation below renders every lighting, training ones too.
   fo.renderer = worker.renderer.get();
   const fit::FitResult result = fit::Fit(problem, fo);
+  KillPoint("fit");
   if (!result.converged) {
     log_->Line(fmt::format("{}: fit did not converge ({}); recorded as such", job.id,
                            result.termination));
@@ -576,7 +611,7 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   // is the same bytes on every run.
   j["fit"]["solver"].erase("seconds");
   WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), result.seconds);
-  WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
+  WriteJobJson(JobPath(job), j.dump(1) + "\n");
 }
 
 void StudyRun::RunProbeJob(Job& job, Worker& worker) {
@@ -643,7 +678,7 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
             {"probes", results},
             {"outputs", outputs}};
   WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
-  WriteFileAtomic(JobPath(job), j.dump(1) + "\n");
+  WriteJobJson(JobPath(job), j.dump(1) + "\n");
 }
 
 void StudyRun::WorkerLoop(int index) {

@@ -32,6 +32,7 @@ Shard ParseShard(const std::string& text, const std::string& field) {
       shard.count > 10000 || shard.index < 1 || shard.index > shard.count) {
     throw Error("", field, "want i/N with 1 <= i <= N <= 10000 (e.g. 2/4), got '" + text + "'");
   }
+  shard.sharded = true;
   return shard;
 }
 

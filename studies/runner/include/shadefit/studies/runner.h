@@ -20,9 +20,10 @@ namespace shadefit::studies {
 // of its jobs (its measured references, its fits, then its probes) belong to one shard, so no
 // job of a shard waits on another shard.
 struct Shard {
-  int index = 1;  // 1..count.
-  int count = 1;  // 1: the whole study.
-  bool whole() const { return count == 1; }
+  int index = 1;         // 1..count.
+  int count = 1;
+  bool sharded = false;  // false: the whole study (no --shard; 1/1 is a shard like any other).
+  bool whole() const { return !sharded; }
   std::string Name() const;  // "2-of-4".
 };
 
