@@ -3,11 +3,24 @@ add_library(shadefit_warnings INTERFACE)
 target_compile_options(shadefit_warnings INTERFACE -Wall -Wextra -Wpedantic -Wno-unused-parameter)
 add_library(shadefit::warnings ALIAS shadefit_warnings)
 
+# Sanitizers apply to every target (libraries, the CLI, tests), not only to the test programs: a
+# heap overflow in a parser is found only where the parser itself is instrumented. UBSan findings
+# abort (-fno-sanitize-recover) so that a report fails the test that caused it
+# (scripts/sanitizer-check.sh). SHADEFIT_FUZZ (clang only) adds libFuzzer's coverage
+# instrumentation for the harnesses in tests/fuzz/ (scripts/fuzz-check.sh).
 add_library(shadefit_sanitizers INTERFACE)
-if(SHADEFIT_SANITIZE)
-  target_compile_options(shadefit_sanitizers INTERFACE -fsanitize=address,undefined
-                                                       -fno-omit-frame-pointer)
-  target_link_options(shadefit_sanitizers INTERFACE -fsanitize=address,undefined)
+if(SHADEFIT_SANITIZE OR SHADEFIT_FUZZ)
+  set(SHADEFIT_SANITIZER_FLAGS -fsanitize=address,undefined -fno-sanitize-recover=undefined
+                               -fno-omit-frame-pointer)
+  if(SHADEFIT_FUZZ)
+    if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+      message(FATAL_ERROR "SHADEFIT_FUZZ needs clang (libFuzzer): configure with "
+                          "-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang")
+    endif()
+    list(APPEND SHADEFIT_SANITIZER_FLAGS -fsanitize=fuzzer-no-link)
+  endif()
+  add_compile_options(${SHADEFIT_SANITIZER_FLAGS})
+  add_link_options(-fsanitize=address,undefined)
 endif()
 
 # shadefit_add_test(<name> SOURCES <files...> LIBS <targets...> [LABELS <labels...>])

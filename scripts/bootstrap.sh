@@ -27,6 +27,7 @@ test_packages=(
   texlive-latex-base texlive-latex-recommended
   chromium chromium-driver python3-selenium  # report_browser: index.html in headless Chromium
   slurm-wlm munge  # slurm_cluster_test: a one-node Slurm cluster on localhost (docs/cluster.md)
+  clang libclang-rt-dev  # scripts/fuzz-check.sh: libFuzzer harnesses of tests/fuzz (docs/inputs.md)
 )
 [ "$mode" = test ] && packages+=("${test_packages[@]}")
 sudo=""

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses of tests/fuzz/ with clang (ASan + UBSan + libFuzzer coverage,
+# build-fuzz/) and fuzzes each for a while, starting from its committed seed corpus. Fails on any
+# crash, leak, timeout, out-of-memory or sanitizer report; the input that caused it is left in
+# build-fuzz/artifacts/ (add it to tests/fuzz/corpus/<harness>/ with the fix: it then replays in
+# CTest for ever). New inputs found go to build-fuzz/fuzz-corpus/<harness>/, never to the
+# committed corpus. CI runs it with the defaults (issue 14; docs/inputs.md, "Fuzzing").
+#   bash scripts/fuzz-check.sh [--seconds N] [--only NAME[,NAME...]] [--no-build]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=60
+only=""
+build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --seconds) seconds=$2; shift 2 ;;
+    --only) only=$2; shift 2 ;;
+    --no-build) build=0; shift ;;
+    -h | --help) sed -n '2,9p' "$0"; exit 0 ;;
+    *) echo "fuzz-check: error: unknown option $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+harnesses=(scene study merl neural_brdf sidecar image)
+if [ -n "$only" ]; then IFS=, read -r -a harnesses <<< "$only"; fi
+command -v clang++ >/dev/null ||
+  { echo "fuzz-check: error: clang++ not found (bootstrap.sh test installs clang)" >&2; exit 2; }
+
+start=$(date +%s)
+if [ "$build" = 1 ]; then
+  cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSHADEFIT_FUZZ=ON \
+    -DSHADEFIT_BUILD_BENCH=OFF >/dev/null
+  cmake --build build-fuzz -j"$(nproc)" --target "${harnesses[@]/#/fuzz_}"
+fi
+echo "fuzz-check: built in $(( $(date +%s) - start )) s"
+
+# Leaks and UB are errors; libFuzzer turns a sanitizer report into a crash with its input saved.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0}
+mkdir -p build-fuzz/artifacts
+failed=()
+for h in "${harnesses[@]}"; do
+  work=build-fuzz/fuzz-corpus/$h
+  mkdir -p "$work"
+  log=build-fuzz/fuzz-$h.log
+  t0=$(date +%s)
+  # One worker: CI and the project machine have 2 cores. -timeout: a single input taking longer
+  # than 10 s is a hang; -rss_limit_mb: a reader that allocates 2 GiB for a small file is a bug.
+  if ./build-fuzz/tests/fuzz/fuzz_"$h" "$work" "tests/fuzz/corpus/$h" -max_total_time="$seconds" \
+      -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix="build-fuzz/artifacts/$h-" >"$log" 2>&1; then
+    status=ok
+  else
+    status=FAILED
+    failed+=("$h")
+  fi
+  runs=$(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  rate=$(grep -m1 -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")
+  ft=$(grep -o 'ft: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo "?")
+  echo "fuzz-check: $h: $status, $runs runs in $(( $(date +%s) - t0 )) s ($rate/s), cov $cov, ft $ft, corpus $(ls "$work" | wc -l) new (log $log)"
+  if [ "$status" = FAILED ]; then grep -E 'ERROR|SUMMARY|Test unit written|==[0-9]+==' "$log" | head -20; fi
+done
+echo "fuzz-check: total $(( $(date +%s) - start )) s"
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz-check: FAILED: ${failed[*]} (inputs in build-fuzz/artifacts/)" >&2
+  exit 1
+fi
