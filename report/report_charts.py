@@ -13,6 +13,9 @@ import numpy as np
 import report_figures as rf
 
 
+MARKERS = ["o", "s", "^", "D", "v", "P", "X", "h", "<", ">"]
+
+
 class ChartInputError(Exception):
     pass
 
@@ -135,20 +138,22 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts):
                 (gx, ox), (gy, oy) = grid_coordinate(c["x"], x), grid_coordinate(c["y"], y)
                 colour = rf.OKABE_ITO[k % len(rf.OKABE_ITO)]
                 outside = ox or oy
-                # Rings, so the sphere under a mark stays visible; a diamond at the chart's
-                # edge for a fit outside its range.
-                ax.plot([gx], [gy], marker="D" if outside else "o", markersize=7,
+                # Open marks, so the sphere under one stays visible; a shape per material as
+                # well as a colour (more materials than the palette has colours). A fit outside
+                # the chart's range sits at its edge and says so in the legend.
+                ax.plot([gx], [gy], marker=MARKERS[k % len(MARKERS)], markersize=7,
                         linestyle="none", markerfacecolor="none", markeredgecolor=colour,
                         markeredgewidth=1.6,
                         label=f"{m}" + (f" ({label})" if len(fit_labels) > 1 else "")
                         + (" (outside)" if outside else ""))
                 notes.append(f"{m}: {c['x']['parameter']} {x:.3g}, {c['y']['parameter']} {y:.3g}"
-                             + (" (outside the chart: a diamond at its edge)" if outside else ""))
+                             + (" (outside the chart: marked at its edge)" if outside else ""))
         ax.set_xlim(-0.5, nx - 0.5)
         ax.set_ylim(-0.5, ny - 0.5)
         if notes:
-            fig.legend(loc="lower center", ncol=3, frameon=False, handletextpad=0.2,
-                       columnspacing=0.8, fontsize=rf.FONT_PT - 2, bbox_to_anchor=(0.5, 0.0))
+            fig.legend(loc="lower center", ncol=3, frameon=False, handletextpad=0.4,
+                       handlelength=1.2, columnspacing=0.8, fontsize=rf.FONT_PT - 2,
+                       bbox_to_anchor=(0.5, 0.0))
         caption = (f"{model}: spheres over {c['x']['parameter']} x {c['y']['parameter']} under the "
                    f"{manifest.get('lighting', '')} light, one exposure "
                    f"({manifest.get('exposure_stops', 0):g} EV) for every sphere; "

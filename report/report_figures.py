@@ -9,6 +9,7 @@ study's parameter charts).
 """
 
 import os
+import re
 import textwrap
 
 import matplotlib
@@ -99,11 +100,14 @@ def text_problems(fig):
 
 def save_figure(fig, fig_dir, name, manifest, caption):
     os.makedirs(fig_dir, exist_ok=True)
+    # Whole pixels at DPI: Agg truncates width x dpi, so a hair above the pixel count gives
+    # exactly the size figures.json records (the PDF moves by a thousandth of a point).
+    w_px, h_px = (int(round(v * DPI)) for v in fig.get_size_inches())
+    fig.set_size_inches((w_px + 0.01) / DPI, (h_px + 0.01) / DPI)
     fig.set_dpi(DPI)
     overlaps, outside = text_problems(fig)
     png = os.path.join(fig_dir, name + ".png")
     pdf = os.path.join(fig_dir, name + ".pdf")
-    w, h = fig.get_size_inches()
     fig.savefig(png + ".tmp.png", dpi=DPI, format="png")
     os.replace(png + ".tmp.png", png)
     # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
@@ -111,8 +115,8 @@ def save_figure(fig, fig_dir, name, manifest, caption):
     os.replace(pdf + ".tmp.pdf", pdf)
     plt.close(fig)
     manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
-                     "width_in": round(float(w), 3), "height_in": round(float(h), 3),
-                     "width": int(round(w * DPI)), "height": int(round(h * DPI)),
+                     "width_in": round(w_px / DPI, 3), "height_in": round(h_px / DPI, 3),
+                     "width": w_px, "height": h_px,
                      "caption": caption, "text_overlaps": overlaps, "text_outside": outside})
 
 
@@ -152,6 +156,25 @@ def exposed(rgb, stops):
     return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(rgb) * 2.0 ** stops)
 
 
+def wrap_at_hyphens(text, width):
+    """Lines of at most `width` characters, broken after hyphens and at spaces, so a long model
+    name fits over a narrow column ("blinn-phong-" / "normalized")."""
+    tokens = re.findall(r"[^\s-]+-?|\s+", text)
+    lines, line = [], ""
+    for t in tokens:
+        if t.isspace():
+            if line:
+                line += " "
+            continue
+        if line and len(line) + len(t) > width:
+            lines.append(line.rstrip())
+            line = ""
+        line += t
+    if line:
+        lines.append(line.rstrip())
+    return "\n".join(lines)
+
+
 def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     """Rows = lightings; columns = reference, each fit, each fit's error map; one colour bar per
     row (the error maps of a reference share their range) with its ticks in radiance units."""
@@ -164,8 +187,14 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     ncols = 1 + 2 * len(labels)
     left_in, bar_in, right_in = 0.42, 0.08, 0.52  # Row labels; colour bar; its ticks and label.
     gap_in = 0.03
-    top_in, bottom_in = 0.30, 0.02
     cell = (PAGE_IN - left_in - bar_in - right_in - gap_in * (ncols + 1)) / ncols
+    # Column titles wrapped to the column: ~0.55 em per character of DejaVu Sans.
+    title_chars = max(6, int(cell * 72 / (0.6 * (FONT_PT - 1))))
+    titles = ["reference"] + [wrap_at_hyphens(l, title_chars) for l in labels] + \
+        [wrap_at_hyphens(f"|error| {l}", title_chars) for l in labels]
+    title_lines = max(t.count("\n") + 1 for t in titles)
+    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08
+    bottom_in = 0.02
     height = top_in + bottom_in + len(lightings) * (cell + gap_in)
     fig = plt.figure(figsize=(PAGE_IN, height))
     fx = lambda inch: inch / PAGE_IN  # noqa: E731
@@ -191,7 +220,7 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             for s in ax.spines.values():
                 s.set_visible(False)
             if i == 0:
-                ax.set_title(title, fontsize=FONT_PT - 1, pad=2)
+                ax.set_title(titles[j], fontsize=FONT_PT - 1, pad=2)
             if not rel or not os.path.exists(os.path.join(study_dir, rel)):
                 ax.text(0.5, 0.5, "missing", ha="center", va="center", transform=ax.transAxes)
                 continue
@@ -321,7 +350,7 @@ def probe_bar_figure(probe, material, numbers, flatten):
         keys += [k for k in flatten(numbers[s]) if k not in keys]
     keys = keys[:12]
     fig = plt.figure(figsize=(PAGE_IN, 2.6))
-    ax = fig.add_axes([0.08, 0.42, 0.9, 0.48])
+    ax = fig.add_axes([0.08, 0.36, 0.9, 0.5])
     if not keys or not series:
         ax.text(0.5, 0.5, "no numbers reported", ha="center", transform=ax.transAxes)
     else:
@@ -332,8 +361,10 @@ def probe_bar_figure(probe, material, numbers, flatten):
             colour = "black" if s in ("reference", "truth") else OKABE_ITO[i % len(OKABE_ITO)]
             ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s, color=colour)
         ax.set_xticks(x + 0.4 - width / 2)
-        ax.set_xticklabels([k if len(k) < 30 else k[:27] + "..." for k in keys], rotation=30,
-                           ha="right", fontsize=FONT_PT - 2)
+        # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
+        short = [k.replace(material + "-", "") for k in keys]
+        ax.set_xticklabels([k if len(k) < 30 else k[:27] + "..." for k in short], rotation=90,
+                           fontsize=FONT_PT - 2)
         ax.legend(frameon=False, ncol=len(series), loc="upper left", bbox_to_anchor=(0, 1.18))
     ax.set_title(f"{material}: {probe}", loc="right")
     return fig
@@ -372,7 +403,7 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
                    hatch=["", "///", "...", "xx", "\\\\", "++"][i % 6], edgecolor="white",
                    linewidth=0)
         ax.set_xticks(x + 0.4 - width / 2)
-        ax.set_xticklabels(materials, rotation=30, ha="right")
+        ax.set_xticklabels(materials, rotation=90)
         ax.set_title(f"{split} lightings", fontsize=FONT_PT)
         ax.set_ylabel(f"{metric} (lower is better)" if split == "train" else "")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=len(labels),

@@ -54,6 +54,17 @@ def html_table(t, sortable=False, cls=""):
     return "\n".join(out)
 
 
+def lazy_table(key, t):
+    """A sortable table whose rows are JSON in the page, built by the script when its <details>
+    first opens: a long table costs half the bytes and no layout until someone reads it."""
+    cols, rows = t
+    data = json.dumps([[str(c) for c in r] for r in rows], separators=(",", ":"))
+    data = data.replace("</", "<\\/")  # Never ends the script element early.
+    return (f"<table class='sortable' data-rows='{esc(anchor('data', key))}'><thead><tr>"
+            + "".join(f"<th>{esc(c)}</th>" for c in cols) + "</tr></thead><tbody></tbody></table>"
+            f"<script type='application/json' id='{esc(anchor('data', key))}'>{data}</script>")
+
+
 def family_of(verdict):
     for key, title, test in FAMILIES:
         if test(verdict):
@@ -130,7 +141,7 @@ def figure_html(f, extra_caption=""):
 
 def matrix_html(study, summary, labels):
     """The verdict matrix; each cell links to the question's section, where its evidence is."""
-    out = ["<table class='matrix'><thead><tr><th>question</th>"
+    out = ["<table class='matrix'><thead><tr><th>phenomenon</th><th>question</th>"
            + "".join(f"<th>{esc(l)}</th>" for l in labels) + "</tr></thead><tbody>"]
     order = [k for k, _, _ in FAMILIES]
     verdicts = sorted(study.get("verdicts", {}).items(),  # Questions in reading order.
@@ -138,14 +149,15 @@ def matrix_html(study, summary, labels):
     for name, v in verdicts:
         fam = family_of(v)
         target = anchor("q", fam) if fam else anchor("v", name)
-        row = [f"<td><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
+        row = [f"<td class='key'>{esc(name)}</td>",
+               f"<td><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
         for label in labels:
             judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
                       and s["reproduced"] is not None]
             good = sum(1 for s in judged if s["reproduced"])
             text = f"{good}/{len(judged)}" if judged else "n/a"
             cls = "" if not judged else (" class='yes'" if good == len(judged) else
-                                         (" class='no'" if good == 0 else ""))
+                                         (" class='no'" if good == 0 else " class='some'"))
             row.append(f"<td{cls}><a href='#{anchor('v', name)}' title='evidence: "
                        f"{esc(name)}, {esc(label)}'>{text}</a></td>")
         out.append("<tr>" + "".join(row) + "</tr>")
@@ -295,8 +307,8 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
     parts.append("<h2 id='details'>Tables</h2><p>Click a heading to open a table, a column "
                  "heading to sort it. The same rows are in tables/ as CSV, Markdown and "
                  "LaTeX.</p>")
-    named = [("matrix", "Verdict matrix"), ("verdicts", "Verdicts: worst quantity"),
-             ("verdict_details", "Verdicts per quantity"),
+    # The worst-quantity verdict rows are in the question sections already.
+    named = [("matrix", "Verdict matrix"), ("verdict_details", "Verdicts per quantity"),
              ("metrics", "Image metrics per reference and fit"),
              ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
              ("ngan2005_spearman", "Against Ngan, Durand and Matusik 2005: rank correlation"),
@@ -305,7 +317,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
         if key in tables:
             parts.append(f"<details id='{anchor('t', key)}'><summary>{esc(title)} "
                          f"({len(tables[key][1])} rows)</summary>"
-                         + html_table(tables[key], sortable=True) + "</details>")
+                         + lazy_table(key, tables[key]) + "</details>")
     parts.append("<details id='all-figures'><summary>Every figure "
                  f"({len(figures) + len(charts)})</summary>"
                  + "".join(f"<p><a href='{esc(f['png'])}'>{esc(f['name'])}</a> "

@@ -109,10 +109,32 @@
     if (v && v.viewer.key(e)) e.preventDefault();
   });
 
+  // Detail tables carry their rows as JSON; they are built when their <details> first opens.
+  function fill(table) {
+    const src = table.dataset.rows && document.getElementById(table.dataset.rows);
+    if (!src || table.tBodies[0].rows.length) return;
+    const body = table.tBodies[0];
+    JSON.parse(src.textContent).forEach((cells) => {
+      const tr = body.insertRow();
+      cells.forEach((c) => {
+        const td = tr.insertCell();
+        td.textContent = c;
+        if (c === "yes") td.className = "yes";
+        else if (c === "no" || c === "NO") td.className = "no";
+      });
+    });
+  }
+  document.querySelectorAll("details").forEach((d) => {
+    const tables = () => d.querySelectorAll("table[data-rows]").forEach(fill);
+    if (d.open) tables();
+    d.addEventListener("toggle", () => { if (d.open) tables(); });
+  });
+
   // Sortable tables: click a header; numbers sort as numbers, empty cells last.
   document.querySelectorAll("table.sortable").forEach((table) => {
     const heads = Array.from(table.querySelectorAll("thead th"));
     heads.forEach((th, col) => th.addEventListener("click", () => {
+      fill(table);
       const asc = th.getAttribute("aria-sort") !== "ascending";
       heads.forEach((h) => h.removeAttribute("aria-sort"));
       th.setAttribute("aria-sort", asc ? "ascending" : "descending");

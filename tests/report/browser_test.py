@@ -152,13 +152,19 @@ def main(argv):
             failures.append(f"exposure key: label {ev!r}, filter {filt!r}")
         if stack.screenshot_as_png == pixels0:
             failures.append("raising the exposure did not change the pixels on screen")
-        # A sortable table sorts.
-        sorted_ok = driver.execute_script(
-            "const d = document.querySelector('#t-metrics'); if (!d) return 'no metrics table';"
-            "d.open = true; const th = d.querySelectorAll('th')[4]; th.click();"
-            "return th.getAttribute('aria-sort')")
-        if sorted_ok != "ascending":
-            failures.append(f"metrics table did not sort: {sorted_ok}")
+        # A detail table, collapsed, builds its rows when opened and sorts on a header click.
+        driver.execute_script("document.querySelector('#t-metrics summary').click()")
+        time.sleep(0.1)
+        table = driver.execute_script(
+            "const d = document.querySelector('#t-metrics'); const th = d.querySelectorAll('th')[4];"
+            "th.click(); const col = Array.from(d.querySelectorAll('tbody tr'))"
+            ".map(r => parseFloat(r.cells[4].textContent));"
+            "return [d.open, th.getAttribute('aria-sort'), col]")
+        opened, sort, col = table
+        want_rows = len(open(os.path.join(study_dir, "results.csv")).read().splitlines()) - 1
+        if not opened or sort != "ascending" or len(col) != want_rows or col != sorted(col):
+            failures.append(f"metrics table: open {opened}, sort {sort}, {len(col)} rows "
+                            f"(want {want_rows}), sorted {col == sorted(col)}")
 
         errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
         for e in errors:

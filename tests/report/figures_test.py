@@ -40,7 +40,7 @@ def pdf_problems(path, width_in, height_in):
         problems.append("no MediaBox")
     else:
         w, h = float(box.group(1)), float(box.group(2))
-        if abs(w - width_in * 72) > 0.5 or abs(h - height_in * 72) > 0.5:
+        if abs(w - width_in * 72) > 0.4 or abs(h - height_in * 72) > 0.4:
             problems.append(f"page {w:g} x {h:g} pt, want {width_in * 72:g} x {height_in * 72:g}")
     fonts = re.findall(rb"/Type\s*/Font\b", pdf)
     type3 = re.findall(rb"/Subtype\s*/Type3", pdf)
@@ -71,7 +71,7 @@ def main(argv):
             failures.append(f"{name}: {w_in} in wide, want one of {WIDTHS_IN}")
         size = png_size(os.path.join(report, fig["png"]))
         want = (round(w_in * DPI), round(h_in * DPI))
-        if size is None or abs(size[0] - want[0]) > 1 or abs(size[1] - want[1]) > 1:
+        if size is None or size != want or size != (fig["width"], fig["height"]):
             failures.append(f"{name}.png: {size}, want {want}")
         for p in pdf_problems(os.path.join(report, fig["pdf"]), w_in, h_in):
             failures.append(f"{name}.pdf: {p}")

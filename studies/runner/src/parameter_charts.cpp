@@ -30,7 +30,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Bumped whenever what a chart shows changes, so old manifests are re-rendered.
-constexpr int kChartsVersion = 1;
+constexpr int kChartsVersion = 2;
 constexpr int kSpherePx = 96;          // Per sphere; the report shows 5 x 5 of them.
 constexpr float kExposureStops = 0.0f;  // The references' preview exposure: same brightness.
 // Diffuse albedo held under the lobe in the Blinn-Phong charts: dim enough that the highlight
@@ -59,10 +59,12 @@ void Set(const ModelInfo& m, const std::string& name, double v, std::vector<doub
 // The chart of a model from its parameter table; nothing for models without two main
 // parameters we know how to chart.
 std::optional<ChartDef> ChartOf(const ModelInfo& m) {
-  const Axis roughness{"roughness", {0.1, 0.3, 0.5, 0.7, 0.9}, false};
+  // Ranges that hold the shipped materials' fits: near-mirror metals (roughness ~0.05) to rough
+  // plastics; dielectric lobes (ks ~ F0 = 0.04) to metals (ks ~ 1).
+  const Axis roughness{"roughness", {0.05, 0.2, 0.4, 0.6, 0.8}, false};
   const Axis metallic{"metallic", {0.0, 0.25, 0.5, 0.75, 1.0}, false};
   const Axis shininess{"shininess", {4, 16, 64, 256, 1024}, true};
-  const Axis ks{"ks", {0.05, 0.1, 0.25, 0.5, 1.0}, true};
+  const Axis ks{"ks", {0.02, 0.05, 0.15, 0.4, 1.0}, true};
   if (m.Find("metallic") && m.Find("roughness") && m.Find("base_color")) {
     return ChartDef{roughness, metallic,
                     fmt::format("base colour {:g} grey, f0 of the dielectric {:g}", kBaseColour,
