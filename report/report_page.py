@@ -109,12 +109,15 @@ def statement(name, v, summary, labels):
 
 
 def lead_figure(family, verdict_names, summary, figures, materials):
-    """The figure that answers a family's question: the probe figure of the material where the
-    fits disagree most (or the first material), the metric bars for the image questions."""
+    """The figures that answer a family's question: the probe figure of the material where the
+    fits disagree most (or the first material); the metric bars for the image questions (and,
+    for new lighting, the portability probe of one material after them)."""
     by_name = {f["name"]: f for f in figures}
-    if family in ("image", "transfer"):
-        return [f for f in figures if f["name"].startswith("metric-")][:1]
-    probe = {"fresnel": "fresnel", "energy": "energy", "lobe": "highlight"}.get(family)
+    metric = [f for f in figures if f["name"].startswith("metric-")][:1]
+    if family == "image":
+        return metric
+    probe = {"fresnel": "fresnel", "energy": "energy", "lobe": "highlight",
+             "transfer": "portability"}.get(family)
     if probe is None:
         return []
 
@@ -126,13 +129,14 @@ def lead_figure(family, verdict_names, summary, figures, materials):
 
     candidates = [m for m in materials if f"probe-{probe}-{m}" in by_name]
     if not candidates:
-        return []
+        return metric if family == "transfer" else []
     best = max(candidates, key=lambda m: (disagreement(m), -materials.index(m)))
-    return [by_name[f"probe-{probe}-{best}"]]
+    # New lighting: the training-vs-test bars first (every material), then one material's.
+    return (metric if family == "transfer" else []) + [by_name[f"probe-{probe}-{best}"]]
 
 
 def figure_html(f, extra_caption=""):
-    return (f"<figure id='{esc(anchor('fig', f['name']))}'><img src='{esc(f['png'])}' "
+    return (f"<figure><img src='{esc(f['png'])}' "
             f"alt='{esc(f['caption'])}' width='{f['width']}' height='{f['height']}' "
             f"style='width:{round(f['width_in'] * 128)}px;max-width:100%;height:auto'>"
             f"<figcaption>{esc(f['caption'])}{esc(extra_caption)} "

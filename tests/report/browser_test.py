@@ -108,6 +108,11 @@ def main(argv):
         cells = driver.execute_script("return document.querySelectorAll('table.matrix td a').length")
         if dangling or cells == 0:
             failures.append(f"verdict matrix links without a target: {dangling[:5]} ({cells} links)")
+        dup_ids = driver.execute_script(
+            "const n = {}; document.querySelectorAll('[id]').forEach(e => n[e.id] = (n[e.id] || 0) + 1);"
+            "return Object.keys(n).filter(k => n[k] > 1)")
+        if dup_ids:
+            failures.append(f"ids used more than once (links land on the first): {dup_ids[:5]}")
         collapsed = driver.execute_script(
             "return Array.from(document.querySelectorAll('#details ~ details')).every(d => !d.open)")
         if not collapsed:
