@@ -584,7 +584,8 @@ def make_report(study_dir):
         report_figures.image_grid(study_dir, study, fits, m, fig_dir, figures)
     report_figures.probe_figures(study, probes, fig_dir, figures, flatten)
     report_figures.metric_bars(study, rows, fig_dir, figures, to_float)
-    charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in)
+    charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in,
+                                          probes)
     write_text(os.path.join(report_dir, "figures.json"), json.dumps(figures + charts, indent=1))
 
     ngan = ngan_comparison(study, fits)

@@ -87,7 +87,19 @@ def load_charts(study_dir):
     return manifest, path
 
 
-def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts):
+def sweep_sentence(probes, model):
+    """The energy probe's sweep of this model's lobe width, as a sentence for the caption."""
+    for job in probes.values():
+        sweep = ((job.get("probes", {}).get("energy") or {}).get("numbers") or {}).get("sweep") or {}
+        s = sweep.get(model)
+        if s and s.get("flux_min") is not None and s.get("flux_max") is not None:
+            return (f" Energy probe, white lobe swept over its width: reflected flux "
+                    f"{s['flux_min']:.3g} to {s['flux_max']:.3g} (a factor of "
+                    f"{s['flux_max'] / max(s['flux_min'], 1e-12):.3g}).")
+    return ""
+
+
+def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes):
     """`charts`: load_charts' (manifest, path), read before anything is written."""
     manifest, path = charts
     if manifest is None:
@@ -157,7 +169,8 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts):
         caption = (f"{model}: spheres over {c['x']['parameter']} x {c['y']['parameter']} under the "
                    f"{manifest.get('lighting', '')} light, one exposure "
                    f"({manifest.get('exposure_stops', 0):g} EV) for every sphere; "
-                   f"{c.get('held', '')}. Fitted: " + ("; ".join(notes) if notes else "none") + ".")
+                   f"{c.get('held', '')}. Fitted: " + ("; ".join(notes) if notes else "none") + "."
+                   + sweep_sentence(probes, model))
         rf.save_figure(fig, fig_dir, f"chart-{model}", manifest_out, caption)
         figures.append(manifest_out[-1])
     return figures
