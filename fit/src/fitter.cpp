@@ -209,18 +209,21 @@ PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int envir
     out.points.push_back(std::move(sp));
   }
   if (non_finite > 0) {
-    throw Error(out.label, "pixels",
-                fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at "
-                            "({}, {})", non_finite, first_x, first_y));
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at ({}, {})",
+                    non_finite, first_x, first_y));
   }
   if (out.points.empty()) {
-    throw Error(out.label, "pixels",
-                "nothing to fit: no pixel is fully covered in both the reference and the scene, "
-                "inside the mask and unclipped");
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        "nothing to fit: no pixel is fully covered in both the reference and the scene, inside "
+        "the mask and unclipped");
   }
   if (!any_light) {
-    throw Error(out.label, "pixels",
-                fmt::format("nothing to fit: all {} valid pixels are black", out.points.size()));
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        fmt::format("nothing to fit: all {} valid pixels are black", out.points.size()));
   }
   std::sort(norms.begin(), norms.end());
   out.p99_norm = norms[static_cast<std::size_t>(0.99 * (norms.size() - 1))];

@@ -143,6 +143,17 @@ GlContext::~GlContext() {
   }
 }
 
+void GlContext::CheckNotLost() const {
+  const bool available = (info_.gl_major > 4 || (info_.gl_major == 4 && info_.gl_minor >= 5)) ||
+                         epoxy_has_gl_extension("GL_KHR_robustness");
+  if (!available) return;
+  const GLenum status = glGetGraphicsResetStatus();
+  if (status != GL_NO_ERROR) {
+    throw GlContextLostError("", "GL", fmt::format("context lost (reset status 0x{:04x}) on {}",
+                                                   status, info_.gl_renderer));
+  }
+}
+
 void GlContext::MakeCurrent() {
   if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context)) {
     throw Error("eglMakeCurrent failed");

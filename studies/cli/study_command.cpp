@@ -114,6 +114,11 @@ void RunStudyCommand(const StudyRunOptions& o) {
                 fmt::format("{} job(s) failed ({}...), {} not run", s.failed, s.failed_ids.front(),
                             s.not_run));
   }
+  if (!s.fits_without_parameters.empty()) {  // A result, not progress: said even with -q.
+    std::fprintf(stderr, "shadefit: study %s: %zu fit(s) left no parameters (first: %s); see "
+                 "the status column of results.csv\n", spec.name.c_str(),
+                 s.fits_without_parameters.size(), s.fits_without_parameters.front().c_str());
+  }
   if (shard.whole()) FinishStudy(spec, s.study_dir, !o.no_report);
   fmt::print("{}\n", s.study_dir);
 }

@@ -23,6 +23,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -83,6 +84,41 @@ bool KillPointArmed(const char* site) {
 
 void KillPoint(const char* site) {
   if (KillPointArmed(site)) ::kill(::getpid(), SIGKILL);
+}
+
+// Fault injection for the failure-mode tests (tests/studies/fit_failure_test.cpp):
+// SHADEFIT_TEST_FAULT=<mode>:<n|*> makes the n-th (or every) fit job attempt meet <mode>:
+// "gl-lost" (the context is reported lost when the job starts) or "nan-residuals" (the solve's
+// cost and parameters come back NaN, as when every start's residuals were NaN). Recording and
+// carrying on are the real code paths; only the fault is simulated.
+bool FaultArmed(const char* mode) {
+  static std::mutex mutex;
+  static std::string last;
+  static int reached = 0;
+  const char* v = std::getenv("SHADEFIT_TEST_FAULT");
+  const std::string spec = v != nullptr ? v : "";
+  std::lock_guard lock(mutex);
+  if (spec != last) {  // A new fault (tests set one per run): count from zero.
+    last = spec;
+    reached = 0;
+  }
+  const auto colon = spec.find(':');
+  if (spec.empty() || spec.substr(0, colon) != mode) return false;
+  const std::string n = colon == std::string::npos ? "1" : spec.substr(colon + 1);
+  ++reached;
+  return n == "*" || reached == std::atoi(n.c_str());  // "*": every time.
+}
+
+// A fit job's outcome, in results.csv's `status` column and the job JSON. The last three leave
+// no fitted parameters; the study carries on without that fit.
+constexpr const char* kStatusOk = "ok";
+constexpr const char* kStatusNotConverged = "not-converged";
+constexpr const char* kStatusDegenerate = "degenerate-reference";
+constexpr const char* kStatusNan = "nan-residuals";
+constexpr const char* kStatusGlLost = "gl-context-lost";
+
+bool HasFit(const std::string& status) {
+  return status == kStatusOk || status == kStatusNotConverged;
 }
 
 // A job's JSON, its last file: a job is done exactly when it exists (with the job's hash).
@@ -263,6 +299,7 @@ class StudyRun {
   void WorkerLoop(int index);
   void RunFitJob(Job& job, Worker& worker);
   void RunProbeJob(Job& job, Worker& worker);
+  void WriteFailedFit(const Job& job, const std::string& status, const std::string& error);
   void WriteResultsCsv();
   void WriteProvenance(const std::string& gl_renderer);
   std::string JobPath(const Job& job) const { return (dir_ / "jobs" / (job.id + ".json")).string(); }
@@ -428,6 +465,7 @@ bool StudyRun::UpToDate(const Job& job) const {
   try {
     const json j = json::parse(in);
     if (j.value("hash", "") != job.hash) return false;
+    if (j.value("status", "") == kStatusGlLost) return false;  // Retried by every run.
     for (const auto& out : j.value("outputs", json::array())) {
       if (!fs::exists(dir_ / out.get<std::string>())) return false;
     }
@@ -519,8 +557,25 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   fo.num_threads = kCeresThreadsPerFit;
   fo.render_outputs = false;  // The evaluation below renders every lighting, training ones too.
   fo.renderer = worker.renderer.get();
-  const fit::FitResult result = fit::Fit(problem, fo);
+  if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
+  fit::FitResult result;
+  try {
+    result = fit::Fit(problem, fo);
+  } catch (const fit::DegenerateReferenceError& e) {
+    WriteFailedFit(job, kStatusDegenerate, e.what());
+    return;
+  }
   KillPoint("fit");
+  if (FaultArmed("nan-residuals")) {
+    result.final_cost = std::numeric_limits<double>::quiet_NaN();
+    for (double& v : result.values) v = std::numeric_limits<double>::quiet_NaN();
+  }
+  if (!std::isfinite(result.final_cost)) {
+    WriteFailedFit(job, kStatusNan,
+                   fmt::format("the solve ended with a non-finite cost ({})", result.termination));
+    return;
+  }
+  const char* status = result.converged ? kStatusOk : kStatusNotConverged;
   if (!result.converged) {
     log_->Line(fmt::format("{}: fit did not converge ({}); recorded as such", job.id,
                            result.termination));
@@ -599,6 +654,7 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
             {"label", job.label},
             {"train", job.train},
             {"settings", s.ToJson()},
+            {"status", status},
             {"converged", result.converged},
             {"termination", result.termination},
             {"values", result.values},
@@ -611,6 +667,32 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   // is the same bytes on every run.
   j["fit"]["solver"].erase("seconds");
   WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), result.seconds);
+  WriteJobJson(JobPath(job), j.dump(1) + "\n");
+}
+
+// A fit that left no parameters: recorded with its status and message, no evaluations; the
+// material's probes go on without it and results.csv gives it a row per reference with empty
+// metrics.
+void StudyRun::WriteFailedFit(const Job& job, const std::string& status,
+                              const std::string& error) {
+  const ReferenceGroup& g = spec_.groups[job.group];
+  log_->Say(fmt::format("{}: {}: {}; recorded, the study goes on", job.id, status, error));
+  const json j = {{"schema", "shadefit.study.job/1"},
+                  {"id", job.id},
+                  {"kind", "fit"},
+                  {"hash", job.hash},
+                  {"shadefit_version", ShadefitVersion()},
+                  {"material", g.material},
+                  {"model", job.model},
+                  {"label", job.label},
+                  {"train", job.train},
+                  {"status", status},
+                  {"error", error},
+                  {"converged", false},
+                  {"parameters", json::array()},
+                  {"evaluations", json::array()},
+                  {"outputs", json::array()}};
+  WriteTiming(job, 0.0, -1.0);
   WriteJobJson(JobPath(job), j.dump(1) + "\n");
 }
 
@@ -629,9 +711,14 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
     pr.scene = std::move(ref.scene);
     in.references.push_back(std::move(pr));
   }
+  std::vector<std::string> without_fit;
   for (int d : job.deps) {
     std::ifstream f(JobPath(jobs_[d]));
     const json fj = json::parse(f);
+    if (!HasFit(fj.value("status", kStatusOk))) {
+      without_fit.push_back(fj.value("label", jobs_[d].label));
+      continue;
+    }
     probes::ModelUnderTest m;
     m.label = fj["label"];
     m.model = fj["model"];
@@ -656,7 +743,10 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
   fs::create_directories(probe_dir);
   json results = json::object();
   json outputs = json::array();
-  for (const std::string& name : spec_.probes) {
+  // Every fit of the material failed (a black reference, say): nothing to probe.
+  const std::vector<std::string> probe_names =
+      in.models.empty() ? std::vector<std::string>{} : spec_.probes;
+  for (const std::string& name : probe_names) {
     probes::ProbeResult r;
     if (name == "fresnel") r = probes::FresnelProbe(in);
     else if (name == "highlight") r = probes::HighlightProbe(in);
@@ -675,6 +765,8 @@ void StudyRun::RunProbeJob(Job& job, Worker& worker) {
             {"hash", job.hash},
             {"shadefit_version", ShadefitVersion()},
             {"material", g.material},
+            {"status", in.models.empty() ? "no-fit" : "ok"},
+            {"fits_without_parameters", without_fit},
             {"probes", results},
             {"outputs", outputs}};
   WriteTiming(job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
@@ -753,11 +845,39 @@ void StudyRun::WorkerLoop(int index) {
     log_->Progress(done_w, total_w, done, static_cast<int>(jobs_.size()), id, elapsed);
     const auto t0 = Clock::now();
     std::string error;
-    try {
-      if (next->kind == Job::Kind::kFit) RunFitJob(*next, worker);
-      else RunProbeJob(*next, worker);
-    } catch (const std::exception& e) {
-      error = e.what();
+    // A lost GL context: a new context and renderer, and the job once more; lost again, the
+    // fit is recorded as such (and retried by the next run) and the study goes on.
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      try {
+        if (next->kind == Job::Kind::kFit) RunFitJob(*next, worker);
+        else RunProbeJob(*next, worker);
+        worker.context->CheckNotLost();  // Whatever it rendered after a reset is void.
+        error.clear();
+        break;
+      } catch (const GlContextLostError& e) {
+        error = e.what();
+        log_->Say(fmt::format("{}: {} (attempt {}); new GL context", id, error, attempt + 1));
+        try {
+          worker.renderer.reset();
+          worker.context = std::make_unique<GlContext>();
+          worker.context->MakeCurrent();
+          worker.renderer = std::make_unique<Renderer>(*worker.context);
+        } catch (const std::exception& again) {
+          error = std::string("no new GL context after a loss: ") + again.what();
+          break;
+        }
+        if (attempt == 1 && next->kind == Job::Kind::kFit) {
+          try {
+            WriteFailedFit(*next, kStatusGlLost, error);
+            error.clear();
+          } catch (const std::exception& w) {
+            error = w.what();
+          }
+        }
+      } catch (const std::exception& e) {
+        error = e.what();
+        break;
+      }
     }
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     lock.lock();
@@ -793,18 +913,34 @@ void StudyRun::WriteResultsCsv() {
   const std::vector<std::string> metric_cols = {"rmse", "relative_rmse", "log_rmse", "mae",
                                                 "psnr", "ssim", "ms_ssim", "ciede2000_mean",
                                                 "flip_ldr_mean", "flip_hdr_mean"};
-  csv << "material,lighting,reference,label,model,train,split,converged";
+  csv << "material,lighting,reference,label,model,train,split,converged,status";
   for (const auto& c : metric_cols) csv << "," << c;
   csv << "\n";
   for (const Job& job : jobs_) {
     if (job.kind != Job::Kind::kFit) continue;
     std::ifstream in(JobPath(job));
     const json j = json::parse(in);
+    const std::string status = j.value("status", kStatusOk);
+    const auto row_start = [&](const std::string& lighting, const std::string& reference,
+                               const std::string& split) {
+      csv << j["material"].get<std::string>() << "," << lighting << "," << reference << ","
+          << j["label"].get<std::string>() << "," << j["model"].get<std::string>() << ","
+          << JoinTrain(j["train"]) << "," << split << "," << (j["converged"].get<bool>() ? 1 : 0)
+          << "," << status;
+    };
+    if (!HasFit(status)) {  // No parameters: one row per reference, metrics empty.
+      for (const ReferenceSpec& r : spec_.groups[job.group].references) {
+        const bool train =
+            std::find(job.train.begin(), job.train.end(), r.lighting) != job.train.end();
+        row_start(r.lighting, r.name,
+                  train ? "train" : (spec_.IsTest(r.lighting, job.train) ? "test" : "other"));
+        csv << std::string(metric_cols.size(), ',') << "\n";
+      }
+      continue;
+    }
     for (const json& e : j["evaluations"]) {
-      csv << j["material"].get<std::string>() << "," << e["lighting"].get<std::string>() << ","
-          << e["reference"].get<std::string>() << "," << j["label"].get<std::string>() << ","
-          << j["model"].get<std::string>() << "," << JoinTrain(j["train"]) << ","
-          << e["split"].get<std::string>() << "," << (j["converged"].get<bool>() ? 1 : 0);
+      row_start(e["lighting"].get<std::string>(), e["reference"].get<std::string>(),
+                e["split"].get<std::string>());
       for (const auto& c : metric_cols) {
         const json& v = e["metrics"][c];
         csv << "," << (v.is_null() ? std::string("") : fmt::format("{:.9g}", v.get<double>()));
@@ -959,7 +1095,12 @@ RunSummary StudyRun::Run() {
   summary.study_dir = dir_.string();
   summary.total = static_cast<int>(jobs_.size());
   for (Job& job : jobs_) {
-    if (UpToDate(job)) {
+    // A job whose inputs were just (re)made runs again: a fit rerun after a lost GL context
+    // gives its probes new parameters under the same hash. Dependencies come first in jobs_.
+    const bool deps_unchanged = std::all_of(job.deps.begin(), job.deps.end(), [&](int d) {
+      return jobs_[d].state == Job::State::kSkipped;
+    });
+    if (deps_unchanged && UpToDate(job)) {
       job.state = Job::State::kSkipped;
       summary.skipped_ids.push_back(job.id);
       log_->Line("skip " + job.id + " (unchanged)");
@@ -999,6 +1140,18 @@ RunSummary StudyRun::Run() {
   summary.skipped = static_cast<int>(summary.skipped_ids.size());
   summary.failed = static_cast<int>(summary.failed_ids.size());
   summary.interrupted = options_.interrupt != nullptr && options_.interrupt->load();
+  for (const Job& job : jobs_) {
+    if (job.kind != Job::Kind::kFit ||
+        (job.state != Job::State::kDone && job.state != Job::State::kSkipped)) {
+      continue;
+    }
+    std::ifstream in(JobPath(job));
+    try {
+      const std::string status = json::parse(in).value("status", kStatusOk);
+      if (!HasFit(status)) summary.fits_without_parameters.push_back(job.id + ": " + status);
+    } catch (const json::exception&) {
+    }
+  }
   const bool complete = summary.failed == 0 && summary.not_run == 0 && !summary.interrupted;
   if (complete && !options_.shard.whole()) {
     WriteShardManifest(std::chrono::duration<double>(Clock::now() - start_).count());

@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
@@ -84,6 +85,14 @@ struct FitReference {
 // field, or a size mismatch between image, scene resolution and mask.
 FitReference LoadReference(const std::string& image_path, const std::string& scene_override = "",
                            const std::string& mask_path = "");
+
+// A reference the fit cannot use: no valid pixel, every valid pixel black, or non-finite pixels
+// on the object. A property of the data, not of the fitter: the study runner records it as the
+// fit's status ("degenerate-reference") and carries on.
+class DegenerateReferenceError : public Error {
+ public:
+  using Error::Error;
+};
 
 struct FitProblem {
   std::string model;                     // Name as listed by `shadefit models`.

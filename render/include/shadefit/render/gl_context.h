@@ -4,7 +4,17 @@
 #include <memory>
 #include <string>
 
+#include "shadefit/render/error.h"
+
 namespace shadefit {
+
+// The GL context was lost (a GPU reset, a driver restart, a node's GPU taken away): nothing
+// rendered since can be trusted. The study runner records it, makes a new context and retries
+// the job once.
+class GlContextLostError : public Error {
+ public:
+  using Error::Error;
+};
 
 struct GlDeviceInfo {
   std::string platform;     // "device" (EGL_EXT_platform_device) or "surfaceless".
@@ -29,6 +39,9 @@ class GlContext {
 
   void MakeCurrent();
   const GlDeviceInfo& info() const { return info_; }
+  // Throws GlContextLostError when the context reports a reset (glGetGraphicsResetStatus, core
+  // in GL 4.5; a no-op on a 4.3 context without KHR_robustness).
+  void CheckNotLost() const;
 
  private:
   struct Impl;

@@ -64,6 +64,9 @@ struct RunSummary {
   bool interrupted = false;
   double seconds = 0;
   std::vector<std::string> ran_ids, skipped_ids, failed_ids;
+  // Fits recorded without parameters ("<job id>: <status>"): a degenerate reference, NaN
+  // residuals, a lost GL context. They are results, not failures: the study goes on.
+  std::vector<std::string> fits_without_parameters;
 };
 
 // Runs the study. Throws shadefit::Error when the output folder cannot be made or no GL context
