@@ -51,8 +51,14 @@ for point in fit:3 result:3 report:5; do
   if [ "${point%%:*}" = report ]; then
     # setsid: the killed process group is the study's, not this script's.
     KILL_AT_RENAME=${point#*:} SHADEFIT_PYTHON="$work/killing-python" \
-      setsid "$shadefit" study run "$study" --quick -q -j 2 -o "$out" >/dev/null 2>&1 || rc=$?
-    wait 2>/dev/null || true
+      setsid "$shadefit" study run "$study" --quick -q -j 2 -o "$out" >/dev/null 2>&1 &
+    group=$!
+    wait "$group" || rc=$?
+    # The report's Python dies with the group; let it be gone (or a zombie) before the rerun.
+    for _ in $(seq 50); do
+      pgrep -g "$group" >/dev/null || break
+      sleep 0.1
+    done
   else
     SHADEFIT_KILL_AT=$point run -o "$out" >/dev/null 2>&1 || rc=$?
   fi

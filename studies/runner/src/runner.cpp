@@ -356,7 +356,15 @@ bool IsTemporaryOfDeadProcess(const std::string& leaf) {
     pid = std::stol(parts[n - 2]);  // ".<name>.<pid>.tmp": the report's (report/*.py).
   }
   if (pid <= 0) return false;
-  return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+  if (::kill(static_cast<pid_t>(pid), 0) != 0) return errno == ESRCH;
+  // A killed process stays a zombie until its parent (or init, for an orphan) reaps it: dead,
+  // though kill(pid, 0) still finds it. /proc/<pid>/stat's third field is then Z (or X).
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(stat, line)) return false;
+  const auto paren = line.rfind(')');  // The command name may hold spaces and parentheses.
+  return paren != std::string::npos && paren + 2 < line.size() &&
+         (line[paren + 2] == 'Z' || line[paren + 2] == 'X');
 }
 
 void StudyRun::SweepDeadTemporaries(std::vector<fs::path>* stale) {
