@@ -46,6 +46,7 @@ LoadedImage LoadImageForImport(const std::string& path) {
   if (!fs::exists(path)) throw Error(path, "image", "file not found");
   if (!fs::is_regular_file(path)) throw Error(path, "image", "not a regular file");
   LoadedImage out;
+  CheckImageHeader(path);
   {
     StderrCapture quiet;  // libpng's own error lines: the Error says it in one line
     auto in = OIIO::ImageInput::open(path);

@@ -126,8 +126,10 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
     }
     // A width beyond 4096 is no network of this family (21 in the published ones) and would
     // make the dataset shapes overflow.
-    if (!c.contains("units") || !c["units"].is_number_integer() || c["units"].get<std::int64_t>() < 1 ||
-        c["units"].get<std::int64_t>() > 4096) {
+    const bool units_ok = c.contains("units") && c["units"].is_number_integer() &&
+                          c["units"].get<std::int64_t>() >= 1 &&
+                          c["units"].get<std::int64_t>() <= 4096;
+    if (!units_ok) {
       throw Error(json_path, field + ".config.units", "expected an integer in [1, 4096]");
     }
     dense.emplace_back(c["name"].get<std::string>(), c["activation"].get<std::string>());

@@ -10,7 +10,9 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -28,6 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kMaxImageSide = 16384;
+constexpr std::uint64_t kMaxImageValues = std::uint64_t{1} << 28;
 
 // Temporary sibling path, unique per process and call so that concurrent writers of the same
 // file (two study jobs writing one reference preview) never share it; the rename that follows
@@ -92,6 +95,50 @@ void CheckComplete(const std::string& path) {
   }
 }
 
+}  // namespace
+
+void CheckImageHeader(const std::string& path) {
+  // OpenEXR 3.1 (Debian 12) allocates what a header attribute's size field claims before it
+  // reads it: a 541-byte file asked for 1.9 GB (found by fuzz_image). An EXR header is a list of
+  // attributes, each a name, a type name (both NUL-terminated, at most 255 characters) and an
+  // int32 size followed by that many bytes, ended by an empty name; a multi-part file has one
+  // such list per part, ended by an empty list (OpenEXR file layout, "Header").
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (bytes.size() < 8 || bytes.compare(0, 4, "\x76\x2f\x31\x01") != 0) return;
+  const bool multipart = (static_cast<unsigned char>(bytes[5]) & 0x10) != 0;
+  std::size_t pos = 8;
+  auto read_name = [&](std::string* name) {
+    const std::size_t end = bytes.find('\0', pos);
+    if (end == std::string::npos || end - pos > 255) {
+      throw Error(path, "header", "corrupt EXR header (unterminated attribute name)");
+    }
+    *name = bytes.substr(pos, end - pos);
+    pos = end + 1;
+  };
+  for (;;) {  // one header per part
+    std::string name, type;
+    read_name(&name);
+    while (!name.empty()) {
+      read_name(&type);
+      if (pos + 4 > bytes.size()) throw Error(path, "header", "EXR header cut short");
+      std::int32_t size = 0;
+      std::memcpy(&size, bytes.data() + pos, sizeof size);  // little-endian, as the host
+      pos += 4;
+      if (size < 0 || static_cast<std::size_t>(size) > bytes.size() - pos) {
+        throw Error(path, "header",
+                    fmt::format("EXR attribute '{}' claims {} bytes, {} are left in the file",
+                                OneLine(name), size, bytes.size() - pos));
+      }
+      pos += static_cast<std::size_t>(size);
+      read_name(&name);
+    }
+    if (!multipart || pos >= bytes.size() || bytes[pos] == '\0') return;  // empty list: the end
+  }
+}
+
+namespace {
+
 void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type,
                    const void* pixels) {
   CheckOutputPath(path);
@@ -138,13 +185,17 @@ Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
     throw Error(path, "resolution", "image has no pixels");
   }
   // A header may claim any size; allocate only what a reference can be. Scenes render at most
-  // 8192 x 8192 (docs/scenes.md), so 16384 per side and 64 channels (the G-buffer AOVs have 10)
-  // leave room while keeping a forged header from asking for terabytes.
-  if (spec.width > kMaxImageSide || spec.height > kMaxImageSide || spec.nchannels > 64) {
-    throw Error(path, "resolution",
-                fmt::format("{}x{} with {} channel(s) is beyond what shadefit reads ({} per side, "
-                            "64 channels)", spec.width, spec.height, spec.nchannels,
-                            kMaxImageSide));
+  // 8192 x 8192 RGBA (docs/scenes.md): 16384 per side, 64 channels (the G-buffer AOVs have 10)
+  // and 2^28 values in all (1 GiB of floats, an 8192^2 RGBA image) leave room while keeping a
+  // forged header from asking for terabytes.
+  const auto values = static_cast<std::uint64_t>(spec.width) * spec.height * spec.nchannels;
+  if (spec.width > kMaxImageSide || spec.height > kMaxImageSide || spec.nchannels > 64 ||
+      values > kMaxImageValues) {
+    throw Error(
+        path, "resolution",
+        fmt::format("{}x{} with {} channel(s) is beyond what shadefit reads ({} per side, "
+                    "64 channels, {} values)",
+                    spec.width, spec.height, spec.nchannels, kMaxImageSide, kMaxImageValues));
   }
   CheckComplete(path);
   Image image(spec.width, spec.height, spec.nchannels);
@@ -168,6 +219,7 @@ Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
 Image ReadImage(const std::string& path, ImageMetadata* metadata) {
   if (!fs::exists(path)) throw Error(path, "", "file not found");
   if (fs::is_directory(path)) throw Error(path, "", "is a directory, not an image");
+  CheckImageHeader(path);
   StderrCapture quiet;  // libpng prints its errors itself; the Error below says it in one line
   try {
     return ReadImageQuietly(path, metadata);

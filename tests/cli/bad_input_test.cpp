@@ -4,13 +4,12 @@
 // unknown key or name, suggests the closest valid one), and an output folder left exactly as
 // it was (no file, no hidden temporary, no changed size or time). Fixtures are made here, in
 // the build tree's test_output/bad_input/<test>/in/, never committed.
+#include <OpenImageIO/imageio.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <hdf5.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <OpenImageIO/imageio.h>
 
 #include <cmath>
 #include <cstdint>
@@ -112,9 +111,12 @@ class BadInput : public ::testing::Test {
   // leaves stderr in err_.
   int Run(const std::string& args, const std::string& env = "",
           const std::string& wrapper = "SHADEFIT") {
-    std::string command = std::string("'") + SHADEFIT_EXE + "' " + args + " > '" +
-                          (root_ / "stdout.txt").string() + "' 2> '" +
-                          (root_ / "stderr.txt").string() + "'";
+    // SHADEFIT_BAD_INPUT_EXE runs the cases against another build of the executable (a
+    // mutated one, to check that each case can fail: docs/inputs.md).
+    const char* other = std::getenv("SHADEFIT_BAD_INPUT_EXE");
+    const std::string exe = other != nullptr && *other ? other : SHADEFIT_EXE;
+    std::string command = "'" + exe + "' " + args + " > '" + (root_ / "stdout.txt").string() +
+                          "' 2> '" + (root_ / "stderr.txt").string() + "'";
     std::string line = wrapper;
     line.replace(line.find("SHADEFIT"), 8, command);
     const std::string full = "cd '" + root_.string() + "' && " + env + " " + line;
@@ -135,8 +137,8 @@ class BadInput : public ::testing::Test {
     EXPECT_LT(code, 128) << "killed by a signal (a crash) for: " << args << "\n" << err_;
     std::string line = err_;
     while (!line.empty() && line.back() == '\n') line.pop_back();
-    EXPECT_EQ(std::count(line.begin(), line.end(), '\n'), 0)
-        << "more than one line on stderr:\n" << err_;
+    EXPECT_EQ(std::count(line.begin(), line.end(), '\n'), 0) << "more than one line on stderr:\n"
+                                                             << err_;
     EXPECT_FALSE(line.empty()) << "nothing on stderr";
     EXPECT_TRUE(std::regex_search(line, std::regex(regex)))
         << "stderr: " << line << "\nexpected to match: " << regex;
@@ -164,8 +166,9 @@ class BadInput : public ::testing::Test {
                  const std::string& head = "") {
     Reference("m-key.exr");
     const fs::path p = in() / "s.toml";
-    WriteText(p, head + "[study]\nname = \"s\"\n[[group]]\nmaterial = \"m\"\nimages = [\"m-*.exr\"]\n"
-                 "[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\"]\n" +
+    WriteText(p, head +
+                     "[study]\nname = \"s\"\n[[group]]\nmaterial = \"m\"\nimages = [\"m-*.exr\"]\n"
+                     "[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\"]\n" +
                      fit_extra + tail);
     return p;
   }
@@ -189,22 +192,21 @@ class BadInput : public ::testing::Test {
     for (int l = 0; l < 3; ++l) {
       const std::string name = "dense_" + std::to_string(l + 1);
       json += std::string(l ? ", " : "") + R"({"class_name": "Dense", "config": {"name": ")" +
-              name + R"(", "units": )" + std::to_string(width[l + 1]) +
-              R"(, "activation": ")" + activation[l] + R"("}})";
+              name + R"(", "units": )" + std::to_string(width[l + 1]) + R"(, "activation": ")" +
+              activation[l] + R"("}})";
       for (const std::string kind : {"kernel:0", "bias:0"}) {
         const std::string path = "/" + name + "/" + name + "/" + kind;
         if (path == skip) continue;
-        std::vector<hsize_t> shape = kind == "bias:0"
-                                         ? std::vector<hsize_t>{hsize_t(width[l + 1])}
-                                         : std::vector<hsize_t>{hsize_t(width[l]),
-                                                                hsize_t(width[l + 1])};
+        std::vector<hsize_t> shape =
+            kind == "bias:0" ? std::vector<hsize_t>{hsize_t(width[l + 1])}
+                             : std::vector<hsize_t>{hsize_t(width[l]), hsize_t(width[l + 1])};
         if (path == bad_shape) shape[0] += 1;
         std::size_t count = 1;
         for (hsize_t d : shape) count *= d;
         const std::vector<float> zeros(count, 0.0f);
         const hid_t space = H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr);
-        const hid_t set = H5Dcreate2(file, path.c_str(), H5T_IEEE_F32LE, space, lcpl,
-                                     H5P_DEFAULT, H5P_DEFAULT);
+        const hid_t set =
+            H5Dcreate2(file, path.c_str(), H5T_IEEE_F32LE, space, lcpl, H5P_DEFAULT, H5P_DEFAULT);
         H5Dwrite(set, H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, zeros.data());
         H5Dclose(set);
         H5Sclose(space);
@@ -281,6 +283,20 @@ TEST_F(BadInput, EmptyExrFile) {
                      "in/ref\\.exr: header: cannot read image");
 }
 
+TEST_F(BadInput, ExrAttributeClaimsTooManyBytes) {
+  // Found by fuzz_image: OpenEXR 3.1 allocates what an attribute's size field says (1.9 GB for
+  // a 541-byte file) before reading it. The channel list's size is set to 2^31 - 1 here.
+  const fs::path p = Reference();
+  std::string bytes = ReadText(p);
+  const std::string type("chlist\0", 7);
+  const std::size_t at = bytes.find(type);
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at + 7, 4, "\xff\xff\xff\x7f", 4);
+  WriteText(p, bytes);
+  ExpectCleanFailure("fit --ref in/ref.exr --model ggx -o out/fit.json",
+                     "in/ref\\.exr: header: EXR attribute 'channels' claims 2147483647 bytes");
+}
+
 TEST_F(BadInput, ExrHeaderOnly) {
   const fs::path p = Reference();
   Truncate(p, 0.05);
@@ -298,7 +314,8 @@ TEST_F(BadInput, TruncatedJpeg) {
   {
     // Noise, so that the entropy-coded data is long enough to cut.
     std::vector<unsigned char> px(64 * 64 * 3);
-    for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<unsigned char>((i * 2654435761u) >> 13);
+    for (std::size_t i = 0; i < px.size(); ++i)
+      px[i] = static_cast<unsigned char>((i * 2654435761u) >> 13);
     auto o = OIIO::ImageOutput::create(p.string());
     ASSERT_TRUE(o->open(p.string(), OIIO::ImageSpec(64, 64, 3, OIIO::TypeDesc::UINT8)));
     ASSERT_TRUE(o->write_image(OIIO::TypeDesc::UINT8, px.data()));
@@ -315,7 +332,8 @@ TEST_F(BadInput, TruncatedJpegAsFitReference) {
   const fs::path p = in() / "ref.jpg";
   {
     std::vector<unsigned char> px(64 * 64 * 3);
-    for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<unsigned char>((i * 2654435761u) >> 13);
+    for (std::size_t i = 0; i < px.size(); ++i)
+      px[i] = static_cast<unsigned char>((i * 2654435761u) >> 13);
     auto o = OIIO::ImageOutput::create(p.string());
     ASSERT_TRUE(o->open(p.string(), OIIO::ImageSpec(64, 64, 3, OIIO::TypeDesc::UINT8)));
     ASSERT_TRUE(o->write_image(OIIO::TypeDesc::UINT8, px.data()));
@@ -336,6 +354,14 @@ TEST_F(BadInput, ImageHeaderClaimsAbsurdSize) {
                      "in/huge\\.png: resolution: 100000x100000 with 3 channel\\(s\\) is beyond");
 }
 
+TEST_F(BadInput, ImageHeaderClaimsTooManyValues) {
+  // 16384 x 16384 RGB is within the per-side limit but 805 million values (3 GiB of floats).
+  PatchPngSize(Image8("big.png", 64, 64, 3, 10), 16384, 16384);
+  WriteText(in() / "big.json", R"({"scene_file": "scene.toml"})");
+  ExpectCleanFailure("fit --ref in/big.png --model ggx -o out/fit.json",
+                     "in/big\\.png: resolution: 16384x16384 with 3 channel\\(s\\) is beyond");
+}
+
 TEST_F(BadInput, TruncatedTga) {
   Truncate(Image8("photo.tga", 64, 64, 3, 77), 0.5);
   ExpectCleanFailure("refs import in/photo.tga --scene in/scene.toml -o out/r.exr",
@@ -352,6 +378,14 @@ TEST_F(BadInput, ZeroSizePng) {
   PatchPngSize(Image8("zero.png", 64, 64, 3, 128), 0, 64);
   ExpectCleanFailure("refs import in/zero.png --scene in/scene.toml -o out/r.exr",
                      "in/zero\\.png: (image|resolution): ");
+}
+
+TEST_F(BadInput, ZeroSizePngAsMask) {
+  // Through ReadImage (fit's masks and references): libpng prints "libpng error: ..." itself.
+  Reference();
+  PatchPngSize(Image8("mask.png", 64, 64, 1, 255), 64, 0);
+  ExpectCleanFailure("fit --ref in/ref.exr --mask in/mask.png --model ggx -o out/fit.json",
+                     "in/mask\\.png: header: cannot read image: .*IHDR");
 }
 
 TEST_F(BadInput, NanPixelInReference) {
@@ -387,8 +421,7 @@ TEST_F(BadInput, TwoChannelMetricsImage) {
 TEST_F(BadInput, MetricsSizeMismatch) {
   Reference("ref.exr", 4, 64);
   Reference("small.exr", 4, 32);
-  ExpectCleanFailure("metrics in/ref.exr in/small.exr --maps out",
-                     "in/small\\.exr: resolution: ");
+  ExpectCleanFailure("metrics in/ref.exr in/small.exr --maps out", "in/small\\.exr: resolution: ");
 }
 
 TEST_F(BadInput, ReferenceSizeDiffersFromScene) {
@@ -607,16 +640,16 @@ TEST_F(BadInput, StudyDuplicateKey) {
 
 TEST_F(BadInput, StudyNamesMissingFile) {
   Study();
-  WriteText(in() / "s.toml", std::regex_replace(ReadText(in() / "s.toml"),
-                                                std::regex("m-\\*\\.exr"), "m-none.exr"));
+  WriteText(in() / "s.toml",
+            std::regex_replace(ReadText(in() / "s.toml"), std::regex("m-\\*\\.exr"), "m-none.exr"));
   ExpectCleanFailure("study run in/s.toml -q -o out",
                      "s\\.toml:5: group\\.images: 'm-none\\.exr' matches no file");
 }
 
 TEST_F(BadInput, StudyGlobMatchesNothing) {
   Study();
-  WriteText(in() / "s.toml", std::regex_replace(ReadText(in() / "s.toml"),
-                                                std::regex("m-\\*\\.exr"), "q-*.exr"));
+  WriteText(in() / "s.toml",
+            std::regex_replace(ReadText(in() / "s.toml"), std::regex("m-\\*\\.exr"), "q-*.exr"));
   ExpectCleanFailure("study run in/s.toml -q -o out",
                      "s\\.toml:5: group\\.images: 'q-\\*\\.exr' matches no file");
 }
@@ -626,7 +659,8 @@ TEST_F(BadInput, StudyNegativePpd) {
 }
 
 TEST_F(BadInput, StudyNanTolerance) {
-  ExpectStudyFails("", "[verdicts.image]\nsource = \"metrics\"\nmetric = \"rmse\"\ntolerance = nan\n",
+  ExpectStudyFails("",
+                   "[verdicts.image]\nsource = \"metrics\"\nmetric = \"rmse\"\ntolerance = nan\n",
                    "s\\.toml:12: verdicts\\.image\\.tolerance: value nan ");
 }
 
@@ -659,8 +693,8 @@ TEST_F(BadInput, MerlTruncated) {
 
 TEST_F(BadInput, MerlWrongHeader) {
   Merl("h.binary", 91, kMerlValues);
-  ExpectMeasuredFails("h.binary",
-                      "in/h\\.binary: dims: header is \\(91, 90, 180\\), expected \\(90, 90, 180\\)");
+  ExpectMeasuredFails(
+      "h.binary", "in/h\\.binary: dims: header is \\(91, 90, 180\\), expected \\(90, 90, 180\\)");
 }
 
 TEST_F(BadInput, MerlTooShortForHeader) {
@@ -709,7 +743,8 @@ TEST_F(BadInput, NeuralBrdfTruncatedHdf5) {
 TEST_F(BadInput, NeuralBrdfConfigMissing) {
   Network("net");
   fs::remove(in() / "net.json");
-  ExpectMeasuredFails("net.h5", "in/net\\.h5: config: the Keras model config in/net\\.json is missing");
+  ExpectMeasuredFails("net.h5",
+                      "in/net\\.h5: config: the Keras model config in/net\\.json is missing");
 }
 
 TEST_F(BadInput, NeuralBrdfConfigMalformed) {
@@ -760,8 +795,9 @@ TEST_F(BadInput, CliZeroThreads) {
 
 TEST_F(BadInput, CliNegativeLossScale) {
   Reference();
-  ExpectCleanFailure("fit --ref in/ref.exr --model ggx --loss huber --loss-scale -1 -o out/fit.json",
-                     "--loss-scale: ");
+  ExpectCleanFailure(
+      "fit --ref in/ref.exr --model ggx --loss huber --loss-scale -1 -o out/fit.json",
+      "--loss-scale: ");
 }
 
 TEST_F(BadInput, CliUnknownLossSuggests) {
@@ -797,7 +833,8 @@ TEST_F(BadInput, CliUnknownOption) {
 
 TEST_F(BadInput, CliMetricsInfinitePpd) {
   Reference();
-  ExpectCleanFailure("metrics in/ref.exr in/ref.exr --ppd inf", "--ppd: Value inf not in range 0\\.001000 to 1000\\.000000");
+  ExpectCleanFailure("metrics in/ref.exr in/ref.exr --ppd inf",
+                     "--ppd: Value inf not in range 0\\.001000 to 1000\\.000000");
 }
 
 TEST_F(BadInput, CliMetricsNanExposure) {
@@ -846,7 +883,8 @@ TEST_F(BadInput, CliMetricsMapsFolderMissing) {
                      "out/none: --maps: directory does not exist");
 }
 
-// --- Output paths ----------------------------------------------------------------------------------
+// --- Output paths
+// ----------------------------------------------------------------------------------
 
 TEST_F(BadInput, OutputPathIsADirectory) {
   fs::create_directories(out() / "a.exr");
@@ -890,8 +928,9 @@ TEST_F(BadInput, UnwritableOutputDirectory) {
       GTEST_SKIP() << "running as root without the right to make a mount namespace "
                       "(unshare -m): cannot make a folder unwritable for root";
     }
-    wrapper = "unshare -m sh -c 'mount --bind out/ro out/ro && "
-              "mount -o remount,bind,ro out/ro && SHADEFIT'";
+    wrapper =
+        "unshare -m sh -c 'mount --bind out/ro out/ro && "
+        "mount -o remount,bind,ro out/ro && SHADEFIT'";
   } else {
     fs::permissions(out() / "ro", fs::perms::owner_read | fs::perms::owner_exec);
     wrapper = "SHADEFIT";
@@ -908,15 +947,44 @@ TEST_F(BadInput, DiskFullMidWrite) {
   fs::create_directories(out() / "full");
   WriteText(in() / "big.toml", SceneWith("[64, 64]", "[256, 256]"));
   const std::string ns = geteuid() == 0 ? "unshare -m" : "unshare -rm";
-  if (std::system((ns + " sh -c 'mount -t tmpfs -o size=16k tmpfs " + out().string() +
-                   "/full' 2>/dev/null").c_str()) != 0) {
+  if (std::system(
+          (ns + " sh -c 'mount -t tmpfs -o size=16k tmpfs " + out().string() + "/full' 2>/dev/null")
+              .c_str()) != 0) {
     GTEST_SKIP() << "cannot mount a small tmpfs (" << ns << " failed)";
   }
   const std::string listing = (root_ / "left-on-tmpfs.txt").string();
   ExpectCleanFailure("render --scene in/big.toml -o out/full/a.exr",
                      "out/full/a\\.exr: write failed: ", "",
-                     ns + " sh -c 'mount -t tmpfs -o size=16k tmpfs out/full && SHADEFIT; rc=$?; "
-                          "ls -A out/full > " + listing + "; exit $rc'");
+                     ns +
+                         " sh -c 'mount -t tmpfs -o size=16k tmpfs out/full && SHADEFIT; rc=$?; "
+                         "ls -A out/full > " +
+                         listing + "; exit $rc'");
+  EXPECT_EQ(ReadText(listing), "") << "files left on the full disk";
+}
+
+// The disk fills up on the last of several outputs: render's EXR and PNG preview fit on the
+// tmpfs, its AOV EXR does not. The EXR and PNG already written must go too (all or nothing).
+// The tmpfs is sized from a first render of the same files elsewhere.
+TEST_F(BadInput, DiskFullOnLastOutput) {
+  fs::create_directories(out() / "full");
+  fs::create_directories(root_ / "probe");
+  WriteText(in() / "big.toml", SceneWith("[64, 64]", "[256, 256]"));
+  ASSERT_EQ(Run("render --scene in/big.toml -o probe/a.exr --aov probe/aov.exr"), 0) << err_;
+  auto pages = [](std::uintmax_t bytes) { return (bytes + 4095) / 4096 * 4096; };
+  const std::uintmax_t size = pages(fs::file_size(root_ / "probe/a.exr")) +
+                              pages(fs::file_size(root_ / "probe/a.png")) +
+                              fs::file_size(root_ / "probe/aov.exr") / 2;
+  fs::remove_all(root_ / "probe");
+  const std::string ns = geteuid() == 0 ? "unshare -m" : "unshare -rm";
+  const std::string mount = "mount -t tmpfs -o size=" + std::to_string(size) + " tmpfs ";
+  if (std::system((ns + " sh -c '" + mount + out().string() + "/full' 2>/dev/null").c_str()) != 0) {
+    GTEST_SKIP() << "cannot mount a small tmpfs (" << ns << " failed)";
+  }
+  const std::string listing = (root_ / "left-on-tmpfs.txt").string();
+  ExpectCleanFailure("render --scene in/big.toml -o out/full/a.exr --aov out/full/aov.exr",
+                     "out/full/aov\\.exr: write failed: ", "",
+                     ns + " sh -c '" + mount + "out/full && SHADEFIT; rc=$?; ls -A out/full > " +
+                         listing + "; exit $rc'");
   EXPECT_EQ(ReadText(listing), "") << "files left on the full disk";
 }
 

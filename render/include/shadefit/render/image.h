@@ -45,6 +45,11 @@ using ImageMetadata = std::map<std::string, std::string>;
 // size beyond 16384 per side or 64 channels.
 Image ReadImage(const std::string& path, ImageMetadata* metadata = nullptr);
 
+// Checks what a decoder would trust before reading a file: an EXR header attribute may not claim
+// more bytes than the file holds (OpenEXR 3.1 allocates the claimed size first). ReadImage and the
+// import call it before OpenImageIO opens the file. Throws shadefit::Error(path, "header", ...).
+void CheckImageHeader(const std::string& path);
+
 // Writes a linear float EXR (half is never used: references need float). Written to a temporary
 // file beside the target and renamed, so a failure never leaves a partial file.
 void WriteExr(const std::string& path, const Image& image, const ImageMetadata& metadata = {},
