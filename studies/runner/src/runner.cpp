@@ -484,14 +484,17 @@ bool StudyRun::UpToDate(const Job& job) const {
 }
 
 double StudyRun::ErrorScale(const fit::FitReference& ref) const {
-  // A quarter of the reference's 99th-percentile radiance (mean RGB over covered pixels): one
-  // scale per reference, shared by every model's error map so they compare by eye.
+  // A quarter of the reference's 99th-percentile radiance (mean RGB over covered, lit pixels):
+  // one scale per reference, shared by every model's error map so they compare by eye. Only lit
+  // pixels count: under a rim light most of the sphere is black, and a percentile over all of it
+  // gave a range near 0 that saturated every map.
   std::vector<float> v;
   const Image& im = ref.image;
   for (int y = 0; y < im.height; ++y) {
     for (int x = 0; x < im.width; ++x) {
       if (im.channels >= 4 && im.at(x, y, 3) < 0.5f) continue;
-      v.push_back((im.at(x, y, 0) + im.at(x, y, 1) + im.at(x, y, 2)) / 3.0f);
+      const float mean = (im.at(x, y, 0) + im.at(x, y, 1) + im.at(x, y, 2)) / 3.0f;
+      if (mean > 0) v.push_back(mean);
     }
   }
   if (v.empty()) return 1.0;
