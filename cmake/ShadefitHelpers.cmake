@@ -19,6 +19,13 @@ if(SHADEFIT_SANITIZE OR SHADEFIT_FUZZ)
     endif()
     list(APPEND SHADEFIT_SANITIZER_FLAGS -fsanitize=fuzzer-no-link)
   endif()
+  # Eigen (Memory.h) stops trusting malloc's 16-byte alignment under __SANITIZE_ADDRESS__ and
+  # switches to its hand-made aligned malloc, whose blocks must be freed by its own free. Debian's
+  # libceres.a is built without ASan and frees Eigen storage with plain free(), so matrices that
+  # cross between our code and Ceres (ceres::Covariance) were "freed at an address not
+  # malloc()-ed" under ASan only. glibc's and ASan's mallocs are both 16-byte aligned on x86-64:
+  # say so, and both sides agree again.
+  list(APPEND SHADEFIT_SANITIZER_FLAGS -DEIGEN_MALLOC_ALREADY_ALIGNED=1)
   add_compile_options(${SHADEFIT_SANITIZER_FLAGS})
   add_link_options(-fsanitize=address,undefined)
 endif()
