@@ -9,8 +9,12 @@
 # success, failure and Ctrl-C alike.
 #
 #   bash scripts/fresh-machine-check.sh [--rev REV] [--shared DIR] [--no-cache] [--keep]
+#                                       [--reuse-pass]
 #
 #   --rev REV      commit to clone (default HEAD; uncommitted changes are not part of a check)
+#   --reuse-pass   skip the check when one passed on this machine for the same install inputs
+#                  (bootstrap.sh, this script, every CMakeLists.txt and cmake/ file, the CI
+#                  skip list, at REV); .ci/run uses it (docs/testing.md says what that costs)
 #   --shared DIR   the folder that sits beside the clone as ../shared (default: ../shared)
 #   --no-cache     build the base root afresh instead of reusing the cached minbase tarball
 #   --keep         leave the root in place afterwards (for debugging; prints where)
@@ -30,19 +34,33 @@ rev=HEAD
 shared="$repo/../shared"
 use_cache=1
 keep=0
+reuse_pass=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --rev) rev=${2:?--rev needs a commit}; shift 2 ;;
     --shared) shared=${2:?--shared needs a folder}; shift 2 ;;
     --no-cache) use_cache=0; shift ;;
     --keep) keep=1; shift ;;
-    -h | --help) sed -n '2,21p' "$0"; exit 0 ;;
+    --reuse-pass) reuse_pass=1; shift ;;
+    -h | --help) sed -n '2,24p' "$0"; exit 0 ;;
     *) die "unknown option '$1' (see --help)" ;;
   esac
 done
 [ "$(id -u)" -eq 0 ] || die "must run as root (it uses chroot and mount)"
 command -v chroot >/dev/null || die "chroot not found (coreutils)"
 git -C "$repo" rev-parse --verify -q "$rev^{commit}" >/dev/null || die "$repo: no commit '$rev'"
+
+# What decides whether the README's commands install and build on a fresh machine: a pass for
+# the same bytes of these files is recorded under the cache folder and reused by --reuse-pass.
+pass_dir=${SHADEFIT_ROOT_CACHE:-/var/cache/shadefit-fresh-root}/passed
+pass_key=$(git -C "$repo" ls-tree -r "$rev" -- scripts/bootstrap.sh scripts/fresh-machine-check.sh \
+             cmake tests/ci-allowed-skips.txt $(git -C "$repo" ls-tree -r --name-only "$rev" |
+             grep -E '(^|/)CMakeLists\.txt$') | sha256sum | cut -c1-16)
+if [ "$reuse_pass" = 1 ] && [ -f "$pass_dir/$pass_key" ]; then
+  say "passed before on this machine for these install inputs ($(cat "$pass_dir/$pass_key")); skipped"
+  say "(run without --reuse-pass to check again)"
+  exit 0
+fi
 
 # --- phase timing --------------------------------------------------------------------------
 declare -a phase_names=() phase_secs=()
@@ -236,4 +254,6 @@ grep -E 'tests passed|tests failed' "$test_log" | tail -n1 | sed 's/^/fresh-mach
 end
 
 say "== both README commands passed on a fresh Debian 12 root"
+mkdir -p "$pass_dir"
+echo "$(git -C "$repo" rev-parse --short "$rev"), $(date -u +%Y-%m-%dT%H:%MZ)" >"$pass_dir/$pass_key"
 summary
