@@ -300,6 +300,7 @@ class StudyRun {
   void RunFitJob(Job& job, Worker& worker);
   void RunProbeJob(Job& job, Worker& worker);
   void WriteFailedFit(const Job& job, const std::string& status, const std::string& error);
+  json FitJobHeader(const Job& job, const std::string& status) const;
   void WriteResultsCsv();
   void WriteProvenance(const std::string& gl_renderer);
   std::string JobPath(const Job& job) const { return (dir_ / "jobs" / (job.id + ".json")).string(); }
@@ -655,17 +656,8 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
                       {"fixed", p.fixed}, {"undetermined", p.undetermined},
                       {"at_bound", p.at_bound}});
   }
-  json j = {{"schema", "shadefit.study.job/1"},
-            {"id", job.id},
-            {"kind", "fit"},
-            {"hash", job.hash},
-            {"shadefit_version", ShadefitVersion()},
-            {"material", g.material},
-            {"model", job.model},
-            {"label", job.label},
-            {"train", job.train},
-            {"settings", s.ToJson()},
-            {"status", status},
+  json j = FitJobHeader(job, status);
+  j.update({{"settings", s.ToJson()},
             {"converged", result.converged},
             {"termination", result.termination},
             {"values", result.values},
@@ -673,7 +665,7 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
             {"parameters", params},
             {"fit", fit::FitResultToJson(result)},
             {"evaluations", evaluations},
-            {"outputs", outputs}};
+            {"outputs", outputs}});
   // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
   // is the same bytes on every run.
   j["fit"]["solver"].erase("seconds");
@@ -681,28 +673,32 @@ void StudyRun::RunFitJob(Job& job, Worker& worker) {
   WriteJobJson(JobPath(job), j.dump(1) + "\n");
 }
 
+// The fields every fit job JSON starts with, whatever its outcome.
+json StudyRun::FitJobHeader(const Job& job, const std::string& status) const {
+  return {{"schema", "shadefit.study.job/1"},
+          {"id", job.id},
+          {"kind", "fit"},
+          {"hash", job.hash},
+          {"shadefit_version", ShadefitVersion()},
+          {"material", spec_.groups[job.group].material},
+          {"model", job.model},
+          {"label", job.label},
+          {"train", job.train},
+          {"status", status}};
+}
+
 // A fit that left no parameters: recorded with its status and message, no evaluations; the
 // material's probes go on without it and results.csv gives it a row per reference with empty
 // metrics.
 void StudyRun::WriteFailedFit(const Job& job, const std::string& status,
                               const std::string& error) {
-  const ReferenceGroup& g = spec_.groups[job.group];
   log_->Say(fmt::format("{}: {}: {}; recorded, the study goes on", job.id, status, error));
-  const json j = {{"schema", "shadefit.study.job/1"},
-                  {"id", job.id},
-                  {"kind", "fit"},
-                  {"hash", job.hash},
-                  {"shadefit_version", ShadefitVersion()},
-                  {"material", g.material},
-                  {"model", job.model},
-                  {"label", job.label},
-                  {"train", job.train},
-                  {"status", status},
-                  {"error", error},
-                  {"converged", false},
-                  {"parameters", json::array()},
-                  {"evaluations", json::array()},
-                  {"outputs", json::array()}};
+  json j = FitJobHeader(job, status);
+  j.update({{"error", error},
+            {"converged", false},
+            {"parameters", json::array()},
+            {"evaluations", json::array()},
+            {"outputs", json::array()}});
   WriteTiming(job, 0.0, -1.0);
   WriteJobJson(JobPath(job), j.dump(1) + "\n");
 }
