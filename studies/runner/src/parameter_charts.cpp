@@ -23,6 +23,7 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 #include "shadefit/studies/runner.h"
+#include "sidecar_scene.h"
 
 namespace shadefit::studies {
 namespace {
@@ -110,20 +111,6 @@ std::optional<ChartDef> ChartOf(const ModelInfo& m) {
                     }};
   }
   return std::nullopt;
-}
-
-std::string SceneOfSidecar(const std::string& sidecar) {
-  if (sidecar.empty()) return "";
-  std::ifstream in(sidecar);
-  try {
-    const json j = json::parse(in);
-    std::string s;
-    if (j.contains("scene_file") && j["scene_file"].is_string()) s = j["scene_file"];
-    if (s.empty()) return "";
-    return (fs::path(sidecar).parent_path() / s).lexically_normal().string();
-  } catch (const json::exception&) {
-    return "";
-  }
 }
 
 // The first key-lit reference's scene, else the first reference's; "" with none.

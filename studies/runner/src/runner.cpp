@@ -47,6 +47,7 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/probes/probes.h"
 #include "job_cost.h"
+#include "sidecar_scene.h"
 
 #ifndef SHADEFIT_VERSION_STRING
 #define SHADEFIT_VERSION_STRING "unknown"
@@ -161,22 +162,6 @@ std::string FileSafe(std::string s) {
     if (c == '/' || c == ' ' || c == '\\') c = '_';
   }
   return s;
-}
-
-// The scene path a sidecar names, resolved as fit::LoadReference resolves it.
-std::string SceneOfSidecar(const std::string& sidecar) {
-  if (sidecar.empty()) return "";
-  std::ifstream in(sidecar);
-  try {
-    const json j = json::parse(in);
-    std::string s;
-    if (j.contains("scene_file") && j["scene_file"].is_string()) s = j["scene_file"];
-    else if (j.contains("scene") && j["scene"].is_string()) s = j["scene"];
-    if (s.empty()) return "";
-    return (fs::path(sidecar).parent_path() / s).lexically_normal().string();
-  } catch (const json::exception&) {
-    return "";
-  }
 }
 
 // The sidecar's material as the cycles-principled (or lambert) model: the ground truth the
