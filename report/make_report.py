@@ -496,7 +496,13 @@ NGAN_PAIRS = [
     ("blinn-phong-normalized", "shininess", lambda v: v, "shininess n", "blinn_phong_n",
      "Blinn-Phong n"),
     ("ggx", "roughness", lambda v: v * v, "alpha", "cook_torrance_m", "Cook-Torrance m"),
-    ("beckmann", "roughness", lambda v: v * v, "alpha", "cook_torrance_m", "Cook-Torrance m")]
+    ("beckmann", "roughness", lambda v: v * v, "alpha", "cook_torrance_m", "Cook-Torrance m"),
+    # Ngan's own model set (render/models/): the same forms, parameter for parameter.
+    ("cook-torrance", "m", lambda v: v, "m", "cook_torrance_m", "Cook-Torrance m"),
+    ("ward", "alpha", lambda v: v, "alpha", "ward_alpha", "Ward alpha"),
+    ("ward-duer", "alpha", lambda v: v, "alpha", "ward_alpha", "Ward alpha"),
+    ("ashikhmin-shirley", "n", lambda v: v, "n", "ashikhmin_shirley_n", "Ashikhmin-Shirley n"),
+    ("lafortune", "n", lambda v: v, "n", "lafortune_n", "Lafortune n")]
 
 
 def ngan_comparison(study, fits):

@@ -172,17 +172,12 @@ double CompressRadianceDerivative(Loss loss, double x) {
 ceres::CostFunction* CreateGBufferResidual(const ResidualSettings& settings,
                                            const ShadingPoint* points, const double* targets,
                                            int count) {
-  switch (settings.parametrization->size()) {
-    case 3: return GBufferBlockResidual<3>::Create(settings, points, targets, count);
-    case 5: return GBufferBlockResidual<5>::Create(settings, points, targets, count);
-    case 6: return GBufferBlockResidual<6>::Create(settings, points, targets, count);
-    case 7: return GBufferBlockResidual<7>::Create(settings, points, targets, count);
-    case 10: return GBufferBlockResidual<10>::Create(settings, points, targets, count);
-    default:
-      throw Error("", "model",
-                  fmt::format("internal: no G-buffer residual for {} parameters (add a case)",
-                              settings.parametrization->size()));
-  }
+  // The Jet size is the model's parameter count, known at compile time from its table
+  // (render/models/<name>.glsl), so every registered model has its residual without a list here.
+  return VisitModel(settings.model, [&](auto tag) -> ceres::CostFunction* {
+    constexpr int kParams = decltype(tag)::template Of<double, double>::kParamCount;
+    return GBufferBlockResidual<kParams>::Create(settings, points, targets, count);
+  });
 }
 
 GlRenderCache::GlRenderCache(Renderer* renderer, const Scene* scene, ModelId model, int capacity)

@@ -1,6 +1,7 @@
-// Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_MODEL,
+// Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_TERM,
 // SHADEFIT_GBUFFER, SHADEFIT_NUM_OBJECTS, SHADEFIT_NUM_LIGHTS, SHADEFIT_SUPERSAMPLE,
-// SHADEFIT_ENV_MODE, then brdf.glsl, models.glsl, scene.glsl, environment.glsl.
+// SHADEFIT_ENV_MODE, then brdf.glsl, model_dsl.glsl, the model's models/<name>.glsl,
+// models.glsl, scene.glsl, environment.glsl.
 
 const int kMaxLights = 8;
 const int u_num_lights = SHADEFIT_NUM_LIGHTS;  // Point and directional lights.

@@ -58,11 +58,11 @@ std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
 }
 
 Image ShadeGBuffer(const Scene& scene, const GBuffer& g, ModelId model,
-                   const std::vector<double>& params) {
+                   const std::vector<double>& params, ModelTerm term) {
   Image out(g.width, g.height, 4);
   for (const ShadingPoint& sp : PrepareShading(scene, g, 0.0f)) {
     double rgb[3];
-    ShadePoint(model, params.data(), sp, rgb);
+    ShadePoint(model, params.data(), sp, rgb, term);
     for (int c = 0; c < 3; ++c) out.at(sp.x, sp.y, c) = static_cast<float>(rgb[c]);
     out.at(sp.x, sp.y, 3) = g.Coverage(sp.x, sp.y);
   }

@@ -11,64 +11,16 @@
 namespace shadefit {
 namespace {
 
-// Shared rows. Roughness >= 0.01 keeps alpha = roughness^2 >= 1e-4 (kMinAlpha); classic ks spans
-// decades because without normalisation a sharp highlight needs a huge ks to be bright.
-ParamSpec Rgb(const std::string& name, double min, double max, double def, const char* what,
-              bool log_scale = false) {
-  return ParamSpec{name, 3, min, max, def, log_scale, what};
-}
-ParamSpec Scalar(const std::string& name, double min, double max, double def, const char* what,
-                 bool log_scale = false) {
-  return ParamSpec{name, 1, min, max, def, log_scale, what};
-}
-
-const ParamSpec kRoughness = Scalar("roughness", 0.01, 1.0, 0.5,
-                                    "perceptual roughness; alpha = roughness^2");
-const ParamSpec kShininess = Scalar("shininess", 1.0, 100000.0, 32.0,
-                                    "specular exponent n", /*log_scale=*/true);
-
 std::vector<ModelInfo> BuildModels() {
-  const ParamSpec kd = Rgb("kd", 0.0, 1.0, 0.5, "diffuse albedo (Lambert: f = kd / pi)");
-  const ParamSpec f0 = Rgb("f0", 0.0, 1.0, 0.04, "Fresnel reflectance at normal incidence");
-  const std::vector<ParamSpec> classic = {
-      Rgb("ka", 0.0, 1.0, 0.0, "ambient reflectance (times the ambient light)"),
-      Rgb("kd", 0.0, 1.0, 0.5, "diffuse coefficient: kd (n.l) per unit light"),
-      Rgb("ks", 0.0, 100000.0, 0.5, "specular coefficient (unnormalised)", true),
-      kShininess};
-  const std::vector<ParamSpec> raw = {kd, f0, kRoughness};
-  return {
-      {ModelId::kLambert, "lambert", "Lambert diffuse, f = kd / pi", {kd}},
-      {ModelId::kPhong, "phong", "classic Phong 1975: ka amb + kd (n.l) + ks (r.v)^n", classic},
-      {ModelId::kBlinnPhong, "blinn-phong",
-       "classic Blinn-Phong: ka amb + kd (n.l) + ks (n.h)^n, unnormalised", classic},
-      {ModelId::kBlinnPhongNormalized, "blinn-phong-normalized",
-       "f = kd/pi + ks (n+8)/(8 pi) (n.h)^n",
-       {kd, Rgb("ks", 0.0, 1.0, 0.04, "specular reflectance (normalised lobe)"), kShininess}},
-      {ModelId::kGgx, "ggx",
-       "Cook-Torrance: Lambert + D_GGX V_SmithGGXCorrelated F_Schlick(f0)", raw},
-      {ModelId::kGgxMetallic, "ggx-metallic",
-       "ggx in metallic-roughness form: kd = base (1-m), f0 = mix(f0_dielectric, base, m)",
-       {Rgb("base_color", 0.0, 1.0, 0.8, "base colour"),
-        Scalar("metallic", 0.0, 1.0, 0.0, "0 dielectric, 1 metal"), kRoughness,
-        Scalar("f0_dielectric", 0.0, 1.0, 0.04, "F0 of the dielectric part")}},
-      {ModelId::kGgxSeparable, "ggx-separable", "ggx with separable Smith G (Walter 2007)", raw},
-      {ModelId::kGgxDielectric, "ggx-dielectric",
-       "Lambert + GGX with exact dielectric Fresnel from an IOR",
-       {kd, Scalar("ior", 1.0, 3.0, 1.5, "index of refraction"), kRoughness}},
-      {ModelId::kGgxConductor, "ggx-conductor",
-       "GGX with conductor Fresnel from a complex IOR (n, k) per channel, no diffuse",
-       {Rgb("eta", 0.01, 10.0, 0.2, "real part of the IOR"),
-        Rgb("k", 0.0, 10.0, 3.0, "extinction coefficient"), kRoughness}},
-      {ModelId::kGgxBurley, "ggx-burley", "ggx with Burley 2012 diffuse", raw},
-      {ModelId::kBeckmann, "beckmann",
-       "Lambert + Beckmann D, separable Smith-Beckmann G (Walter approx.), Schlick", raw},
-      {ModelId::kCyclesPrincipled, "cycles-principled",
-       "Cycles 3.4 Principled BSDF, single scattering (separable Smith, Burley, Cycles Fresnel)",
-       {Rgb("base_color", 0.0, 1.0, 0.8, "base colour"),
-        Scalar("metallic", 0.0, 1.0, 0.0, "0 dielectric, 1 metal"),
-        Scalar("specular", 0.0, 1.0, 0.5, "Cycles specular; F0 = 0.08 specular"),
-        kRoughness}},
-  };
+  std::vector<ModelInfo> models;
+  for (int i = 0; i < kModelCount; ++i) {
+    const auto id = static_cast<ModelId>(i);
+    VisitModel(id, [&](auto tag) {
+      using M = typename decltype(tag)::template Of<double, double>;
+      models.push_back({id, M::Name(), M::Description(), M::Table(), ModelGlslFile(id)});
+    });
+  }
+  return models;
 }
 
 }  // namespace
@@ -195,25 +147,55 @@ void SetParamFromString(const ModelInfo& model, const std::string& assignment,
 }
 
 double SpecularLobeAlpha(ModelId id, const double* p) {
-  switch (id) {
-    case ModelId::kLambert:
-      return 0.0;
-    case ModelId::kPhong:
-    case ModelId::kBlinnPhong:
-      // Walter et al. 2007, section 5.2: Phong exponent n ~ 2 / alpha_b^2 - 2 (Beckmann width),
-      // close enough to a GGX alpha for a sampling proposal.
-      return std::sqrt(2.0 / (p[9] + 2.0));
-    case ModelId::kBlinnPhongNormalized:
-      return std::sqrt(2.0 / (p[6] + 2.0));
-    case ModelId::kGgxMetallic:
-      return p[4] * p[4];
-    case ModelId::kGgxDielectric:
-      return p[4] * p[4];
-    case ModelId::kCyclesPrincipled:
-      return p[5] * p[5];
-    default:
-      return p[6] * p[6];  // kd, f0 | eta, k, roughness layouts.
+  return VisitModel(id, [&](auto tag) {
+    using M = typename decltype(tag)::template Of<double, double>;
+    return M::LobeAlpha(M::Load(p));
+  });
+}
+
+const ParamSpec* ModelInfo::WidthParam() const {
+  for (const auto& p : params) {
+    if (p.roles & kWidthParam) return &p;
   }
+  return nullptr;
+}
+
+std::vector<double> SpecularOnlyParams(const ModelInfo& model) {
+  std::vector<double> values = DefaultParams(model);
+  int offset = 0;
+  for (const auto& p : model.params) {
+    double v = values[offset];
+    if (p.roles & kDiffuseParam) v = 0.0;
+    if (p.roles & kSpecularParam) v = 1.0;
+    v = std::clamp(v, p.min, p.max);
+    for (int c = 0; c < p.size; ++c) values[offset + c] = v;
+    offset += p.size;
+  }
+  return values;
+}
+
+double SetWidthForAlpha(const ModelInfo& model, double alpha, std::vector<double>* params) {
+  const ParamSpec* width = model.WidthParam();
+  if (!width || width->size != 1) {
+    throw Error("", "model", fmt::format("model {} has no lobe width parameter", model.name));
+  }
+  const int at = model.Offset(width->name);
+  // Bisection in the row's fitting space (log for log rows); LobeAlpha rises with roughness and
+  // falls with an exponent, so the bracket's orientation comes from its two ends.
+  auto to_value = [&](double u) { return width->log_scale ? std::exp(u) : u; };
+  double lo = width->log_scale ? std::log(width->min) : width->min;
+  double hi = width->log_scale ? std::log(width->max) : width->max;
+  auto alpha_at = [&](double u) {
+    (*params)[at] = to_value(u);
+    return SpecularLobeAlpha(model.id, params->data());
+  };
+  const bool rising = alpha_at(hi) > alpha_at(lo);
+  for (int i = 0; i < 200 && hi - lo > 1e-15 * std::max(1.0, std::abs(hi)); ++i) {
+    const double mid = 0.5 * (lo + hi);
+    ((alpha_at(mid) < alpha) == rising ? lo : hi) = mid;
+  }
+  (*params)[at] = to_value(0.5 * (lo + hi));
+  return (*params)[at];
 }
 
 }  // namespace shadefit

@@ -18,9 +18,12 @@ const std::map<std::string, std::string>& ShaderSources();
 
 namespace {
 
-// Files of the fragment program in the order they are joined (render.frag documents it).
-const char* const kFragmentFiles[] = {"brdf.glsl", "models.glsl", "scene.glsl",
-                                      "environment.glsl", "render.frag"};
+// Files of the fragment program in the order they are joined (render.frag documents it); the
+// model's own file (models/<name>.glsl) goes after the model language.
+std::vector<std::string> FragmentFiles(ModelId model) {
+  return {"brdf.glsl", "model_dsl.glsl", ModelGlslFile(model), "models.glsl",
+          "scene.glsl", "environment.glsl", "render.frag"};
+}
 
 // Each file starts at line k * kLineBase + 1, so an error's line number alone says which file
 // it is in, whatever a driver does with #line's source-string number (Mesa prints 0).
@@ -74,7 +77,7 @@ GLuint CompileShader(GLenum type, const std::string& source,
   return shader;
 }
 
-constexpr int kMaxParams = 16;  // u_params[16] in models.glsl.
+constexpr int kMaxParams = 16;  // u_params[16] in model_dsl.glsl.
 // Texture unit used only to create textures, so that doing so never disturbs the units 0-2 the
 // environment samplers are bound to.
 constexpr int kScratchTextureUnit = 15;
@@ -109,7 +112,7 @@ struct Renderer::Impl {
     glDeleteVertexArrays(1, &vao);
   }
 
-  GLuint Program(ModelId model, bool gbuffer, const Scene& scene) {
+  GLuint Program(ModelId model, ModelTerm term, bool gbuffer, const Scene& scene) {
     int num_lights = 0;
     for (const Light& light : scene.lights) {
       num_lights += light.type == Light::Type::kPoint || light.type == Light::Type::kDirectional;
@@ -118,15 +121,15 @@ struct Renderer::Impl {
     const int env_mode =
         env < 0 ? 0 : (scene.lights[env].type == Light::Type::kUniform ? 1 : 2);
     const std::string preamble = fmt::format(
-        "#version 430 core\n#define SHADEFIT_MODEL {}\n#define SHADEFIT_GBUFFER {}\n"
+        "#version 430 core\n// model {}\n#define SHADEFIT_TERM {}\n#define SHADEFIT_GBUFFER {}\n"
         "#define SHADEFIT_NUM_OBJECTS {}\n#define SHADEFIT_NUM_LIGHTS {}\n"
         "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n",
-        static_cast<int>(model), gbuffer ? 1 : 0, scene.objects.size(), num_lights,
+        ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, scene.objects.size(), num_lights,
         scene.camera.supersample, gbuffer ? 0 : env_mode);
     auto it = programs.find(preamble);
     if (it != programs.end()) return it->second;
     const std::vector<std::string> vfiles = {"fullscreen.vert"};
-    const std::vector<std::string> ffiles(std::begin(kFragmentFiles), std::end(kFragmentFiles));
+    const std::vector<std::string> ffiles = FragmentFiles(model);
     GLuint vs = CompileShader(GL_VERTEX_SHADER, JoinSources("#version 430 core\n", vfiles), vfiles);
     GLuint fs = CompileShader(GL_FRAGMENT_SHADER, JoinSources(preamble, ffiles), ffiles);
     GLuint program = glCreateProgram();
@@ -303,7 +306,8 @@ struct Renderer::Impl {
 Renderer::Renderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
 Renderer::~Renderer() = default;
 
-Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<double>& params) {
+Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<double>& params,
+                       ModelTerm term) {
   const ModelInfo& info = GetModel(model);
   if (static_cast<int>(params.size()) != info.ParamCount() || info.ParamCount() > kMaxParams) {
     throw Error("", "params", fmt::format("model {} takes {} parameters, got {}", info.name,
@@ -311,7 +315,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   }
   // Another GlContext made on this thread (a nested Fit, say) may have taken the thread over.
   impl_->context.MakeCurrent();
-  GLuint program = impl_->Program(model, false, scene);
+  GLuint program = impl_->Program(model, term, false, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
   impl_->BindEnvironment(program, scene, model, params);
@@ -325,7 +329,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
   impl_->context.MakeCurrent();
-  GLuint program = impl_->Program(ModelId::kLambert, true, scene);
+  GLuint program = impl_->Program(ModelId::kLambert, ModelTerm::kReflect, true, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
   const int w = scene.camera.width, h = scene.camera.height_px;

@@ -138,7 +138,7 @@ TEST_P(GradientCheckTest, GBufferResidualMatchesNumericDerivatives) {
   }
 }
 
-// Every model the fitter can dispatch (parameter counts 3, 5, 6, 7, 10: all of them).
+// Every registered model (render/CMakeLists.txt), whatever its parameter count.
 std::vector<std::string> AllModelNames() {
   std::vector<std::string> names;
   for (const ModelInfo& m : AllModels()) names.push_back(m.name);

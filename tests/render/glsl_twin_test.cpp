@@ -65,6 +65,39 @@ std::string LightsFor(int s) {
   return lights;
 }
 
+// Holds a GL image to its C++ twin on the G-buffer's hit pixels; writes both and an error map
+// to test_output/glsl_twin/<stem>_* on failure.
+// At least `min_compared` values must be above the floor: a whole sphere for the full model, a
+// highlight's worth for a sharp lobe alone.
+void ExpectTwins(const Image& gl, const Image& twin, const GBuffer& gbuffer,
+                 const std::string& stem, const std::string& what, int min_compared) {
+  double worst = 0;
+  int compared = 0;
+  Image error(gl.width, gl.height, 1);
+  for (int y = 0; y < gl.height; ++y) {
+    for (int x = 0; x < gl.width; ++x) {
+      if (!gbuffer.Hit(x, y)) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double a = gl.at(x, y, c), b = twin.at(x, y, c);
+        if (std::max(std::abs(a), std::abs(b)) <= kFloor) continue;
+        const double rel = std::abs(a - b) / std::max(std::abs(a), std::abs(b));
+        error.at(x, y, 0) = std::max(error.at(x, y, 0), static_cast<float>(rel / kTolerance));
+        worst = std::max(worst, rel);
+        ++compared;
+      }
+    }
+  }
+  if (worst > kTolerance) {
+    const std::string base = testing::TestOutputDir("glsl_twin") + "/" + stem;
+    WriteExr(base + "_gl.exr", gl);
+    WriteExr(base + "_twin.exr", twin);
+    WriteExr(base + "_error.exr", error);
+  }
+  EXPECT_LE(worst, kTolerance) << what << " (" << compared
+                               << " values compared; images in test_output/glsl_twin)";
+  EXPECT_GE(compared, min_compared) << what << ": too few lit pixels for a meaningful comparison";
+}
+
 class GlslTwinTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(GlslTwinTest, GlRenderMatchesCppTwin) {
@@ -76,33 +109,41 @@ TEST_P(GlslTwinTest, GlRenderMatchesCppTwin) {
     const GBuffer gbuffer = renderer.RenderGBuffer(scene);
     const Image gl = renderer.Render(scene, model.id, sets[s]);
     const Image twin = ShadeGBuffer(scene, gbuffer, model.id, sets[s]);
-    double worst = 0;
-    int compared = 0;
-    Image error(gl.width, gl.height, 1);
-    for (int y = 0; y < gl.height; ++y) {
-      for (int x = 0; x < gl.width; ++x) {
-        if (!gbuffer.Hit(x, y)) continue;
-        for (int c = 0; c < 3; ++c) {
-          const double a = gl.at(x, y, c), b = twin.at(x, y, c);
-          if (std::max(std::abs(a), std::abs(b)) <= kFloor) continue;
-          const double rel = std::abs(a - b) / std::max(std::abs(a), std::abs(b));
-          error.at(x, y, 0) = std::max(error.at(x, y, 0), static_cast<float>(rel / kTolerance));
-          worst = std::max(worst, rel);
-          ++compared;
+    ExpectTwins(gl, twin, gbuffer, model.name + "_" + std::to_string(s),
+                model.name + " set " + std::to_string(s), 300);
+  }
+}
+
+// Each term the rest of shadefit derives from the model's one definition (the probes' diffuse /
+// lobe split, the Fresnel curve) rendered alone by the GL program and evaluated by the C++ twin.
+// A term that is 0 everywhere for a model (Lambert's lobe) compares nothing and is skipped.
+TEST_P(GlslTwinTest, EveryTermMatchesCppTwin) {
+  const ModelInfo& model = FindModel(GetParam());
+  Renderer& renderer = testing::SharedRenderer();
+  const auto sets = ParameterSets(model);
+  const std::pair<ModelTerm, const char*> terms[] = {
+      {ModelTerm::kDiffuse, "diffuse"}, {ModelTerm::kLobe, "lobe"}, {ModelTerm::kFresnel, "fresnel"}};
+  int terms_compared = 0;
+  for (const auto& [term, term_name] : terms) {
+    for (std::size_t s = 0; s < sets.size(); s += 5) {
+      const Scene scene =
+          ParseScene(testing::SphereSceneToml(64, 64, LightsFor(s)), "twin.toml");
+      const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+      const Image twin = ShadeGBuffer(scene, gbuffer, model.id, sets[s], term);
+      double peak = 0;
+      for (int y = 0; y < twin.height; ++y) {
+        for (int x = 0; x < twin.width; ++x) {
+          for (int c = 0; c < 3; ++c) peak = std::max(peak, std::abs(double(twin.at(x, y, c))));
         }
       }
+      if (peak <= kFloor) continue;
+      const Image gl = renderer.Render(scene, model.id, sets[s], term);
+      ExpectTwins(gl, twin, gbuffer, model.name + "_" + term_name + "_" + std::to_string(s),
+                  model.name + " " + term_name + " set " + std::to_string(s), 20);
+      ++terms_compared;
     }
-    if (worst > kTolerance) {
-      const std::string dir = testing::TestOutputDir("glsl_twin");
-      const std::string stem = dir + "/" + model.name + "_" + std::to_string(s);
-      WriteExr(stem + "_gl.exr", gl);
-      WriteExr(stem + "_twin.exr", twin);
-      WriteExr(stem + "_error.exr", error);
-    }
-    EXPECT_LE(worst, kTolerance) << model.name << " set " << s << " (" << compared
-                                 << " values compared; images in test_output/glsl_twin)";
-    EXPECT_GT(compared, 300) << "too few lit pixels for a meaningful comparison";
   }
+  EXPECT_GE(terms_compared, 10) << "too few terms compared for " << model.name;
 }
 
 std::vector<std::string> AllModelNames() {

@@ -208,17 +208,11 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
     const ModelInfo& info = FindModel(s.model);
     std::vector<double> x, y;
     for (const double nexp : o.sweep_shininess) {
-      std::vector<double> p = DefaultParams(info);
-      if (s.model == "blinn-phong") {
-        p = {0, 0, 0, 0, 0, 0, 1, 1, 1, nexp};
-      } else if (s.model == "blinn-phong-normalized") {
-        p = {0, 0, 0, 1, 1, 1, nexp};
-      } else {
-        // Walter et al. 2007, sec. 5.2: alpha_p = 2 / alpha_b^2 - 2 (Beckmann width; close for
-        // GGX near the peak); roughness = sqrt(alpha), clamped to the table's [0.01, 1].
-        const double alpha = std::sqrt(2.0 / (nexp + 2.0));
-        p = {0, 0, 0, 1, 1, 1, std::clamp(std::sqrt(alpha), 0.01, 1.0)};
-      }
+      // The model's specular lobe alone at unit scale (its table's roles), its width set so that
+      // its lobe stands for a Blinn-Phong exponent n: alpha = sqrt(2 / (n + 2)) (Walter et al.
+      // 2007, sec. 5.2, Beckmann width; close for GGX near the peak), clamped to the table.
+      std::vector<double> p = SpecularOnlyParams(info);
+      SetWidthForAlpha(info, std::sqrt(2.0 / (nexp + 2.0)), &p);
       x.push_back(nexp);
       y.push_back(DirectionalAlbedo(info.id, p, 1.0, ao).value[0]);
       if (s.model == "blinn-phong-normalized") {

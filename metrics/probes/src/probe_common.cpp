@@ -106,81 +106,19 @@ Image RenderModel(const ProbeInputs& inputs, const ModelUnderTest& model,
 
 void DiffuseAndLobe(ModelId id, const double* p, const ShadingPoint& point, double diffuse_rgb[3],
                     std::vector<double>* lobe_per_light) {
-  using shadefit::internal::ComputeDots;
-  using shadefit::internal::Distribution;
-  using shadefit::internal::SpecularDV;
-  using shadefit::internal::Visibility;
+  // The model's own Diffuse and Lobe terms (render/models/<name>.glsl): the same code that makes
+  // up Reflect, so the split cannot drift from the model (glsl_twin_test holds each term to GL).
   double ka[3];
   AmbientReflectance(id, p, ka);
   for (int c = 0; c < 3; ++c) diffuse_rgb[c] = ka[c] * point.ambient[c];
   lobe_per_light->assign(point.lights.size(), 0.0);
-  const Vec3d& n = point.n;
-  const Vec3d& v = point.v;
-  const double NoV = Dot(n, v);
   for (std::size_t i = 0; i < point.lights.size(); ++i) {
     const PixelLight& light = point.lights[i];
-    const double NoL = Dot(n, light.l);
-    if (!(NoL > 0) || !(NoV > 0)) continue;  // Reflect() is 0 there too.
-    const auto d = ComputeDots(n, light.l, v);
-    double fd[3] = {0, 0, 0};  // diffuse coefficient per channel, without NoL
-    double lobe = 0;           // specular term with F = 1, unit coefficient, with NoL
-    auto microfacet = [&](Distribution dist, Visibility vis, double alpha) {
-      return SpecularDV(dist, vis, d, alpha) * NoL;
-    };
-    switch (id) {
-      case ModelId::kLambert:
-        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
-        break;
-      case ModelId::kPhong:
-      case ModelId::kBlinnPhong: {
-        // Classic lobes are not multiplied by NoL (models_inl.h): ks (r.v)^n or ks (n.h)^n.
-        const double cos_lobe = id == ModelId::kPhong ? Dot(n * (2.0 * NoL) - light.l, v) : d.NoH;
-        for (int c = 0; c < 3; ++c) fd[c] = p[3 + c];
-        lobe = cos_lobe > 0 ? std::pow(cos_lobe, p[9]) : 0.0;
-        break;
-      }
-      case ModelId::kBlinnPhongNormalized:
-        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
-        lobe = d.NoH > 0 ? (p[6] + 8.0) / (8.0 * kPi) * std::pow(d.NoH, p[6]) * NoL : 0.0;
-        break;
-      case ModelId::kGgx:
-      case ModelId::kGgxSeparable:
-      case ModelId::kGgxBurley:
-      case ModelId::kBeckmann: {
-        const double r = p[6];
-        const bool burley = id == ModelId::kGgxBurley;
-        for (int c = 0; c < 3; ++c) {
-          fd[c] = p[c] * (burley ? Fd_Burley(d.NoV, d.NoL, d.LoH, r) : kInvPi);
-        }
-        const Distribution dist =
-            id == ModelId::kBeckmann ? Distribution::kBeckmann : Distribution::kGgx;
-        const Visibility vis = id == ModelId::kBeckmann       ? Visibility::kSmithBeckmannSeparable
-                               : id == ModelId::kGgxSeparable ? Visibility::kSmithGgxSeparable
-                                                              : Visibility::kSmithGgxCorrelated;
-        lobe = microfacet(dist, vis, r * r);
-        break;
-      }
-      case ModelId::kGgxMetallic:
-        for (int c = 0; c < 3; ++c) fd[c] = p[c] * (1.0 - p[3]) * kInvPi;
-        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[4] * p[4]);
-        break;
-      case ModelId::kGgxDielectric:
-        for (int c = 0; c < 3; ++c) fd[c] = p[c] * kInvPi;
-        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[4] * p[4]);
-        break;
-      case ModelId::kGgxConductor:
-        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxCorrelated, p[6] * p[6]);
-        break;
-      case ModelId::kCyclesPrincipled:
-        for (int c = 0; c < 3; ++c) {
-          fd[c] = p[c] * (1.0 - p[3]) * Fd_Burley(d.NoV, d.NoL, d.LoH, p[5]);
-        }
-        lobe = microfacet(Distribution::kGgx, Visibility::kSmithGgxSeparable, p[5] * p[5]);
-        break;
-    }
-    for (int c = 0; c < 3; ++c) diffuse_rgb[c] += fd[c] * NoL * light.irradiance[c];
+    const ModelTerms<double, double> t = EvaluateTerms(id, p, point.n, light.l, point.v);
+    if (!t.valid) continue;  // Reflect() is 0 there too.
+    for (int c = 0; c < 3; ++c) diffuse_rgb[c] += t.diffuse[c] * t.NoL * light.irradiance[c];
     (*lobe_per_light)[i] =
-        lobe * Luma(light.irradiance[0], light.irradiance[1], light.irradiance[2]);
+        t.lobe * Luma(light.irradiance[0], light.irradiance[1], light.irradiance[2]);
   }
 }
 

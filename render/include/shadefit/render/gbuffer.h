@@ -68,16 +68,18 @@ void AttachEnvironmentSamples(const Scene& scene, const EnvironmentQuadrature& q
 std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& gbuffer,
                                          float min_coverage);
 
-// Radiance of one shading point, RGB into out[0..2]; T = double or ceres::Jet.
+// Radiance of one shading point, RGB into out[0..2]; T = double or ceres::Jet. A `term` other
+// than kReflect shades that term of the model alone, without ambient (as Renderer::Render).
 template <typename T>
-void ShadePoint(ModelId model, const T* params, const ShadingPoint& point, T* out) {
-  T ka[3];
-  AmbientReflectance(model, params, ka);
+void ShadePoint(ModelId model, const T* params, const ShadingPoint& point, T* out,
+                ModelTerm term = ModelTerm::kReflect) {
+  T ka[3] = {T(0), T(0), T(0)};
+  if (term == ModelTerm::kReflect) AmbientReflectance(model, params, ka);
   for (int c = 0; c < 3; ++c) out[c] = ka[c] * T(point.ambient[c]);
   for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
     for (const PixelLight& light : *set) {
       T f[3];
-      Reflect(model, params, point.n, light.l, point.v, f);
+      Reflect(model, params, point.n, light.l, point.v, f, term);
       for (int c = 0; c < 3; ++c) out[c] += f[c] * T(light.irradiance[c]);
     }
   }
@@ -85,6 +87,6 @@ void ShadePoint(ModelId model, const T* params, const ShadingPoint& point, T* ou
 
 // Twin image (RGBA, alpha = coverage) for pixels with a hit; 0 elsewhere.
 Image ShadeGBuffer(const Scene& scene, const GBuffer& gbuffer, ModelId model,
-                   const std::vector<double>& params);
+                   const std::vector<double>& params, ModelTerm term = ModelTerm::kReflect);
 
 }  // namespace shadefit

@@ -22,8 +22,10 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   // RGBA float: RGB = linear radiance (premultiplied when the background is transparent),
-  // A = coverage. Row 0 is the top row.
-  Image Render(const Scene& scene, ModelId model, const std::vector<double>& params);
+  // A = coverage. Row 0 is the top row. `term` other than kReflect renders that term of the
+  // model alone in place of Reflect (no ambient): the twin test's view of each derived piece.
+  Image Render(const Scene& scene, ModelId model, const std::vector<double>& params,
+               ModelTerm term = ModelTerm::kReflect);
 
   // Position, normal + coverage, view direction at every pixel centre.
   GBuffer RenderGBuffer(const Scene& scene);
