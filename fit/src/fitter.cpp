@@ -8,24 +8,22 @@
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <list>
-#include <map>
 #include <memory>
 #include <numbers>
 #include <numeric>
 
+#include "prepared_reference.h"
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 
-#ifndef SHADEFIT_FIT_VERSION
-#define SHADEFIT_FIT_VERSION "unknown"
-#endif
-
 namespace shadefit::fit {
-namespace fs = std::filesystem;
+using internal::AttachQuadrature;
+using internal::Prepare;
+using internal::PreparedReference;
+using internal::ProposalAlphas;
+using internal::RendererHolder;
+using internal::SubsampleForEnvironment;
 
 Loss ParseLoss(const std::string& name) {
   if (name == "l2") return Loss::kL2;
@@ -75,182 +73,10 @@ namespace {
 
 bool IsRobust(Loss loss) { return loss == Loss::kHuber || loss == Loss::kCauchy; }
 
-// Reference alpha counts as full coverage from here (float EXRs store 1 exactly; half would too).
-constexpr float kFullCoverage = 1.0f - 1e-5f;
-
-// A reference reduced to its valid pixels, with the light geometry the twin needs.
-struct PreparedReference {
-  const FitReference* source = nullptr;
-  std::string label;                   // File (or name) for error messages.
-  Scene scene;                         // Environment sample count possibly overridden.
-  std::vector<ShadingPoint> points;    // Valid pixels only.
-  std::vector<int> pixels;             // y * width + x of each point.
-  std::vector<double> linear;          // 3 reference values per point, linear radiance.
-  std::vector<double> targets;         // 3 compressed reference values per point.
-  double p99_norm = 0;                 // 99th percentile of the RGB norm over valid pixels.
-  std::unique_ptr<GlRenderCache> cache;
-  // Environment or uniform light on the twin path: `points` is a subsample and carries the
-  // quadrature; the RMSE is taken over every valid pixel (these) from a GL render.
-  bool environment = false;
-  std::vector<int> all_pixels;
-  std::vector<double> all_linear;
-};
-
-// Keeps `want` of the valid pixels, half of them from the brightest tenth (highlights are few
-// and carry the lobe's shape) and half by a regular stride through the rest. Deterministic.
-void SubsampleForEnvironment(PreparedReference* r, int want) {
-  r->all_pixels = r->pixels;
-  r->all_linear = r->linear;
-  const std::size_t n = r->points.size();
-  if (static_cast<long>(n) <= want) return;
-  std::vector<double> norms(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    norms[k] = std::hypot(r->linear[3 * k], r->linear[3 * k + 1], r->linear[3 * k + 2]);
-  }
-  std::vector<double> sorted = norms;
-  std::nth_element(sorted.begin(), sorted.begin() + n * 9 / 10, sorted.end());
-  const double p90 = sorted[n * 9 / 10];
-  std::size_t bright = 0;
-  for (double v : norms) bright += v >= p90 ? 1 : 0;
-  const std::size_t half = static_cast<std::size_t>(want) / 2;
-  const std::size_t bright_stride = std::max<std::size_t>(1, (bright + half - 1) / half);
-  const std::size_t dim_stride = std::max<std::size_t>(1, (n - bright + half - 1) / half);
-  std::vector<ShadingPoint> points;
-  std::vector<int> pixels;
-  std::vector<double> linear;
-  std::size_t bright_seen = 0, dim_seen = 0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const bool is_bright = norms[k] >= p90;
-    const std::size_t seen = is_bright ? bright_seen++ : dim_seen++;
-    if (seen % (is_bright ? bright_stride : dim_stride) != 0) continue;
-    points.push_back(std::move(r->points[k]));
-    pixels.push_back(r->pixels[k]);
-    for (int c = 0; c < 3; ++c) linear.push_back(r->linear[3 * k + c]);
-  }
-  r->points = std::move(points);
-  r->pixels = std::move(pixels);
-  r->linear = std::move(linear);
-}
-
-// The GGX proposal widths of the environment quadrature: before anything is fitted, a
-// defensive spread over the range real materials take (Hesterberg 1995, "Weighted average
-// importance sampling and defensive mixture distributions"); once a lobe width is known, that
-// width and three times it (the tail), so the samples follow the lobe the fit settled on.
-std::vector<double> ProposalAlphas(ModelId model, const std::vector<double>& params, bool fitted) {
-  const double alpha = SpecularLobeAlpha(model, params.data());
-  if (!(alpha > 0)) return {};
-  if (!fitted) return {0.02, 0.08, 0.3};
-  const double a = std::clamp(alpha, 1e-3, 1.0);
-  return {a, std::min(1.0, 3 * a)};
-}
-
-void AttachQuadrature(std::vector<PreparedReference>& refs, std::vector<double> lobe_alphas,
-                      int samples) {
-  EnvironmentQuadrature q;
-  q.samples_per_technique = samples;
-  q.lobe_alphas = std::move(lobe_alphas);
-  for (PreparedReference& r : refs) {
-    if (r.environment) AttachEnvironmentSamples(r.scene, q, &r.points);
-  }
-}
-
-// Finds the valid pixels: full coverage in the reference (alpha) and in our G-buffer, inside the
-// mask, not clipped. Throws on non-finite values there, and when nothing (or only black) is left.
-PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int environment_samples,
-                          long* gbuffer_renders) {
-  PreparedReference out;
-  out.source = &ref;
-  out.label = ref.image_path.empty() ? ref.name : ref.image_path;
-  out.scene = ref.scene;
-  if (environment_samples > 0) {
-    for (Light& light : out.scene.lights) light.samples = environment_samples;
-  }
-  const Image& image = ref.image;
-  if (image.channels < 3) {
-    throw Error(out.label, "channels", fmt::format("expected RGB or RGBA, got {}",
-                                                   image.channels));
-  }
-  if (image.width != ref.scene.camera.width || image.height != ref.scene.camera.height_px) {
-    throw Error(out.label, "resolution",
-                fmt::format("image is {}x{} but its scene renders {}x{}", image.width,
-                            image.height, ref.scene.camera.width, ref.scene.camera.height_px));
-  }
-  if (!ref.mask.empty() && (ref.mask.width != image.width || ref.mask.height != image.height)) {
-    throw Error(ref.mask_path.empty() ? out.label : ref.mask_path, "resolution",
-                "mask and reference differ in size");
-  }
-  const GBuffer gbuffer = renderer.RenderGBuffer(out.scene);
-  ++*gbuffer_renders;
-  std::vector<ShadingPoint> all = PrepareShading(out.scene, gbuffer, 1.0f);
-  int non_finite = 0, first_x = -1, first_y = -1;
-  bool any_light = false;
-  std::vector<double> norms;
-  for (ShadingPoint& sp : all) {
-    if (image.channels >= 4 && !(image.at(sp.x, sp.y, 3) >= kFullCoverage)) continue;
-    if (!ref.mask.empty() && !(ref.mask.at(sp.x, sp.y, 0) > 0.5f)) continue;
-    double rgb[3];
-    bool finite = true, clipped = false;
-    for (int c = 0; c < 3; ++c) {
-      rgb[c] = image.at(sp.x, sp.y, c);
-      finite = finite && std::isfinite(rgb[c]);
-      clipped = clipped || rgb[c] >= ref.clip_level;
-    }
-    if (!finite) {
-      if (non_finite++ == 0) first_x = sp.x, first_y = sp.y;
-      continue;
-    }
-    if (clipped) continue;
-    for (int c = 0; c < 3; ++c) {
-      out.linear.push_back(rgb[c]);
-      any_light = any_light || rgb[c] > 0;
-    }
-    norms.push_back(std::sqrt(rgb[0] * rgb[0] + rgb[1] * rgb[1] + rgb[2] * rgb[2]));
-    out.pixels.push_back(sp.y * image.width + sp.x);
-    out.points.push_back(std::move(sp));
-  }
-  if (non_finite > 0) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at ({}, {})",
-                    non_finite, first_x, first_y));
-  }
-  if (out.points.empty()) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        "nothing to fit: no pixel is fully covered in both the reference and the scene, inside "
-        "the mask and unclipped");
-  }
-  if (!any_light) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        fmt::format("nothing to fit: all {} valid pixels are black", out.points.size()));
-  }
-  std::sort(norms.begin(), norms.end());
-  out.p99_norm = norms[static_cast<std::size_t>(0.99 * (norms.size() - 1))];
-  return out;
-}
-
 struct SolveSetup {
   const Parametrization* param = nullptr;
   bool gl = false;
   int threads = 2;
-};
-
-// Owns a GL context and renderer when the caller gave none.
-struct RendererHolder {
-  std::unique_ptr<GlContext> context;
-  std::unique_ptr<Renderer> owned;
-  Renderer* renderer = nullptr;
-  explicit RendererHolder(Renderer* given) {
-    if (given) {
-      renderer = given;
-      return;
-    }
-    context = std::make_unique<GlContext>();
-    context->MakeCurrent();
-    owned = std::make_unique<Renderer>(*context);
-    renderer = owned.get();
-  }
 };
 
 double Mean(const std::vector<double>& v) {
@@ -910,160 +736,6 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   result.inputs["fixed"] = problem.fixed;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
-}
-
-nlohmann::json FitResultToJson(const FitResult& r) {
-  using nlohmann::json;
-  auto num = [](double v) -> json { return std::isfinite(v) ? json(v) : json(nullptr); };
-  json j;
-  j["shadefit_version"] = SHADEFIT_FIT_VERSION;
-  j["model"] = r.model;
-  j["derivative_path"] = PathName(r.path);
-  j["parameters"] = json::array();
-  json values = json::object();
-  const ModelInfo& model = FindModel(r.model);
-  for (std::size_t i = 0; i < r.parameters.size(); ++i) {
-    const ParameterEstimate& p = r.parameters[i];
-    json e{{"name", p.name},
-           {"value", num(p.value)},
-           {"std_error", num(p.std_error)},
-           {"fixed", p.fixed},
-           {"undetermined", p.undetermined},
-           {"at_bound", p.at_bound},
-           {"spread", {{"min", num(p.spread_min)}, {"max", num(p.spread_max)},
-                       {"std", num(p.spread_std)}}}};
-    j["parameters"].push_back(e);
-  }
-  int offset = 0;
-  for (const ParamSpec& spec : model.params) {
-    if (spec.size == 1) {
-      values[spec.name] = num(r.values[offset]);
-    } else {
-      values[spec.name] = json::array();
-      for (int c = 0; c < spec.size; ++c) values[spec.name].push_back(num(r.values[offset + c]));
-    }
-    offset += spec.size;
-  }
-  j["values"] = values;
-  j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
-                   {"value", num(r.exposure)},
-                   {"std_error", num(r.exposure_std_error)}};
-  j["loss"] = {{"name", r.loss}, {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
-  j["cost"] = {{"initial", num(r.initial_cost)}, {"final", num(r.final_cost)}};
-  json per_ref = json::array();
-  for (const auto& ref : r.references) {
-    per_ref.push_back({{"name", ref.name}, {"rmse", num(ref.rmse)}, {"pixels", ref.pixels}});
-  }
-  j["rmse"] = {{"overall", num(r.rmse)}, {"per_reference", per_ref},
-               {"units", "linear radiance, valid pixels, RGB channels"}};
-  j["solver"] = {{"iterations", r.iterations},
-                 {"termination", r.termination},
-                 {"converged", r.converged},
-                 {"message", r.solver_message},
-                 {"seconds", r.seconds}};
-  j["converged"] = r.converged;
-  json starts = json::array();
-  for (const auto& s : r.start_results) {
-    starts.push_back({{"start", s.start},
-                      {"params", s.params},
-                      {"exposure", num(s.exposure)},
-                      {"initial_cost", num(s.initial_cost)},
-                      {"final_cost", num(s.final_cost)},
-                      {"iterations", s.iterations},
-                      {"termination", s.termination},
-                      {"coarse_cost", num(s.coarse_cost)},
-                      {"polished", s.polished},
-                      {"reached_best", s.reached_best}});
-  }
-  j["starts"] = {{"count", r.starts},
-                 {"seed", r.seed},
-                 {"reached_best", r.starts_reached_best},
-                 {"tolerance", "final_cost <= best + 1e-6 best + 1e-12 * cost of a black prediction"},
-                 {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed"},
-                 {"coarse_to_fine", r.coarse_to_fine},
-                 {"results", starts}};
-  j["covariance"] = {{"status", r.covariance_status},
-                     {"method", "ceres::Covariance DENSE_SVD, null_space_rank -1, scaled by "
-                                "s^2 = 2 cost / (residuals - free parameters)"}};
-  j["evaluations"] = {{"model_renders", r.renders},
-                      {"gbuffer_renders", r.gbuffer_renders},
-                      {"residual_evaluations", r.residual_evaluations},
-                      {"jacobian_evaluations", r.jacobian_evaluations}};
-  j["inputs"] = r.inputs;
-  return j;
-}
-
-namespace {
-
-// The fit's JSON goes into a folder created on demand, through the one atomic writer
-// (render/files.h): a unique hidden temporary, then a rename.
-void WriteFitJsonAtomic(const std::string& path, const std::string& text) {
-  const fs::path target(path);
-  if (target.has_parent_path()) fs::create_directories(target.parent_path());
-  shadefit::WriteTextAtomic(path, text);
-}
-
-}  // namespace
-
-std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path) {
-  std::vector<std::string> written;
-  const fs::path json(json_path);
-  const fs::path dir = json.has_parent_path() ? json.parent_path() : fs::path(".");
-  const std::string stem = json.stem().string();
-  fs::create_directories(dir);
-  nlohmann::json j = FitResultToJson(result);
-  j["outputs"] = nlohmann::json::array();
-  std::map<std::string, int> seen;
-  // Every file is prepared first and written by WriteAllOrNothing, the JSON last: a failure
-  // (a full disk, a folder in the way) leaves none of this fit's files behind.
-  std::vector<OutputWrite> writes;
-  std::list<Image> previews;  // stable addresses for the writers below
-  for (const ReferenceResult& ref : result.references) {
-    if (ref.prediction.empty()) continue;
-    std::string name = ref.name;
-    if (seen[name]++ > 0) name += fmt::format("-{}", seen[name]);
-    const std::string base = (dir / (stem + "." + name)).string();
-    ImageMetadata meta{{"shadefit:model", result.model},
-                       {"shadefit:version", SHADEFIT_FIT_VERSION},
-                       {"shadefit:fit", json.filename().string()}};
-    writes.push_back({base + ".fit.exr", [&ref, meta, base] {
-                        WriteExr(base + ".fit.exr", ref.prediction, meta);
-                      }});
-    writes.push_back({base + ".error.exr", [&ref, meta, base] {
-                        WriteExr(base + ".error.exr", ref.abs_error, meta);
-                      }});
-    // Preview: |error| / p99(|error|) per channel over valid pixels, white = p99 or more.
-    std::vector<float> errors;
-    for (std::size_t p = 0; p < ref.abs_error.PixelCount(); ++p) {
-      if (ref.abs_error.data[4 * p + 3] > 0) {
-        for (int c = 0; c < 3; ++c) errors.push_back(ref.abs_error.data[4 * p + c]);
-      }
-    }
-    float scale = 1.0f;
-    if (!errors.empty()) {
-      std::nth_element(errors.begin(), errors.begin() + errors.size() * 99 / 100, errors.end());
-      const float p99 = errors[errors.size() * 99 / 100];
-      if (p99 > 0) scale = 1.0f / p99;
-    }
-    Image& preview = previews.emplace_back(ref.abs_error.width, ref.abs_error.height, 3);
-    for (std::size_t p = 0; p < ref.abs_error.PixelCount(); ++p) {
-      for (int c = 0; c < 3; ++c) {
-        preview.data[3 * p + c] = std::min(1.0f, SrgbOetf(ref.abs_error.data[4 * p + c] * scale));
-      }
-    }
-    writes.push_back({base + ".error.png", [&preview, base] {
-                        WritePng8(base + ".error.png", preview);
-                      }});
-    for (const char* suffix : {".fit.exr", ".error.exr", ".error.png"}) {
-      written.push_back(base + suffix);
-      j["outputs"].push_back({{"reference", ref.name}, {"path", base + suffix}});
-    }
-  }
-  const std::string text = j.dump(1) + "\n";
-  writes.push_back({json_path, [&] { WriteFitJsonAtomic(json_path, text); }});
-  WriteAllOrNothing(writes);
-  written.push_back(json_path);
-  return written;
 }
 
 double EvaluateModelOnReference(const FitReference& reference, const std::string& model_name,
