@@ -55,7 +55,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
                    {"value", num(r.exposure)},
                    {"std_error", num(r.exposure_std_error)}};
-  j["loss"] = {{"name", r.loss},
+  j["loss"] = {{"name", LossName(r.loss)},
                {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
   j["cost"] = {{"initial", num(r.initial_cost)}, {"final", num(r.final_cost)}};
   json per_ref = json::array();

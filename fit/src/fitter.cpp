@@ -89,7 +89,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
 
   FitResult result;
   result.model = model.name;
-  result.loss = LossName(options.loss);
+  result.loss = options.loss;
   result.starts = options.starts;
   result.seed = options.seed;
   result.exposure_free = options.exposure == Exposure::kFree;
