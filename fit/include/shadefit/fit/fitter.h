@@ -177,7 +177,7 @@ struct ReferenceResult {
 
 struct FitResult {
   std::string model;
-  std::string loss;
+  Loss loss = Loss::kL2;           // Written by name (LossName).
   double loss_scale = 0;           // 0 for losses without a scale.
   DerivativePath path = DerivativePath::kGBuffer;  // The path that ran (never kAuto).
   std::vector<ParameterEstimate> parameters;

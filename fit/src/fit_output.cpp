@@ -1,0 +1,174 @@
+// Output: a FitResult as JSON, and the files of one fit (JSON, fitted renders, error images).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <list>
+#include <map>
+
+#include "shadefit/fit/fitter.h"
+#include "shadefit/render/files.h"
+#include "shadefit/render/image.h"
+#include "shadefit/render/models.h"
+
+#ifndef SHADEFIT_FIT_VERSION
+#define SHADEFIT_FIT_VERSION "unknown"
+#endif
+
+namespace shadefit::fit {
+namespace fs = std::filesystem;
+
+nlohmann::json FitResultToJson(const FitResult& r) {
+  using nlohmann::json;
+  auto num = [](double v) -> json { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json j;
+  j["shadefit_version"] = SHADEFIT_FIT_VERSION;
+  j["model"] = r.model;
+  j["derivative_path"] = PathName(r.path);
+  j["parameters"] = json::array();
+  json values = json::object();
+  const ModelInfo& model = FindModel(r.model);
+  for (std::size_t i = 0; i < r.parameters.size(); ++i) {
+    const ParameterEstimate& p = r.parameters[i];
+    json e{{"name", p.name},
+           {"value", num(p.value)},
+           {"std_error", num(p.std_error)},
+           {"fixed", p.fixed},
+           {"undetermined", p.undetermined},
+           {"at_bound", p.at_bound},
+           {"spread",
+            {{"min", num(p.spread_min)}, {"max", num(p.spread_max)}, {"std", num(p.spread_std)}}}};
+    j["parameters"].push_back(e);
+  }
+  int offset = 0;
+  for (const ParamSpec& spec : model.params) {
+    if (spec.size == 1) {
+      values[spec.name] = num(r.values[offset]);
+    } else {
+      values[spec.name] = json::array();
+      for (int c = 0; c < spec.size; ++c) values[spec.name].push_back(num(r.values[offset + c]));
+    }
+    offset += spec.size;
+  }
+  j["values"] = values;
+  j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
+                   {"value", num(r.exposure)},
+                   {"std_error", num(r.exposure_std_error)}};
+  j["loss"] = {{"name", LossName(r.loss)},
+               {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
+  j["cost"] = {{"initial", num(r.initial_cost)}, {"final", num(r.final_cost)}};
+  json per_ref = json::array();
+  for (const auto& ref : r.references) {
+    per_ref.push_back({{"name", ref.name}, {"rmse", num(ref.rmse)}, {"pixels", ref.pixels}});
+  }
+  j["rmse"] = {{"overall", num(r.rmse)},
+               {"per_reference", per_ref},
+               {"units", "linear radiance, valid pixels, RGB channels"}};
+  j["solver"] = {{"iterations", r.iterations},
+                 {"termination", r.termination},
+                 {"converged", r.converged},
+                 {"message", r.solver_message},
+                 {"seconds", r.seconds}};
+  j["converged"] = r.converged;
+  json starts = json::array();
+  for (const auto& s : r.start_results) {
+    starts.push_back({{"start", s.start},
+                      {"params", s.params},
+                      {"exposure", num(s.exposure)},
+                      {"initial_cost", num(s.initial_cost)},
+                      {"final_cost", num(s.final_cost)},
+                      {"iterations", s.iterations},
+                      {"termination", s.termination},
+                      {"coarse_cost", num(s.coarse_cost)},
+                      {"polished", s.polished},
+                      {"reached_best", s.reached_best}});
+  }
+  j["starts"] = {
+      {"count", r.starts},
+      {"seed", r.seed},
+      {"reached_best", r.starts_reached_best},
+      {"tolerance", "final_cost <= best + 1e-6 best + 1e-12 * cost of a black prediction"},
+      {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed"},
+      {"coarse_to_fine", r.coarse_to_fine},
+      {"results", starts}};
+  j["covariance"] = {{"status", r.covariance_status},
+                     {"method",
+                      "ceres::Covariance DENSE_SVD, null_space_rank -1, scaled by "
+                      "s^2 = 2 cost / (residuals - free parameters)"}};
+  j["evaluations"] = {{"model_renders", r.renders},
+                      {"gbuffer_renders", r.gbuffer_renders},
+                      {"residual_evaluations", r.residual_evaluations},
+                      {"jacobian_evaluations", r.jacobian_evaluations}};
+  j["inputs"] = r.inputs;
+  return j;
+}
+
+namespace {
+
+// Preview: |error| / p99(|error|) per channel over valid pixels (alpha > 0), white = p99 or more.
+Image ErrorPreview(const Image& abs_error) {
+  std::vector<float> errors;
+  for (std::size_t p = 0; p < abs_error.PixelCount(); ++p) {
+    if (abs_error.data[4 * p + 3] > 0) {
+      for (int c = 0; c < 3; ++c) errors.push_back(abs_error.data[4 * p + c]);
+    }
+  }
+  float scale = 1.0f;
+  if (!errors.empty()) {
+    std::nth_element(errors.begin(), errors.begin() + errors.size() * 99 / 100, errors.end());
+    const float p99 = errors[errors.size() * 99 / 100];
+    if (p99 > 0) scale = 1.0f / p99;
+  }
+  Image preview(abs_error.width, abs_error.height, 3);
+  for (std::size_t p = 0; p < abs_error.PixelCount(); ++p) {
+    for (int c = 0; c < 3; ++c) {
+      preview.data[3 * p + c] = std::min(1.0f, SrgbOetf(abs_error.data[4 * p + c] * scale));
+    }
+  }
+  return preview;
+}
+
+}  // namespace
+
+std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path) {
+  std::vector<std::string> written;
+  const fs::path json(json_path);
+  const fs::path dir = json.has_parent_path() ? json.parent_path() : fs::path(".");
+  const std::string stem = json.stem().string();
+  fs::create_directories(dir);
+  nlohmann::json j = FitResultToJson(result);
+  j["outputs"] = nlohmann::json::array();
+  std::map<std::string, int> seen;
+  // Every file is prepared first and written by WriteAllOrNothing, the JSON last: a failure
+  // (a full disk, a folder in the way) leaves none of this fit's files behind.
+  std::vector<OutputWrite> writes;
+  std::list<Image> previews;  // stable addresses for the writers below
+  for (const ReferenceResult& ref : result.references) {
+    if (ref.prediction.empty()) continue;
+    std::string name = ref.name;
+    if (seen[name]++ > 0) name += fmt::format("-{}", seen[name]);
+    const std::string base = (dir / (stem + "." + name)).string();
+    ImageMetadata meta{{"shadefit:model", result.model},
+                       {"shadefit:version", SHADEFIT_FIT_VERSION},
+                       {"shadefit:fit", json.filename().string()}};
+    writes.push_back({base + ".fit.exr",
+                      [&ref, meta, base] { WriteExr(base + ".fit.exr", ref.prediction, meta); }});
+    writes.push_back({base + ".error.exr",
+                      [&ref, meta, base] { WriteExr(base + ".error.exr", ref.abs_error, meta); }});
+    const Image& preview = previews.emplace_back(ErrorPreview(ref.abs_error));
+    writes.push_back(
+        {base + ".error.png", [&preview, base] { WritePng8(base + ".error.png", preview); }});
+    for (const char* suffix : {".fit.exr", ".error.exr", ".error.png"}) {
+      written.push_back(base + suffix);
+      j["outputs"].push_back({{"reference", ref.name}, {"path", base + suffix}});
+    }
+  }
+  const std::string text = j.dump(1) + "\n";
+  writes.push_back({json_path, [&] { WriteTextAtomic(json_path, text); }});
+  WriteAllOrNothing(writes);
+  written.push_back(json_path);
+  return written;
+}
+
+}  // namespace shadefit::fit

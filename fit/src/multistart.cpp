@@ -1,0 +1,375 @@
+#include "multistart.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <numbers>
+
+namespace shadefit::fit::internal {
+namespace {
+
+// SHADEFIT_FIT_TRACE=1 prints Ceres' per-iteration table and, after each iteration, the natural
+// parameters (debugging aid).
+class TraceCallback : public ceres::IterationCallback {
+ public:
+  TraceCallback(const std::vector<double>* u, const Parametrization* param)
+      : u_(u), param_(param) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    std::vector<double> p = param_->ToNatural(*u_);
+    for (double v : p) fmt::print(" {:.4g}", v);
+    fmt::print("\n");
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::vector<double>* u_;
+  const Parametrization* param_;
+};
+
+ceres::Solver::Options SolverOptions(const FitOptions& options, int threads,
+                                     TraceCallback* trace_callback) {
+  ceres::Solver::Options solver_options;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  // Few parameters, many residuals: J^T J is tiny; QR of the tall J would cost more.
+  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = options.gradient_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = threads;
+  const bool trace = std::getenv("SHADEFIT_FIT_TRACE") != nullptr;
+  solver_options.logging_type = trace ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = trace;
+  if (trace) {
+    solver_options.update_state_every_iteration = true;
+    solver_options.callbacks.push_back(trace_callback);
+  }
+  return solver_options;
+}
+
+// Coarse-to-fine (problem.h): the starts that end within kPolishTolerance of the best coarse cost
+// are polished on every pixel.
+constexpr double kPolishTolerance = 1e-2;
+
+// Active set (bounds without crawling): an optimum on a bound is approached through a
+// stationary point of the sine transform, where Levenberg-Marquardt creeps (cost ~ delta^2,
+// step ~ delta / 2: linear convergence). So a solve runs in stages of kStageIterations; after a
+// stage that has not converged, entries within kSnap of a bound (|sin u| > 1 - kSnap, i.e.
+// 0.05% of their box) are snapped onto it and held there, and the rest is solved on. This is
+// the working-set treatment of bound constraints (Nocedal and Wright 2006, sec. 16.5 and 16.7:
+// a constraint that a stage's iterates press against joins the working set).
+constexpr int kStageIterations = 15;
+constexpr int kStageRounds = 12;
+constexpr double kSnap = 1e-3;
+constexpr double kSnapWide = 2e-2;  // 1% of the box.
+
+// The solves of one fit. Every start's end point is kept (end_u_, end_e_) so that the winner
+// can be continued from and the others re-evaluated.
+class MultiStart {
+ public:
+  MultiStart(const Parametrization& param, const FitOptions& options, CeresProblems& p)
+      : param_(param),
+        options_(options),
+        p_(p),
+        trace_(&p.u, &param),
+        solver_options_(SolverOptions(options, p.threads, &trace_)),
+        end_u_(options.starts),
+        end_e_(options.starts),
+        coarse_iterations_(options.starts, 0),
+        coarse_cost_(options.starts, std::numeric_limits<double>::quiet_NaN()) {}
+  MultiStart(const MultiStart&) = delete;
+  MultiStart& operator=(const MultiStart&) = delete;
+
+  // Every start: solved on the full problem, or on the coarse one and then polished.
+  void RunStarts();
+  // Re-centres the quadrature's GGX proposal on the winner's lobe and solves again from it.
+  void EnvironmentRounds(const ModelInfo& model, std::vector<PreparedReference>& refs);
+  // Moves u and e to the winner's end point and hands the records over.
+  MultiStartResult Finish();
+
+ private:
+  void EvaluateCost(ceres::Problem& problem, double* cost) const;
+  void Solve(ceres::Problem& problem, ceres::Solver::Summary* summary);
+  ceres::Solver::Summary StagedSolve(ceres::Problem& problem, int* iterations);
+  bool ReleaseHeld(ceres::Problem& problem, std::vector<int>* held);
+  bool SnapToBounds(ceres::Problem& problem, std::vector<int>* held);
+  void SolveFull(int s);
+  void SolveCoarse(int s);
+  void PolishCoarse();
+  void LoadEnd(int s);
+
+  const Parametrization& param_;
+  const FitOptions& options_;
+  CeresProblems& p_;
+  TraceCallback trace_;
+  ceres::Solver::Options solver_options_;
+  MultiStartResult out_;
+  int best_ = -1;  // -1 until a start ends usable.
+  ceres::Solver::Summary best_summary_;
+  std::vector<std::vector<double>> end_u_;  // Internal end point of each start.
+  std::vector<double> end_e_;               // Log-exposure end point of each start.
+  std::vector<int> coarse_iterations_;
+  std::vector<double> coarse_cost_;  // NaN: not run coarse, or the solve failed.
+};
+
+void MultiStart::EvaluateCost(ceres::Problem& problem, double* cost) const {
+  ceres::Problem::EvaluateOptions eval;
+  eval.num_threads = p_.threads;
+  problem.Evaluate(eval, cost, nullptr, nullptr, nullptr);
+}
+
+void MultiStart::Solve(ceres::Problem& problem, ceres::Solver::Summary* summary) {
+  ceres::Solve(solver_options_, &problem, summary);
+  out_.residual_evaluations += summary->num_residual_evaluations;
+  out_.jacobian_evaluations += summary->num_jacobian_evaluations;
+}
+
+void MultiStart::LoadEnd(int s) {
+  std::copy(end_u_[s].begin(), end_u_[s].end(), p_.u.begin());
+  p_.log_exposure[0] = end_e_[s];
+}
+
+// Release: a held entry whose step 1% into its box lowers the cost does not belong on the bound
+// (its Lagrange multiplier has the wrong sign); it is solved for again.
+bool MultiStart::ReleaseHeld(ceres::Problem& problem, std::vector<int>* held) {
+  std::vector<double>& u = p_.u;
+  bool changed = false;
+  double c0 = 0;
+  EvaluateCost(problem, &c0);
+  for (std::size_t k = 0; k < held->size();) {
+    const int i = (*held)[k];
+    if (std::find(p_.fixed.begin(), p_.fixed.end(), i) != p_.fixed.end()) {
+      ++k;
+      continue;
+    }
+    const double save = u[i];
+    u[i] = std::asin(std::sin(save) > 0 ? 1.0 - kSnapWide : -(1.0 - kSnapWide));
+    double c = 0;
+    EvaluateCost(problem, &c);
+    if (std::isfinite(c) && c < c0 * (1 - 1e-9)) {
+      held->erase(held->begin() + static_cast<long>(k));
+      c0 = c;
+      changed = true;
+    } else {
+      u[i] = save;
+      ++k;
+    }
+  }
+  return changed;
+}
+
+// Snap: entries within kSnapWide of a bound when snapping them all does not raise the cost
+// (relative 1e-6: the bound is where they are going), else those within kSnap.
+bool MultiStart::SnapToBounds(ceres::Problem& problem, std::vector<int>* held) {
+  std::vector<double>& u = p_.u;
+  auto is_held = [&](int i) { return std::find(held->begin(), held->end(), i) != held->end(); };
+  bool changed = false;
+  const std::vector<double> keep_u = u;
+  double c_before = 0;
+  EvaluateCost(problem, &c_before);
+  std::vector<int> wide;
+  for (int i = 0; i < p_.n; ++i) {
+    if (is_held(i) || !(std::abs(std::sin(u[i])) > 1.0 - kSnapWide)) continue;
+    wide.push_back(i);
+    u[i] = std::sin(u[i]) > 0 ? std::numbers::pi / 2 : -std::numbers::pi / 2;
+  }
+  double c_after = c_before;
+  if (!wide.empty()) EvaluateCost(problem, &c_after);
+  const bool accept_wide = std::isfinite(c_after) && c_after <= c_before * (1 + 1e-6);
+  for (int i : wide) {
+    if (accept_wide || std::abs(std::sin(keep_u[i])) > 1.0 - kSnap) {
+      held->push_back(i);
+      changed = true;
+    } else {
+      u[i] = keep_u[i];
+    }
+  }
+  return changed;
+}
+
+// A solve from the current u, e in stages of kStageIterations, with the working set updated
+// between stages. Returns the last stage's summary (initial_cost: the first stage's) and the
+// iterations of all stages.
+ceres::Solver::Summary MultiStart::StagedSolve(ceres::Problem& problem, int* iterations) {
+  const int budget = options_.max_iterations;
+  solver_options_.max_num_iterations = std::min(budget, kStageIterations);
+  ceres::Solver::Summary summary;
+  Solve(problem, &summary);
+  int used = static_cast<int>(summary.iterations.size()) - 1;
+  std::vector<int> held = p_.fixed;
+  for (int round = 0; round < kStageRounds && used < budget; ++round) {
+    bool changed = false;
+    if (held.size() > p_.fixed.size()) changed = ReleaseHeld(problem, &held);
+    if (summary.termination_type == ceres::NO_CONVERGENCE) {
+      changed = SnapToBounds(problem, &held) || changed;
+      // A stage that stopped at its limit goes on even when the working set is unchanged.
+      changed = changed || summary.iterations.size() > 1;
+    }
+    if (!changed || static_cast<int>(held.size()) >= p_.n) break;
+    std::sort(held.begin(), held.end());
+    problem.SetManifold(p_.u.data(),
+                        held.empty() ? nullptr : new ceres::SubsetManifold(p_.n, held));
+    solver_options_.max_num_iterations = std::min(budget - used, kStageIterations);
+    ceres::Solver::Summary finish;
+    Solve(problem, &finish);
+    used += static_cast<int>(finish.iterations.size()) - 1;
+    finish.initial_cost = summary.initial_cost;
+    summary = finish;
+  }
+  solver_options_.max_num_iterations = options_.max_iterations;
+  if (held.size() > p_.fixed.size()) {
+    problem.SetManifold(p_.u.data(),
+                        p_.fixed.empty() ? nullptr : new ceres::SubsetManifold(p_.n, p_.fixed));
+  }
+  *iterations = used;
+  return summary;
+}
+
+// Full-problem solve of start s from the current u, e; the best usable one so far wins.
+void MultiStart::SolveFull(int s) {
+  int used = 0;
+  const ceres::Solver::Summary summary = StagedSolve(p_.full, &used);
+  StartResult& start = out_.starts[s];
+  start.params = param_.ToNatural(p_.u);
+  start.exposure = std::exp(p_.log_exposure[0]);
+  if (!p_.coarse) start.initial_cost = summary.initial_cost;
+  start.final_cost = summary.final_cost;
+  start.iterations = coarse_iterations_[s] + used;
+  start.termination = ceres::TerminationTypeToString(summary.termination_type);
+  start.converged = summary.termination_type == ceres::CONVERGENCE;
+  end_u_[s] = p_.u;
+  end_e_[s] = p_.log_exposure[0];
+  const bool usable =
+      summary.termination_type != ceres::FAILURE && std::isfinite(summary.final_cost);
+  if (usable && (best_ < 0 || summary.final_cost < out_.starts[best_].final_cost)) {
+    best_ = s;
+    best_summary_ = summary;
+  }
+}
+
+// Coarse-problem solve of start s from the current u, e; its final cost waits for the polish.
+void MultiStart::SolveCoarse(int s) {
+  int used = 0;
+  const ceres::Solver::Summary summary = StagedSolve(p_.coarse_problem, &used);
+  coarse_iterations_[s] = used;
+  coarse_cost_[s] = summary.termination_type == ceres::FAILURE
+                        ? std::numeric_limits<double>::quiet_NaN()
+                        : summary.final_cost;
+  end_u_[s] = p_.u;
+  end_e_[s] = p_.log_exposure[0];
+  StartResult& sr = out_.starts[s];
+  sr.coarse_cost = coarse_cost_[s];
+  sr.params = param_.ToNatural(p_.u);
+  sr.exposure = std::exp(p_.log_exposure[0]);
+  sr.iterations = coarse_iterations_[s];
+  sr.termination = ceres::TerminationTypeToString(summary.termination_type);
+  sr.final_cost = std::numeric_limits<double>::quiet_NaN();
+}
+
+// Polishes, on every pixel, the coarse starts near the best coarse cost.
+void MultiStart::PolishCoarse() {
+  double best_coarse = std::numeric_limits<double>::infinity();
+  for (double c : coarse_cost_) {
+    if (std::isfinite(c)) best_coarse = std::min(best_coarse, c);
+  }
+  for (int s = 0; s < options_.starts; ++s) {
+    if (!(coarse_cost_[s] <= best_coarse * (1 + kPolishTolerance) + 1e-12 * p_.cost_scale)) {
+      continue;
+    }
+    LoadEnd(s);
+    StartResult& sr = out_.starts[s];
+    sr.polished = true;
+    // Initial cost of the full problem at the start point, for the record.
+    const std::vector<double> start_u = param_.ToInternal(sr.start);
+    std::vector<double> keep(p_.u);
+    std::copy(start_u.begin(), start_u.end(), p_.u.begin());
+    const double keep_e = p_.log_exposure[0];
+    p_.log_exposure[0] = 0.0;
+    double initial = 0;
+    EvaluateCost(p_.full, &initial);
+    sr.initial_cost = initial;
+    std::copy(keep.begin(), keep.end(), p_.u.begin());
+    p_.log_exposure[0] = keep_e;
+    SolveFull(s);
+  }
+}
+
+void MultiStart::RunStarts() {
+  for (int s = 0; s < options_.starts; ++s) {
+    // Copy into place: the Problems hold u.data(), a move would swap the storage.
+    const std::vector<double> start_u = param_.Start(s, options_.seed);
+    std::copy(start_u.begin(), start_u.end(), p_.u.begin());
+    p_.log_exposure[0] = 0.0;
+    StartResult start;
+    start.start = param_.ToNatural(p_.u);
+    out_.starts.push_back(start);
+    if (p_.coarse) {
+      SolveCoarse(s);
+    } else {
+      SolveFull(s);
+    }
+  }
+  if (p_.coarse) PolishCoarse();
+  if (best_ < 0) {
+    // Every start failed (NaN residuals, numerical failure): still a result, never a crash.
+    best_ = 0;
+    best_summary_ = ceres::Solver::Summary();
+  }
+}
+
+// Every other start's cost is re-evaluated on the new quadrature, so that costs stay comparable
+// between starts.
+void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedReference>& refs) {
+  for (int round = 0;
+       round < options_.environment_rounds && std::isfinite(out_.starts[best_].final_cost);
+       ++round) {
+    AttachQuadrature(refs, ProposalAlphas(model.id, out_.starts[best_].params, true),
+                     2 * std::max(4, options_.environment_twin_samples));
+    for (int s = 0; s < options_.starts; ++s) {
+      StartResult& sr = out_.starts[s];
+      if (s == best_ || !std::isfinite(sr.final_cost)) continue;
+      LoadEnd(s);
+      EvaluateCost(p_.full, &sr.final_cost);
+    }
+    const int winner_before = best_;
+    LoadEnd(best_);
+    StartResult& sr = out_.starts[winner_before];
+    const int previous_iterations = sr.iterations;
+    const double initial = sr.initial_cost;
+    best_ = -1;  // SolveFull picks the best of the re-evaluated starts and this re-solve.
+    for (int s = 0; s < options_.starts; ++s) {
+      const StartResult& o = out_.starts[s];
+      if (s != winner_before && std::isfinite(o.final_cost) &&
+          (best_ < 0 || o.final_cost < out_.starts[best_].final_cost)) {
+        best_ = s;
+      }
+    }
+    SolveFull(winner_before);
+    sr.iterations += previous_iterations;
+    sr.initial_cost = initial;
+    if (best_ < 0) best_ = winner_before;
+  }
+}
+
+MultiStartResult MultiStart::Finish() {
+  LoadEnd(best_);
+  out_.best = best_;
+  out_.solver_message = best_summary_.message;
+  return std::move(out_);
+}
+
+}  // namespace
+
+MultiStartResult RunMultiStart(const ModelInfo& model, const Parametrization& param,
+                               const FitOptions& options, bool environment,
+                               std::vector<PreparedReference>& refs, CeresProblems* problems) {
+  MultiStart multistart(param, options, *problems);
+  multistart.RunStarts();
+  if (environment) multistart.EnvironmentRounds(model, refs);
+  return multistart.Finish();
+}
+
+}  // namespace shadefit::fit::internal

@@ -1,0 +1,154 @@
+#include "prepared_reference.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "shadefit/render/error.h"
+
+namespace shadefit::fit::internal {
+namespace {
+
+// Reference alpha counts as full coverage from here (float EXRs store 1 exactly; half would too).
+constexpr float kFullCoverage = 1.0f - 1e-5f;
+
+}  // namespace
+
+void SubsampleForEnvironment(PreparedReference* r, int want) {
+  r->all_pixels = r->pixels;
+  r->all_linear = r->linear;
+  const std::size_t n = r->points.size();
+  if (static_cast<long>(n) <= want) return;
+  std::vector<double> norms(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    norms[k] = std::hypot(r->linear[3 * k], r->linear[3 * k + 1], r->linear[3 * k + 2]);
+  }
+  std::vector<double> sorted = norms;
+  std::nth_element(sorted.begin(), sorted.begin() + n * 9 / 10, sorted.end());
+  const double p90 = sorted[n * 9 / 10];
+  std::size_t bright = 0;
+  for (double v : norms) bright += v >= p90 ? 1 : 0;
+  const std::size_t half = static_cast<std::size_t>(want) / 2;
+  const std::size_t bright_stride = std::max<std::size_t>(1, (bright + half - 1) / half);
+  const std::size_t dim_stride = std::max<std::size_t>(1, (n - bright + half - 1) / half);
+  std::vector<ShadingPoint> points;
+  std::vector<int> pixels;
+  std::vector<double> linear;
+  std::size_t bright_seen = 0, dim_seen = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const bool is_bright = norms[k] >= p90;
+    const std::size_t seen = is_bright ? bright_seen++ : dim_seen++;
+    if (seen % (is_bright ? bright_stride : dim_stride) != 0) continue;
+    points.push_back(std::move(r->points[k]));
+    pixels.push_back(r->pixels[k]);
+    for (int c = 0; c < 3; ++c) linear.push_back(r->linear[3 * k + c]);
+  }
+  r->points = std::move(points);
+  r->pixels = std::move(pixels);
+  r->linear = std::move(linear);
+}
+
+std::vector<double> ProposalAlphas(ModelId model, const std::vector<double>& params, bool fitted) {
+  const double alpha = SpecularLobeAlpha(model, params.data());
+  if (!(alpha > 0)) return {};
+  if (!fitted) return {0.02, 0.08, 0.3};
+  const double a = std::clamp(alpha, 1e-3, 1.0);
+  return {a, std::min(1.0, 3 * a)};
+}
+
+void AttachQuadrature(std::vector<PreparedReference>& refs, std::vector<double> lobe_alphas,
+                      int samples) {
+  EnvironmentQuadrature q;
+  q.samples_per_technique = samples;
+  q.lobe_alphas = std::move(lobe_alphas);
+  for (PreparedReference& r : refs) {
+    if (r.environment) AttachEnvironmentSamples(r.scene, q, &r.points);
+  }
+}
+
+PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int environment_samples,
+                          long* gbuffer_renders) {
+  PreparedReference out;
+  out.source = &ref;
+  out.label = ref.image_path.empty() ? ref.name : ref.image_path;
+  out.scene = ref.scene;
+  if (environment_samples > 0) {
+    for (Light& light : out.scene.lights) light.samples = environment_samples;
+  }
+  const Image& image = ref.image;
+  if (image.channels < 3) {
+    throw Error(out.label, "channels", fmt::format("expected RGB or RGBA, got {}", image.channels));
+  }
+  if (image.width != ref.scene.camera.width || image.height != ref.scene.camera.height_px) {
+    throw Error(out.label, "resolution",
+                fmt::format("image is {}x{} but its scene renders {}x{}", image.width, image.height,
+                            ref.scene.camera.width, ref.scene.camera.height_px));
+  }
+  if (!ref.mask.empty() && (ref.mask.width != image.width || ref.mask.height != image.height)) {
+    throw Error(ref.mask_path.empty() ? out.label : ref.mask_path, "resolution",
+                "mask and reference differ in size");
+  }
+  const GBuffer gbuffer = renderer.RenderGBuffer(out.scene);
+  ++*gbuffer_renders;
+  std::vector<ShadingPoint> all = PrepareShading(out.scene, gbuffer, 1.0f);
+  int non_finite = 0, first_x = -1, first_y = -1;
+  bool any_light = false;
+  std::vector<double> norms;
+  for (ShadingPoint& sp : all) {
+    if (image.channels >= 4 && !(image.at(sp.x, sp.y, 3) >= kFullCoverage)) continue;
+    if (!ref.mask.empty() && !(ref.mask.at(sp.x, sp.y, 0) > 0.5f)) continue;
+    double rgb[3];
+    bool finite = true, clipped = false;
+    for (int c = 0; c < 3; ++c) {
+      rgb[c] = image.at(sp.x, sp.y, c);
+      finite = finite && std::isfinite(rgb[c]);
+      clipped = clipped || rgb[c] >= ref.clip_level;
+    }
+    if (!finite) {
+      if (non_finite++ == 0) first_x = sp.x, first_y = sp.y;
+      continue;
+    }
+    if (clipped) continue;
+    for (int c = 0; c < 3; ++c) {
+      out.linear.push_back(rgb[c]);
+      any_light = any_light || rgb[c] > 0;
+    }
+    norms.push_back(std::sqrt(rgb[0] * rgb[0] + rgb[1] * rgb[1] + rgb[2] * rgb[2]));
+    out.pixels.push_back(sp.y * image.width + sp.x);
+    out.points.push_back(std::move(sp));
+  }
+  if (non_finite > 0) {
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at ({}, {})",
+                    non_finite, first_x, first_y));
+  }
+  if (out.points.empty()) {
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        "nothing to fit: no pixel is fully covered in both the reference and the scene, inside "
+        "the mask and unclipped");
+  }
+  if (!any_light) {
+    throw DegenerateReferenceError(
+        out.label, "pixels",
+        fmt::format("nothing to fit: all {} valid pixels are black", out.points.size()));
+  }
+  std::sort(norms.begin(), norms.end());
+  out.p99_norm = norms[static_cast<std::size_t>(0.99 * (norms.size() - 1))];
+  return out;
+}
+
+RendererHolder::RendererHolder(Renderer* given) {
+  if (given) {
+    renderer = given;
+    return;
+  }
+  context = std::make_unique<GlContext>();
+  context->MakeCurrent();
+  owned = std::make_unique<Renderer>(*context);
+  renderer = owned.get();
+}
+
+}  // namespace shadefit::fit::internal
