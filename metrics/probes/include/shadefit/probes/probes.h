@@ -132,9 +132,10 @@ ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions
 // {"probe": ..., "numbers": ..., "curves": ..., "notes": ...}; non-finite numbers are null.
 nlohmann::json ProbeResultToJson(const ProbeResult& result);
 
-// Writes <dir>/<probe>.json (atomic) and <dir>/<probe>.png, a plot of the curves (one panel per
-// distinct (x_label, y_label), drawn by /usr/bin/python3 with matplotlib). Both are written to
-// temporary files and renamed only when both succeeded. Throws shadefit::Error naming the path.
+// Writes <dir>/<probe>.png, a plot of the curves (one panel per distinct (x_label, y_label),
+// drawn by /usr/bin/python3 with matplotlib), then <dir>/<probe>.json, each through the atomic
+// writer (render/files.h); when either fails, neither is left. Throws shadefit::Error naming the
+// path.
 void WriteProbeOutputs(const ProbeResult& result, const std::string& dir);
 
 // Checks one reference: non-empty RGBA image, its size equals the G-buffer's and the scene
