@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "shadefit/probes/probe_kind.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
@@ -128,6 +129,9 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& option
 ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& options = {});
 ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& options = {});
 ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions& options = {});
+
+// The probe of `kind` with its default options.
+ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs);
 
 // {"probe": ..., "numbers": ..., "curves": ..., "notes": ...}; non-finite numbers are null.
 nlohmann::json ProbeResultToJson(const ProbeResult& result);
