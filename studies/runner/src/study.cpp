@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
@@ -19,7 +20,6 @@ namespace shadefit::studies {
 namespace fs = std::filesystem;
 namespace {
 
-const std::set<std::string> kKnownProbes = {"fresnel", "highlight", "energy", "portability"};
 
 // Reading helpers: every key is checked; an unknown key or a wrong type is an error naming the
 // file, the line and the key.
@@ -217,6 +217,14 @@ bool StudySpec::IsTest(const std::string& lighting, const std::vector<std::strin
          std::find(test_lightings.begin(), test_lightings.end(), lighting) != test_lightings.end();
 }
 
+namespace {
+nlohmann::json ProbeNamesJson(const std::vector<probes::ProbeKind>& kinds) {
+  nlohmann::json names = nlohmann::json::array();
+  for (probes::ProbeKind kind : kinds) names.push_back(probes::ProbeName(kind));
+  return names;
+}
+}  // namespace
+
 nlohmann::json StudySpec::ToJson() const {
   nlohmann::json groups_json = nlohmann::json::array();
   for (const ReferenceGroup& g : groups) {
@@ -262,7 +270,7 @@ nlohmann::json StudySpec::ToJson() const {
           {"training_sets", training_sets},
           {"test_lightings", test_lightings},
           {"metrics", {{"exposure_stops", metrics_exposure_stops}, {"ppd", metrics_ppd}}},
-          {"probes", probes},
+          {"probes", ProbeNamesJson(probes)},
           {"verdicts", verdicts},
           {"outputs", {{"previews", previews}, {"report", report}}}};
 }
@@ -581,24 +589,26 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     spec.metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0, 1e-3, 1e6);
   }
 
-  // [probes]
+  // [probes]: names parsed into kinds here, once.
+  std::vector<std::string> probe_names;
   if (const toml::table* p = r.Table(root, "", "probes")) {
     r.CheckKeys(*p, "probes.", {"run"});
-    spec.probes = r.Strings(*p, "probes.", "run");
+    probe_names = r.Strings(*p, "probes.", "run");
   }
-  if (q != nullptr && q->contains("probes")) spec.probes = r.Strings(*q, "quick.", "probes");
-  for (const std::string& p : spec.probes) {
-    if (!kKnownProbes.contains(p)) {
+  if (q != nullptr && q->contains("probes")) probe_names = r.Strings(*q, "quick.", "probes");
+  for (const std::string& p : probe_names) {
+    const std::optional<probes::ProbeKind> kind = probes::ParseProbeKind(p);
+    if (!kind) {
       const bool from_quick = q != nullptr && q->contains("probes");
       const toml::table* probes_table = r.Table(root, "", "probes");
       const toml::node* where = from_quick ? q->get("probes")
                                 : probes_table ? probes_table->get("run")
                                                : nullptr;
       r.Fail(where, from_quick ? "quick.probes" : "probes.run",
-             "unknown probe '" + p + "'" +
-                 DidYouMean(p, {kKnownProbes.begin(), kKnownProbes.end()}) +
+             "unknown probe '" + p + "'" + DidYouMean(p, probes::ProbeNames()) +
                  " (fresnel, highlight, energy, portability)");
     }
+    spec.probes.push_back(*kind);
   }
 
   // [verdicts.<phenomenon>]: checked here, applied by the report.
@@ -621,7 +631,7 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
       j["metric"] = r.String(t, prefix, "metric", "");
       j["split"] = r.String(t, prefix, "split", "test");
       const std::string source = j["source"];
-      if (source != "metrics" && !kKnownProbes.contains(source)) {
+      if (source != "metrics" && !probes::ParseProbeKind(source)) {
         r.Fail(t.get("source"), prefix + "source",
                "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability)");
       }
