@@ -70,9 +70,14 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     ms.ssim = ssim;
     r.ms_ssim = MsSsim(ref_y, tst_y, ms);
   } catch (const Error& e) {
-    // The SSIM functions name their inputs generically; say which files were meant.
-    throw Error(p.names.reference, "", std::string(e.what()) + " (test " + p.names.test +
-                                           (mask ? ", mask " + p.names.mask : "") + ")");
+    // The SSIM functions name their inputs generically; say which files were meant (and keep
+    // the error's type).
+    const std::string problem = std::string(e.what()) + " (test " + p.names.test +
+                                (mask ? ", mask " + p.names.mask : "") + ")";
+    if (dynamic_cast<const NoSsimWindowInMaskError*>(&e) != nullptr) {
+      throw NoSsimWindowInMaskError(p.names.reference, "", problem);
+    }
+    throw Error(p.names.reference, "", problem);
   }
 
   DeltaE2000Parameters de;

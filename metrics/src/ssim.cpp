@@ -175,8 +175,9 @@ std::size_t CountPooled(const std::vector<std::uint8_t>& pool, const SsimParamet
   for (auto v : pool) pooled += v;
   if (pooled == 0) {
     const std::string window = std::to_string(2 * p.radius + 1);
-    throw Error("mask", "pixels",
-                "no pixel whose " + window + "x" + window + " SSIM window lies inside the mask");
+    throw NoSsimWindowInMaskError(
+        "mask", "pixels",
+        "no pixel whose " + window + "x" + window + " SSIM window lies inside the mask");
   }
   return pooled;
 }

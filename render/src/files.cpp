@@ -161,26 +161,30 @@ void WriteAllOrNothing(const std::vector<OutputWrite>& writes) {
   }
 }
 
-void WriteTextAtomic(const std::string& path, const std::string& text) {
-  const fs::path p(path);
+void WriteAtomic(const std::string& path, const AtomicFill& fill) {
   CheckOutputPath(path);
-  const fs::path tmp = TemporaryPathFor(path);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path, "", "cannot write file");
-    }
-  }
+  const std::string tmp = TemporaryPathFor(path);
   std::error_code ec;
-  fs::rename(tmp, p, ec);
+  try {
+    fill(tmp);
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
+  fs::rename(tmp, path, ec);
   if (ec) {
     fs::remove(tmp, ec);
     throw Error(path, "", "cannot write file (rename failed)");
   }
+}
+
+void WriteTextAtomic(const std::string& path, const std::string& text) {
+  WriteAtomic(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw Error(path, "", "cannot write file");
+  });
 }
 
 namespace {

@@ -32,18 +32,6 @@ namespace fs = std::filesystem;
 constexpr int kMaxImageSide = 16384;
 constexpr std::uint64_t kMaxImageValues = std::uint64_t{1} << 28;
 
-// Temporary sibling path, unique per process and call so that concurrent writers of the same
-// file (two study jobs writing one reference preview) never share it; the rename that follows
-// is atomic on one file system and the last writer wins with a complete file.
-void CommitTemp(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path, "", "cannot write file (rename failed)");
-  }
-}
-
 // "YYYY:MM:DD HH:MM:SS" (UTC) of $SOURCE_DATE_EPOCH (https://reproducible-builds.org/specs/
 // source-date-epoch/), or of 0 when it is unset or not a number.
 std::string ReproducibleDateTime() {
@@ -141,17 +129,13 @@ namespace {
 
 void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type,
                    const void* pixels) {
-  CheckOutputPath(path);
-  const std::string tmp = TemporaryPathFor(path);
-  auto out = OIIO::ImageOutput::create(path);  // Format from the final name, not the temp one.
-  if (!out) throw Error(path, "", "no writer for this file type: " + OIIO::geterror());
-  if (!out->open(tmp, spec) || !out->write_image(type, pixels) || !out->close()) {
-    std::string msg = out->geterror();
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw Error(path, "", "write failed: " + OneLine(msg));
-  }
-  CommitTemp(tmp, path);
+  WriteAtomic(path, [&](const std::string& tmp) {
+    auto out = OIIO::ImageOutput::create(path);  // Format from the final name, not the temp one.
+    if (!out) throw Error(path, "", "no writer for this file type: " + OIIO::geterror());
+    if (!out->open(tmp, spec) || !out->write_image(type, pixels) || !out->close()) {
+      throw Error(path, "", "write failed: " + OneLine(out->geterror()));
+    }
+  });
 }
 
 }  // namespace

@@ -1,9 +1,9 @@
 // `shadefit probe <fresnel|highlight|energy|portability> --ref a.exr [--ref ...]
 //      [--model M --set name=v ...] [--fit fit.json ...] [--truth-from-sidecar] -o DIR`:
 // the phenomenon probes (docs/probes.md). References load with their sidecar scene
-// (shadefit::fit::LoadReference); their G-buffers are rendered here.
+// (shadefit::refs::LoadReference); their G-buffers are rendered here.
 //
-// Links: shadefit::probes, shadefit::fit (LoadReference only), CLI11::CLI11, fmt::fmt,
+// Links: shadefit::probes, shadefit::refs (references and sidecars), CLI11::CLI11, fmt::fmt,
 // nlohmann_json.
 #include <fmt/core.h>
 
@@ -11,13 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "commands.h"
-#include "shadefit/fit/fitter.h"
 #include "shadefit/probes/probes.h"
+#include "shadefit/refs/reference.h"
+#include "shadefit/refs/sidecar.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
@@ -95,40 +97,17 @@ probes::ModelUnderTest ModelFromFit(const std::string& path) {
   return m;
 }
 
-// The sidecar's Cycles material as one of our models: Principled -> cycles-principled
-// (base_color, metallic, specular, roughness), Diffuse -> lambert (kd = base_color).
+// The first reference's Cycles material as one of our models (refs::TruthOfSidecar, the one
+// mapping the study runner uses too); an error naming the sidecar when it has no exact twin.
 probes::ModelUnderTest TruthFromSidecar(const std::string& image_path) {
-  const std::string sidecar = (fs::path(image_path).replace_extension(".json")).string();
-  const nlohmann::json j = ReadJson(sidecar);
-  if (!j.contains("material") || !j["material"].is_object()) {
-    throw Error(sidecar, "material", "missing (needed by --truth-from-sidecar)");
-  }
-  const auto& mat = j["material"];
-  const std::string type = mat.value("type", "");
+  const std::string sidecar = refs::SidecarPathFor(image_path);
+  std::string why_not;
+  const std::optional<refs::SidecarTruth> truth = refs::TruthOfSidecar(sidecar, &why_not);
+  if (!truth) throw Error(sidecar, "material", why_not + " (needed by --truth-from-sidecar)");
   probes::ModelUnderTest m;
   m.label = "truth";
-  auto get = [&](const char* key) -> std::vector<double> {
-    if (!mat.contains(key)) throw Error(sidecar, std::string("material.") + key, "missing");
-    const auto& v = mat[key];
-    if (v.is_number()) return {v.get<double>()};
-    return v.get<std::vector<double>>();
-  };
-  if (type == "principled") {
-    m.model = "cycles-principled";
-    const ModelInfo& info = FindModel(m.model);
-    m.params = DefaultParams(info);
-    for (const char* k : {"base_color", "metallic", "specular", "roughness"}) {
-      SetParam(info, k, get(k), sidecar, &m.params);
-    }
-  } else if (type == "diffuse") {
-    m.model = "lambert";
-    const ModelInfo& info = FindModel(m.model);
-    m.params = DefaultParams(info);
-    SetParam(info, "kd", get("base_color"), sidecar, &m.params);
-  } else {
-    throw Error(sidecar, "material.type",
-                fmt::format("'{}' has no equivalent model (principled and diffuse do)", type));
-  }
+  m.model = truth->model;
+  m.params = truth->params;
   return m;
 }
 
@@ -139,13 +118,17 @@ std::string LightingOf(const std::string& name) {
 }
 
 void Run(const ProbeCliOptions& o) {
-  if (o.refs.empty() && o.probe != "energy") throw Error("", "--ref", "at least one reference");
+  // CLI11 has checked the name against ProbeNames().
+  const probes::ProbeKind kind = *probes::ParseProbeKind(o.probe);
+  if (o.refs.empty() && kind != probes::ProbeKind::kEnergy) {
+    throw Error("", "--ref", "at least one reference");
+  }
   GlContext context;
   Renderer renderer(context);
   probes::ProbeInputs in;
   in.renderer = &renderer;
   for (const std::string& path : o.refs) {
-    fit::FitReference fr = fit::LoadReference(path);
+    refs::Reference fr = refs::LoadReference(path);
     probes::ProbeReference r;
     r.name = fr.name;
     r.lighting = LightingOf(fr.name);
@@ -183,15 +166,7 @@ void Run(const ProbeCliOptions& o) {
     if (o.refs.empty()) throw Error("", "--truth-from-sidecar", "needs --ref");
     in.truth = TruthFromSidecar(o.refs.front());
   }
-  probes::ProbeResult result;
-  if (o.probe == "fresnel")
-    result = probes::FresnelProbe(in);
-  else if (o.probe == "highlight")
-    result = probes::HighlightProbe(in);
-  else if (o.probe == "energy")
-    result = probes::EnergyProbe(in);
-  else
-    result = probes::PortabilityProbe(in);
+  const probes::ProbeResult result = probes::RunProbe(kind, in);
   probes::WriteProbeOutputs(result, o.output);
   fmt::print("{} probe: {} reference(s), {} model(s){} -> {}/{}.json, {}/{}.png\n", o.probe,
              in.references.size(), in.models.size(), in.truth ? " + truth" : "", o.output, o.probe,
@@ -207,7 +182,7 @@ void RegisterProbeCommand(CLI::App& app) {
                                  "portability (docs/probes.md)");
   cmd->add_option("probe", opt->probe, "Which probe")
       ->required()
-      ->check(CLI::IsMember({"fresnel", "highlight", "energy", "portability"}));
+      ->check(CLI::IsMember(probes::ProbeNames()));
   cmd->add_option("--ref", opt->refs, "Reference EXR with its sidecar JSON (repeatable)");
   cmd->add_option("--model", opt->model, "A model under test (see `shadefit models`)");
   cmd->add_option("--label", opt->label, "Label of --model in the outputs (default: its name)");

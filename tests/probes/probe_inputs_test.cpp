@@ -104,5 +104,17 @@ TEST(ProbeOutputs, UnwritableDirectoryIsAnError) {
   }
 }
 
+// Probe names are parsed once into kinds; every kind's name parses back to it.
+TEST(ProbeKind, NamesRoundTrip) {
+  ASSERT_EQ(probes::AllProbeKinds().size(), 4u);
+  for (probes::ProbeKind kind : probes::AllProbeKinds()) {
+    EXPECT_EQ(probes::ParseProbeKind(probes::ProbeName(kind)), kind);
+  }
+  EXPECT_EQ(probes::ProbeNames(),
+            (std::vector<std::string>{"fresnel", "highlight", "energy", "portability"}));
+  EXPECT_FALSE(probes::ParseProbeKind("fresnell").has_value());
+  EXPECT_FALSE(probes::ParseProbeKind("").has_value());
+}
+
 }  // namespace
 }  // namespace shadefit::testing

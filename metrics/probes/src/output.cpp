@@ -1,14 +1,15 @@
-// Probe outputs: JSON and a plot of the curves, written atomically (temporary files + rename).
+// Probe outputs: JSON and a plot of the curves, each through the one atomic writer
+// (render/files.h).
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
+#include <string>
 
 #include "probe_common.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
 
 namespace shadefit::probes {
 namespace {
@@ -61,12 +62,49 @@ fig.tight_layout()
 fig.savefig(sys.argv[2], format="png", dpi=90)
 )PY";
 
-void WriteText(const fs::path& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  f << text;
-  f.close();
-  if (!f) throw Error(path.string(), "", "cannot write file");
-}
+// Scratch files of the plot (its script, data and log), named like the atomic writer's
+// temporaries (TemporaryPathFor, render/files.h) so that an interrupted run's leftovers are
+// recognised and swept by the same rule; removed when the plot is done.
+class PlotScratch {
+ public:
+  explicit PlotScratch(const fs::path& base)
+      : script_(TemporaryPathFor((base.string() + ".plot.py"))),
+        data_(TemporaryPathFor(base.string() + ".plot.json")),
+        log_(TemporaryPathFor(base.string() + ".plot.log")) {}
+  ~PlotScratch() {
+    std::error_code ec;
+    for (const std::string& p : {script_, data_, log_}) fs::remove(p, ec);
+  }
+  PlotScratch(const PlotScratch&) = delete;
+  PlotScratch& operator=(const PlotScratch&) = delete;
+
+  // Draws the curves of `json_text` into `png` with /usr/bin/python3 and matplotlib.
+  void Draw(const std::string& json_text, const std::string& png, const std::string& final_png) {
+    WriteScratch(script_, kPlotScript);
+    WriteScratch(data_, json_text);
+    const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}' > '{}' 2>&1", script_,
+                                        data_, png, log_);
+    const int rc = std::system(cmd.c_str());
+    if (rc != 0 || !fs::exists(png)) {
+      std::ifstream lf(log_);
+      std::string last, line;
+      while (std::getline(lf, line)) {
+        if (!line.empty()) last = line;
+      }
+      throw Error(final_png, "", "plot failed (/usr/bin/python3 with matplotlib): " + last);
+    }
+  }
+
+ private:
+  static void WriteScratch(const std::string& path, const std::string& text) {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f << text;
+    f.close();
+    if (!f) throw Error(path, "", "cannot write file");
+  }
+
+  std::string script_, data_, log_;
+};
 
 }  // namespace
 
@@ -84,38 +122,19 @@ void WriteProbeOutputs(const ProbeResult& result, const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir, "", "output directory cannot be created");
-  const fs::path base(dir);
-  const std::string tag = fmt::format(".{}.{}.tmp", result.probe, ::getpid());
-  const fs::path json_tmp = base / (tag + ".json");
-  const fs::path png_tmp = base / (tag + ".png");
-  const fs::path script = base / (tag + ".py");
-  const fs::path log = base / (tag + ".log");
-  auto cleanup = [&] {
-    for (const fs::path& p : {json_tmp, png_tmp, script, log}) fs::remove(p, ec);
-  };
-  try {
-    WriteText(json_tmp, ProbeResultToJson(result).dump(1) + "\n");
-    WriteText(script, kPlotScript);
-    const std::string cmd =
-        fmt::format("/usr/bin/python3 '{}' '{}' '{}' > '{}' 2>&1", script.string(),
-                    json_tmp.string(), png_tmp.string(), log.string());
-    const int rc = std::system(cmd.c_str());
-    if (rc != 0 || !fs::exists(png_tmp)) {
-      std::ifstream lf(log);
-      std::string last, line;
-      while (std::getline(lf, line)) {
-        if (!line.empty()) last = line;
-      }
-      throw Error((base / (result.probe + ".png")).string(), "",
-                  "plot failed (/usr/bin/python3 with matplotlib): " + last);
-    }
-    fs::rename(json_tmp, base / (result.probe + ".json"));
-    fs::rename(png_tmp, base / (result.probe + ".png"));
-  } catch (...) {
-    cleanup();
-    throw;
-  }
-  cleanup();
+  const fs::path base = fs::path(dir) / result.probe;
+  const std::string json_path = base.string() + ".json", png_path = base.string() + ".png";
+  const std::string text = ProbeResultToJson(result).dump(1) + "\n";
+  // The plot first: when it fails, neither file is written (WriteAllOrNothing).
+  WriteAllOrNothing(
+      {{png_path,
+        [&] {
+          WriteAtomic(png_path, [&](const std::string& tmp) {
+            PlotScratch scratch(base);
+            scratch.Draw(text, tmp, png_path);
+          });
+        }},
+       {json_path, [&] { WriteTextAtomic(json_path, text); }}});
 }
 
 }  // namespace shadefit::probes

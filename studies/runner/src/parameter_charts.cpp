@@ -14,6 +14,7 @@
 #include <optional>
 #include <sstream>
 
+#include "shadefit/refs/sidecar.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
@@ -23,7 +24,6 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 #include "shadefit/studies/runner.h"
-#include "sidecar_scene.h"
 
 namespace shadefit::studies {
 namespace {
@@ -118,7 +118,7 @@ std::pair<std::string, std::string> ChartScene(const StudySpec& spec) {
   std::pair<std::string, std::string> fallback;
   for (const ReferenceGroup& g : spec.groups) {
     for (const ReferenceSpec& r : g.references) {
-      const std::string scene = SceneOfSidecar(r.sidecar_path);
+      const std::string scene = refs::SceneOfSidecar(r.sidecar_path);
       if (scene.empty() || !fs::exists(scene)) continue;
       if (r.lighting == "key") return {scene, r.lighting};
       if (fallback.first.empty()) fallback = {scene, r.lighting};
@@ -211,7 +211,7 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
                     {"exposure_stops", kExposureStops},
                     {"sphere_px", kSpherePx},
                     {"charts", charts}};
-  WriteFileAtomic(manifest.string(), out.dump(1));
+  WriteTextAtomic(manifest.string(), out.dump(1));
   summary.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return summary;

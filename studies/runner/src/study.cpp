@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
@@ -19,7 +20,6 @@ namespace shadefit::studies {
 namespace fs = std::filesystem;
 namespace {
 
-const std::set<std::string> kKnownProbes = {"fresnel", "highlight", "energy", "portability"};
 
 // Reading helpers: every key is checked; an unknown key or a wrong type is an error naming the
 // file, the line and the key.
@@ -217,6 +217,14 @@ bool StudySpec::IsTest(const std::string& lighting, const std::vector<std::strin
          std::find(test_lightings.begin(), test_lightings.end(), lighting) != test_lightings.end();
 }
 
+namespace {
+nlohmann::json ProbeNamesJson(const std::vector<probes::ProbeKind>& kinds) {
+  nlohmann::json names = nlohmann::json::array();
+  for (probes::ProbeKind kind : kinds) names.push_back(probes::ProbeName(kind));
+  return names;
+}
+}  // namespace
+
 nlohmann::json StudySpec::ToJson() const {
   nlohmann::json groups_json = nlohmann::json::array();
   for (const ReferenceGroup& g : groups) {
@@ -262,13 +270,35 @@ nlohmann::json StudySpec::ToJson() const {
           {"training_sets", training_sets},
           {"test_lightings", test_lightings},
           {"metrics", {{"exposure_stops", metrics_exposure_stops}, {"ppd", metrics_ppd}}},
-          {"probes", probes},
+          {"probes", ProbeNamesJson(probes)},
           {"verdicts", verdicts},
           {"outputs", {{"previews", previews}, {"report", report}}}};
 }
 
-StudySpec LoadStudy(const std::string& path, bool quick) {
-  StudySpec spec;
+namespace {
+
+// The [quick] filter of materials and lightings (empty: no filter), and its table when applied.
+struct QuickFilter {
+  const toml::table* table = nullptr;  // Set only when --quick applies it.
+  std::vector<std::string> materials, lightings;
+
+  bool KeepsMaterial(const std::string& m) const { return Keeps(materials, m); }
+  bool KeepsLighting(const std::string& l) const { return Keeps(lightings, l); }
+
+ private:
+  static bool Keeps(const std::vector<std::string>& list, const std::string& x) {
+    return list.empty() || std::find(list.begin(), list.end(), x) != list.end();
+  }
+};
+
+bool Excluded(const std::vector<std::string>& exclude, const std::string& leaf) {
+  return std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
+    return fnmatch(x.c_str(), leaf.c_str(), 0) == 0;
+  });
+}
+
+// The study file's bytes and its TOML.
+toml::table ParseStudyFile(const std::string& path, const Reader& r, StudySpec* spec) {
   const fs::path file = fs::absolute(path).lexically_normal();
   if (!fs::exists(file)) throw Error(path, "", "study file not found");
   if (!fs::is_regular_file(file)) throw Error(path, "", "study file is not a regular file");
@@ -276,14 +306,12 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
     std::ifstream in(file, std::ios::binary);
     std::ostringstream ss;
     ss << in.rdbuf();
-    spec.text = ss.str();
+    spec->text = ss.str();
   }
-  spec.path = file.string();
-  spec.quick = quick;
-  const Reader r(path);
+  spec->path = file.string();
   toml::table root;
   try {
-    root = toml::parse(spec.text, spec.path);
+    root = toml::parse(spec->text, spec->path);
   } catch (const toml::parse_error& e) {
     throw Error(fmt::format("{}:{}", path, e.source().begin.line), "",
                 "malformed TOML: " + std::string(e.description()));
@@ -291,270 +319,272 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   r.CheckKeys(
       root, "",
       {"study", "group", "measured", "fit", "metrics", "probes", "verdicts", "outputs", "quick"});
+  return root;
+}
 
-  // [study]
+// [study]
+void ReadStudyTable(const Reader& r, const toml::table& root, StudySpec* spec) {
   const toml::table* study = r.Table(root, "", "study");
   if (study == nullptr) r.Fail(nullptr, "study", "missing [study] table");
   r.CheckKeys(*study, "study.", {"name", "description"});
-  spec.name = r.String(*study, "study.", "name", file.stem().string());
-  spec.description = r.String(*study, "study.", "description", "");
-  if (spec.name.empty() || spec.name.find_first_of("/\\ ") != std::string::npos) {
+  spec->name = r.String(*study, "study.", "name", fs::path(spec->path).stem().string());
+  spec->description = r.String(*study, "study.", "description", "");
+  if (spec->name.empty() || spec->name.find_first_of("/\\ ") != std::string::npos) {
     r.Fail(study->get("name"), "study.name", "must be a non-empty name without '/' or spaces");
   }
+}
 
-  // [quick] first: it filters what follows.
-  const toml::table* q = quick ? r.Table(root, "", "quick") : nullptr;
+// [quick], read first: it filters what follows. Its keys are checked with or without --quick.
+QuickFilter ReadQuick(const Reader& r, const toml::table& root, bool quick) {
+  QuickFilter q;
   if (const toml::table* qt = r.Table(root, "", "quick")) {
     std::set<std::string> allowed = kFitKeys;
     for (const char* k : {"materials", "lightings", "models", "probes", "training_sets"}) allowed.insert(k);
     r.CheckKeys(*qt, "quick.", allowed);
   }
-  std::vector<std::string> quick_materials, quick_lightings;
-  if (q != nullptr) {
-    quick_materials = r.Strings(*q, "quick.", "materials");
-    quick_lightings = r.Strings(*q, "quick.", "lightings");
+  q.table = quick ? r.Table(root, "", "quick") : nullptr;
+  if (q.table != nullptr) {
+    q.materials = r.Strings(*q.table, "quick.", "materials");
+    q.lightings = r.Strings(*q.table, "quick.", "lightings");
   }
+  return q;
+}
 
-  const fs::path base = file.parent_path();
-  // [[measured]]
-  if (const toml::node* mn = root.get("measured")) {
-    if (!mn->is_array_of_tables()) r.Fail(mn, "measured", "expected [[measured]] tables");
-    for (const toml::node& e : *mn->as_array()) {
-      const toml::table& t = *e.as_table();
-      r.CheckKeys(t, "measured.", {"folder", "scenes", "exclude", "samples"});
-      MeasuredSource src;
-      const std::string folder = r.String(t, "measured.", "folder", "");
-      if (folder.empty()) r.Fail(&e, "measured.folder", "missing");
-      src.folder = (base / folder).lexically_normal().string();
-      src.samples = static_cast<int>(r.Integer(t, "measured.", "samples", 0, 0, 65536));
-      const std::vector<std::string> exclude = r.Strings(t, "measured.", "exclude");
-      auto excluded = [&](const std::string& leaf) {
-        return std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
-          return fnmatch(x.c_str(), leaf.c_str(), 0) == 0;
-        });
-      };
-      const std::vector<std::string> scenes = r.Strings(t, "measured.", "scenes");
-      if (scenes.empty()) r.Fail(&e, "measured.scenes", "missing or empty");
-      for (const std::string& pattern : scenes) {
-        const std::vector<fs::path> matches = Glob(base, pattern);
-        if (matches.empty()) {
-          r.Fail(t.get("scenes"), "measured.scenes", "'" + pattern + "' matches no file");
-        }
-        for (const fs::path& m : matches) {
-          if (excluded(m.filename().string())) continue;
-          // "sphere-key.toml" -> "key": the lighting names of the shipped Cycles scenes.
-          std::string lighting = m.stem().string();
-          if (const auto dash = lighting.find('-'); dash != std::string::npos) {
-            lighting = lighting.substr(dash + 1);
-          }
-          if (!quick_lightings.empty() && std::find(quick_lightings.begin(), quick_lightings.end(),
-                                                    lighting) == quick_lightings.end()) {
-            continue;
-          }
-          if (std::find(src.lightings.begin(), src.lightings.end(), lighting) !=
-              src.lightings.end()) {
-            r.Fail(t.get("scenes"), "measured.scenes",
-                   "two scenes under lighting '" + lighting + "'");
-          }
-          src.scenes.push_back(m.string());
-          src.lightings.push_back(lighting);
-        }
+// [[measured]] scenes: one per lighting ("sphere-key.toml" -> "key").
+void ReadMeasuredScenes(const Reader& r, const toml::table& t, const fs::path& base,
+                        const std::vector<std::string>& exclude, const QuickFilter& q,
+                        MeasuredSource* src) {
+  const std::vector<std::string> scenes = r.Strings(t, "measured.", "scenes");
+  if (scenes.empty()) r.Fail(&t, "measured.scenes", "missing or empty");
+  for (const std::string& pattern : scenes) {
+    const std::vector<fs::path> matches = Glob(base, pattern);
+    if (matches.empty()) {
+      r.Fail(t.get("scenes"), "measured.scenes", "'" + pattern + "' matches no file");
+    }
+    for (const fs::path& m : matches) {
+      if (Excluded(exclude, m.filename().string())) continue;
+      // "sphere-key.toml" -> "key": the lighting names of the shipped Cycles scenes.
+      std::string lighting = m.stem().string();
+      if (const auto dash = lighting.find('-'); dash != std::string::npos) {
+        lighting = lighting.substr(dash + 1);
       }
-      src.present = fs::is_directory(src.folder);
-      if (src.present) {
-        std::vector<fs::path> files;
-        for (const auto& entry : fs::directory_iterator(src.folder)) {
-          const fs::path& f = entry.path();
-          const std::string ext = f.extension().string();
-          if (excluded(f.filename().string())) continue;
-          if (ext == ".binary") files.push_back(f);
-          // A Neural-BRDF network is its weights (.h5) with the Keras config (.json) beside it.
-          if (ext == ".h5" && fs::exists(fs::path(f).replace_extension(".json"))) {
-            files.push_back(f);
-          }
-        }
-        std::sort(files.begin(), files.end());
-        for (const fs::path& f : files) {
-          const std::string material = f.stem().string();
-          if (!quick_materials.empty() && std::find(quick_materials.begin(), quick_materials.end(),
-                                                    material) == quick_materials.end()) {
-            continue;
-          }
-          if (std::find(src.materials.begin(), src.materials.end(), material) !=
-              src.materials.end()) {
-            r.Fail(&e, "measured.folder",
-                   "material '" + material + "' is there twice (.binary and .h5)");
-          }
-          src.brdfs.push_back(f.string());
-          src.materials.push_back(material);
-        }
-        if (src.brdfs.empty()) {
-          r.Fail(t.get("folder"), "measured.folder",
-                 src.folder + ": no MERL .binary or Neural-BRDF .h5 (+ .json) file in it");
-        }
+      if (!q.KeepsLighting(lighting)) continue;
+      if (std::find(src->lightings.begin(), src->lightings.end(), lighting) !=
+          src->lightings.end()) {
+        r.Fail(t.get("scenes"), "measured.scenes", "two scenes under lighting '" + lighting + "'");
       }
-      spec.measured.push_back(std::move(src));
+      src->scenes.push_back(m.string());
+      src->lightings.push_back(lighting);
     }
   }
+}
 
-  // [[group]]
+// [[measured]] BRDF files of a present folder, sorted: MERL .binary, or a Neural-BRDF network
+// (its weights, .h5, with the Keras config, .json, beside it).
+void ReadMeasuredBrdfs(const Reader& r, const toml::table& t,
+                       const std::vector<std::string>& exclude, const QuickFilter& q,
+                       MeasuredSource* src) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(src->folder)) {
+    const fs::path& f = entry.path();
+    const std::string ext = f.extension().string();
+    if (Excluded(exclude, f.filename().string())) continue;
+    if (ext == ".binary") files.push_back(f);
+    if (ext == ".h5" && fs::exists(fs::path(f).replace_extension(".json"))) files.push_back(f);
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& f : files) {
+    const std::string material = f.stem().string();
+    if (!q.KeepsMaterial(material)) continue;
+    if (std::find(src->materials.begin(), src->materials.end(), material) !=
+        src->materials.end()) {
+      r.Fail(&t, "measured.folder", "material '" + material + "' is there twice (.binary and .h5)");
+    }
+    src->brdfs.push_back(f.string());
+    src->materials.push_back(material);
+  }
+  if (src->brdfs.empty()) {
+    r.Fail(t.get("folder"), "measured.folder",
+           src->folder + ": no MERL .binary or Neural-BRDF .h5 (+ .json) file in it");
+  }
+}
+
+// [[measured]]
+void ReadMeasured(const Reader& r, const toml::table& root, const fs::path& base,
+                  const QuickFilter& q, StudySpec* spec) {
+  const toml::node* mn = root.get("measured");
+  if (mn == nullptr) return;
+  if (!mn->is_array_of_tables()) r.Fail(mn, "measured", "expected [[measured]] tables");
+  for (const toml::node& e : *mn->as_array()) {
+    const toml::table& t = *e.as_table();
+    r.CheckKeys(t, "measured.", {"folder", "scenes", "exclude", "samples"});
+    MeasuredSource src;
+    const std::string folder = r.String(t, "measured.", "folder", "");
+    if (folder.empty()) r.Fail(&e, "measured.folder", "missing");
+    src.folder = (base / folder).lexically_normal().string();
+    src.samples = static_cast<int>(r.Integer(t, "measured.", "samples", 0, 0, 65536));
+    const std::vector<std::string> exclude = r.Strings(t, "measured.", "exclude");
+    ReadMeasuredScenes(r, t, base, exclude, q, &src);
+    src.present = fs::is_directory(src.folder);
+    if (src.present) ReadMeasuredBrdfs(r, t, exclude, q, &src);
+    spec->measured.push_back(std::move(src));
+  }
+}
+
+// One [[group]]'s references, sorted by lighting; false when --quick leaves its material out.
+bool ReadGroup(const Reader& r, const toml::node& gn, const fs::path& base, const QuickFilter& q,
+               ReferenceGroup* group) {
+  const toml::table& g = *gn.as_table();
+  r.CheckKeys(g, "group.", {"material", "images", "exclude", "lightings"});
+  group->material = r.String(g, "group.", "material", "");
+  if (group->material.empty()) r.Fail(&gn, "group.material", "missing");
+  if (!q.KeepsMaterial(group->material)) return false;
+  const std::vector<std::string> images = r.Strings(g, "group.", "images");
+  if (images.empty()) r.Fail(&gn, "group.images", "missing or empty");
+  const std::vector<std::string> exclude = r.Strings(g, "group.", "exclude");
+  const std::vector<std::string> lightings = r.Strings(g, "group.", "lightings");
+  std::set<std::string> seen;
+  for (const std::string& pattern : images) {
+    const std::vector<fs::path> matches = Glob(base, pattern);
+    if (matches.empty()) {
+      r.Fail(g.get("images"), "group.images", "'" + pattern + "' matches no file");
+    }
+    for (const fs::path& m : matches) {
+      if (Excluded(exclude, m.filename().string())) continue;
+      if (!seen.insert(m.string()).second) continue;
+      ReferenceSpec ref;
+      ref.name = m.stem().string();
+      ref.material = group->material;
+      ref.image_path = m.string();
+      fs::path sidecar = m;
+      sidecar.replace_extension(".json");
+      ref.sidecar_path = fs::exists(sidecar) ? sidecar.string() : "";
+      ref.lighting = LightingOf(ref.name, group->material, sidecar);
+      if (!lightings.empty() &&
+          std::find(lightings.begin(), lightings.end(), ref.lighting) == lightings.end()) {
+        continue;
+      }
+      if (!q.KeepsLighting(ref.lighting)) continue;
+      group->references.push_back(ref);
+    }
+  }
+  std::sort(group->references.begin(), group->references.end(),
+            [](const ReferenceSpec& a, const ReferenceSpec& b) { return a.lighting < b.lighting; });
+  for (std::size_t i = 1; i < group->references.size(); ++i) {
+    if (group->references[i].lighting == group->references[i - 1].lighting) {
+      r.Fail(&gn, "group.images",
+             fmt::format("material '{}' has two references under lighting '{}'", group->material,
+                         group->references[i].lighting));
+    }
+  }
+  if (group->references.empty()) {
+    r.Fail(&gn, "group.images", "material '" + group->material + "': no reference left");
+  }
+  return true;
+}
+
+// [[group]]
+void ReadGroups(const Reader& r, const toml::table& root, const fs::path& base,
+                const QuickFilter& q, StudySpec* spec) {
   const toml::node* groups_node = root.get("group");
   if (groups_node != nullptr && !groups_node->is_array_of_tables()) {
     r.Fail(groups_node, "group", "expected [[group]] tables");
   }
-  if (groups_node == nullptr && spec.measured.empty()) {
+  if (groups_node == nullptr && spec->measured.empty()) {
     r.Fail(nullptr, "group", "expected one or more [[group]] or [[measured]] tables");
   }
   const toml::array empty_groups;
   for (const toml::node& gn : groups_node ? *groups_node->as_array() : empty_groups) {
-    const toml::table& g = *gn.as_table();
-    r.CheckKeys(g, "group.", {"material", "images", "exclude", "lightings"});
     ReferenceGroup group;
-    group.material = r.String(g, "group.", "material", "");
-    if (group.material.empty()) r.Fail(&gn, "group.material", "missing");
-    if (!quick_materials.empty() &&
-        std::find(quick_materials.begin(), quick_materials.end(), group.material) ==
-            quick_materials.end()) {
-      continue;
-    }
-    const std::vector<std::string> images = r.Strings(g, "group.", "images");
-    if (images.empty()) r.Fail(&gn, "group.images", "missing or empty");
-    const std::vector<std::string> exclude = r.Strings(g, "group.", "exclude");
-    std::vector<std::string> lightings = r.Strings(g, "group.", "lightings");
-    std::set<std::string> seen;
-    for (const std::string& pattern : images) {
-      const std::vector<fs::path> matches = Glob(base, pattern);
-      if (matches.empty()) {
-        r.Fail(g.get("images"), "group.images", "'" + pattern + "' matches no file");
-      }
-      for (const fs::path& m : matches) {
-        const std::string leaf = m.filename().string();
-        if (std::any_of(exclude.begin(), exclude.end(), [&](const std::string& x) {
-              return fnmatch(x.c_str(), leaf.c_str(), 0) == 0;
-            })) {
-          continue;
-        }
-        if (!seen.insert(m.string()).second) continue;
-        ReferenceSpec ref;
-        ref.name = m.stem().string();
-        ref.material = group.material;
-        ref.image_path = m.string();
-        fs::path sidecar = m;
-        sidecar.replace_extension(".json");
-        ref.sidecar_path = fs::exists(sidecar) ? sidecar.string() : "";
-        ref.lighting = LightingOf(ref.name, group.material, sidecar);
-        if (!lightings.empty() &&
-            std::find(lightings.begin(), lightings.end(), ref.lighting) == lightings.end()) {
-          continue;
-        }
-        if (!quick_lightings.empty() &&
-            std::find(quick_lightings.begin(), quick_lightings.end(), ref.lighting) ==
-                quick_lightings.end()) {
-          continue;
-        }
-        group.references.push_back(ref);
-      }
-    }
-    std::sort(group.references.begin(), group.references.end(),
-              [](const ReferenceSpec& a, const ReferenceSpec& b) { return a.lighting < b.lighting; });
-    for (std::size_t i = 1; i < group.references.size(); ++i) {
-      if (group.references[i].lighting == group.references[i - 1].lighting) {
-        r.Fail(&gn, "group.images",
-               fmt::format("material '{}' has two references under lighting '{}'", group.material,
-                           group.references[i].lighting));
-      }
-    }
-    if (group.references.empty()) {
-      r.Fail(&gn, "group.images", "material '" + group.material + "': no reference left");
-    }
-    for (const ReferenceGroup& other : spec.groups) {
+    if (!ReadGroup(r, gn, base, q, &group)) continue;
+    for (const ReferenceGroup& other : spec->groups) {
       if (other.material == group.material) {
         r.Fail(&gn, "group.material", "material '" + group.material + "' listed twice");
       }
     }
-    spec.groups.push_back(std::move(group));
+    spec->groups.push_back(std::move(group));
   }
   bool any_measured = false;
-  for (const MeasuredSource& m : spec.measured) any_measured = any_measured || !m.brdfs.empty();
-  if (spec.groups.empty() && !any_measured && MeasuredSkipReason(spec).empty()) {
+  for (const MeasuredSource& m : spec->measured) any_measured = any_measured || !m.brdfs.empty();
+  if (spec->groups.empty() && !any_measured && MeasuredSkipReason(*spec).empty()) {
     r.Fail(nullptr, "quick.materials", "no group left");
   }
+}
 
-  // [fit]
-  const toml::table* fit = r.Table(root, "", "fit");
-  if (fit == nullptr) r.Fail(nullptr, "fit", "missing [fit] table");
-  {
-    std::set<std::string> allowed = kFitKeys;
-    for (const char* k : {"models", "train", "test", "override"}) allowed.insert(k);
-    r.CheckKeys(*fit, "fit.", allowed);
-  }
-  spec.models = r.Strings(*fit, "fit.", "models");
-  if (q != nullptr && q->contains("models")) spec.models = r.Strings(*q, "quick.", "models");
-  if (spec.models.empty()) r.Fail(fit->get("models"), "fit.models", "missing or empty");
-  for (const std::string& m : spec.models) {
+// [fit] models and their settings: the defaults, [fit.override.<model>], then [quick].
+void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q,
+                   StudySpec* spec) {
+  const toml::table* qt = q.table;
+  spec->models = r.Strings(fit, "fit.", "models");
+  if (qt != nullptr && qt->contains("models")) spec->models = r.Strings(*qt, "quick.", "models");
+  if (spec->models.empty()) r.Fail(fit.get("models"), "fit.models", "missing or empty");
+  for (const std::string& m : spec->models) {
     try {
       FindModel(m);
     } catch (const Error& e) {
-      r.Fail(fit->get("models"), "fit.models", e.what());
+      r.Fail(fit.get("models"), "fit.models", e.what());
     }
   }
   FitSettings defaults;
-  ReadFitSettings(r, *fit, "fit.", &defaults);
-  const toml::table* overrides = r.Table(*fit, "fit.", "override");
+  ReadFitSettings(r, fit, "fit.", &defaults);
+  const toml::table* overrides = r.Table(fit, "fit.", "override");
   if (overrides != nullptr) {
     for (const auto& [key, node] : *overrides) {
       const std::string model(key.str());
-      if (std::find(spec.models.begin(), spec.models.end(), model) == spec.models.end() &&
-          q == nullptr) {
+      if (std::find(spec->models.begin(), spec->models.end(), model) == spec->models.end() &&
+          qt == nullptr) {
         r.Fail(&node, "fit.override." + model, "not one of fit.models");
       }
       if (!node.is_table()) r.Fail(&node, "fit.override." + model, "expected a table");
       r.CheckKeys(*node.as_table(), "fit.override." + model + ".", kFitKeys);
     }
   }
-  for (const std::string& m : spec.models) {
+  for (const std::string& m : spec->models) {
     FitSettings s = defaults;
     if (overrides != nullptr) {
       if (const toml::table* o = r.Table(*overrides, "fit.override.", m)) {
         ReadFitSettings(r, *o, "fit.override." + m + ".", &s);
       }
     }
-    if (q != nullptr) ReadFitSettings(r, *q, "quick.", &s);
-    spec.model_settings[m] = s;
+    if (qt != nullptr) ReadFitSettings(r, *qt, "quick.", &s);
+    spec->model_settings[m] = s;
   }
-  const auto read_sets = [&](const toml::table& t, const std::string& prefix) {
-    std::vector<std::vector<std::string>> sets;
-    const toml::node* n = t.get("train");
-    if (prefix == "quick.") n = t.get("training_sets");
-    if (n == nullptr) return sets;
-    const toml::array* a = n->as_array();
-    if (a == nullptr) r.Fail(n, prefix + "train", "expected an array of arrays of lighting names");
-    for (const toml::node& e : *a) {
-      std::vector<std::string> set;
-      if (e.is_string()) {
-        set.push_back(*e.value<std::string>());
-      } else if (const toml::array* inner = e.as_array()) {
-        for (const toml::node& x : *inner) {
-          if (!x.is_string()) r.Fail(&x, prefix + "train", "expected lighting names");
-          set.push_back(*x.value<std::string>());
-        }
-      } else {
-        r.Fail(&e, prefix + "train", "expected a lighting name or an array of them");
+}
+
+// fit.train (or quick.training_sets): lighting names, or arrays of them.
+std::vector<std::vector<std::string>> ReadTrainingSets(const Reader& r, const toml::table& t,
+                                                       const std::string& prefix) {
+  std::vector<std::vector<std::string>> sets;
+  const toml::node* n = t.get("train");
+  if (prefix == "quick.") n = t.get("training_sets");
+  if (n == nullptr) return sets;
+  const toml::array* a = n->as_array();
+  if (a == nullptr) r.Fail(n, prefix + "train", "expected an array of arrays of lighting names");
+  for (const toml::node& e : *a) {
+    std::vector<std::string> set;
+    if (e.is_string()) {
+      set.push_back(*e.value<std::string>());
+    } else if (const toml::array* inner = e.as_array()) {
+      for (const toml::node& x : *inner) {
+        if (!x.is_string()) r.Fail(&x, prefix + "train", "expected lighting names");
+        set.push_back(*x.value<std::string>());
       }
-      if (set.empty()) r.Fail(&e, prefix + "train", "empty training set");
-      sets.push_back(set);
+    } else {
+      r.Fail(&e, prefix + "train", "expected a lighting name or an array of them");
     }
-    return sets;
-  };
-  spec.training_sets = read_sets(*fit, "fit.");
-  if (q != nullptr && q->contains("training_sets")) spec.training_sets = read_sets(*q, "quick.");
-  if (spec.training_sets.empty()) r.Fail(fit->get("train"), "fit.train", "missing or empty");
-  spec.test_lightings = r.Strings(*fit, "fit.", "test");
+    if (set.empty()) r.Fail(&e, prefix + "train", "empty training set");
+    sets.push_back(set);
+  }
+  return sets;
+}
+
+// Every training lighting exists for every material, measured or not.
+void CheckTrainingLightings(const Reader& r, const toml::table& fit, const StudySpec& spec) {
   for (const MeasuredSource& m : spec.measured) {
     for (const auto& set : spec.training_sets) {
       for (const std::string& l : set) {
         if (std::find(m.lightings.begin(), m.lightings.end(), l) == m.lightings.end()) {
-          r.Fail(fit->get("train"), "fit.train",
+          r.Fail(fit.get("train"), "fit.train",
                  fmt::format("[[measured]] {} has no scene under lighting '{}'", m.folder, l));
         }
       }
@@ -566,84 +596,139 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
         const bool has = std::any_of(g.references.begin(), g.references.end(),
                                      [&](const ReferenceSpec& x) { return x.lighting == l; });
         if (!has) {
-          r.Fail(fit->get("train"), "fit.train",
+          r.Fail(fit.get("train"), "fit.train",
                  fmt::format("material '{}' has no reference under lighting '{}'", g.material, l));
         }
       }
     }
   }
+}
 
-  // [metrics]
+// [fit]
+void ReadFit(const Reader& r, const toml::table& root, const QuickFilter& q, StudySpec* spec) {
+  const toml::table* fit = r.Table(root, "", "fit");
+  if (fit == nullptr) r.Fail(nullptr, "fit", "missing [fit] table");
+  {
+    std::set<std::string> allowed = kFitKeys;
+    for (const char* k : {"models", "train", "test", "override"}) allowed.insert(k);
+    r.CheckKeys(*fit, "fit.", allowed);
+  }
+  ReadFitModels(r, *fit, q, spec);
+  spec->training_sets = ReadTrainingSets(r, *fit, "fit.");
+  if (q.table != nullptr && q.table->contains("training_sets")) {
+    spec->training_sets = ReadTrainingSets(r, *q.table, "quick.");
+  }
+  if (spec->training_sets.empty()) r.Fail(fit->get("train"), "fit.train", "missing or empty");
+  spec->test_lightings = r.Strings(*fit, "fit.", "test");
+  CheckTrainingLightings(r, *fit, *spec);
+}
+
+// [metrics]
+void ReadMetrics(const Reader& r, const toml::table& root, StudySpec* spec) {
   if (const toml::table* m = r.Table(root, "", "metrics")) {
     r.CheckKeys(*m, "metrics.", {"exposure_stops", "ppd"});
-    spec.metrics_exposure_stops =
+    spec->metrics_exposure_stops =
         static_cast<float>(r.Number(*m, "metrics.", "exposure_stops", 0.0, -64.0, 64.0));
-    spec.metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0, 1e-3, 1e6);
+    spec->metrics_ppd = r.Number(*m, "metrics.", "ppd", 67.0, 1e-3, 1e6);
   }
+}
 
-  // [probes]
+// [probes]: names parsed into kinds here, once.
+void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q,
+                StudySpec* spec) {
+  const toml::table* qt = q.table;
+  std::vector<std::string> names;
   if (const toml::table* p = r.Table(root, "", "probes")) {
     r.CheckKeys(*p, "probes.", {"run"});
-    spec.probes = r.Strings(*p, "probes.", "run");
+    names = r.Strings(*p, "probes.", "run");
   }
-  if (q != nullptr && q->contains("probes")) spec.probes = r.Strings(*q, "quick.", "probes");
-  for (const std::string& p : spec.probes) {
-    if (!kKnownProbes.contains(p)) {
-      const bool from_quick = q != nullptr && q->contains("probes");
+  const bool from_quick = qt != nullptr && qt->contains("probes");
+  if (from_quick) names = r.Strings(*qt, "quick.", "probes");
+  for (const std::string& p : names) {
+    const std::optional<probes::ProbeKind> kind = probes::ParseProbeKind(p);
+    if (!kind) {
       const toml::table* probes_table = r.Table(root, "", "probes");
-      const toml::node* where = from_quick ? q->get("probes")
+      const toml::node* where = from_quick ? qt->get("probes")
                                 : probes_table ? probes_table->get("run")
                                                : nullptr;
       r.Fail(where, from_quick ? "quick.probes" : "probes.run",
-             "unknown probe '" + p + "'" +
-                 DidYouMean(p, {kKnownProbes.begin(), kKnownProbes.end()}) +
+             "unknown probe '" + p + "'" + DidYouMean(p, probes::ProbeNames()) +
                  " (fresnel, highlight, energy, portability)");
     }
+    spec->probes.push_back(*kind);
   }
+}
 
-  // [verdicts.<phenomenon>]: checked here, applied by the report.
-  spec.verdicts = nlohmann::json::object();
+// One [verdicts.<name>] table: checked here, applied by the report.
+nlohmann::json ReadVerdict(const Reader& r, const std::string& name, const toml::node& node) {
+  const std::string prefix = "verdicts." + name + ".";
+  if (!node.is_table()) r.Fail(&node, "verdicts." + name, "expected a table");
+  const toml::table& t = *node.as_table();
+  r.CheckKeys(t, prefix, {"question", "source", "kind", "tolerance", "floor", "keys", "metric", "split"});
+  nlohmann::json j;
+  j["question"] = r.String(t, prefix, "question", name);
+  j["source"] = r.String(t, prefix, "source", "");
+  j["kind"] = r.String(t, prefix, "kind", "relative");
+  if (!t.contains("tolerance")) r.Fail(&node, prefix + "tolerance", "missing");
+  j["tolerance"] = r.Number(t, prefix, "tolerance", 0.0, 0.0);
+  j["floor"] = r.Number(t, prefix, "floor", 0.0, 0.0);
+  j["keys"] = r.Strings(t, prefix, "keys");
+  j["metric"] = r.String(t, prefix, "metric", "");
+  j["split"] = r.String(t, prefix, "split", "test");
+  const std::string source = j["source"];
+  if (source != "metrics" && !probes::ParseProbeKind(source)) {
+    r.Fail(t.get("source"), prefix + "source",
+           "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability)");
+  }
+  if (j["kind"] != "relative" && j["kind"] != "max" && j["kind"] != "absolute") {
+    r.Fail(t.get("kind"), prefix + "kind", "expected \"relative\", \"absolute\" or \"max\"");
+  }
+  if (source == "metrics" && j["metric"] == "") {
+    r.Fail(&node, prefix + "metric", "required when source = \"metrics\"");
+  }
+  if (j["split"] != "train" && j["split"] != "test") {
+    r.Fail(t.get("split"), prefix + "split", "expected \"train\" or \"test\"");
+  }
+  return j;
+}
+
+// [verdicts.<phenomenon>]
+void ReadVerdicts(const Reader& r, const toml::table& root, StudySpec* spec) {
+  spec->verdicts = nlohmann::json::object();
   if (const toml::table* v = r.Table(root, "", "verdicts")) {
     for (const auto& [key, node] : *v) {
       const std::string name(key.str());
-      const std::string prefix = "verdicts." + name + ".";
-      if (!node.is_table()) r.Fail(&node, "verdicts." + name, "expected a table");
-      const toml::table& t = *node.as_table();
-      r.CheckKeys(t, prefix, {"question", "source", "kind", "tolerance", "floor", "keys", "metric", "split"});
-      nlohmann::json j;
-      j["question"] = r.String(t, prefix, "question", name);
-      j["source"] = r.String(t, prefix, "source", "");
-      j["kind"] = r.String(t, prefix, "kind", "relative");
-      if (!t.contains("tolerance")) r.Fail(&node, prefix + "tolerance", "missing");
-      j["tolerance"] = r.Number(t, prefix, "tolerance", 0.0, 0.0);
-      j["floor"] = r.Number(t, prefix, "floor", 0.0, 0.0);
-      j["keys"] = r.Strings(t, prefix, "keys");
-      j["metric"] = r.String(t, prefix, "metric", "");
-      j["split"] = r.String(t, prefix, "split", "test");
-      const std::string source = j["source"];
-      if (source != "metrics" && !kKnownProbes.contains(source)) {
-        r.Fail(t.get("source"), prefix + "source",
-               "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability)");
-      }
-      if (j["kind"] != "relative" && j["kind"] != "max" && j["kind"] != "absolute") {
-        r.Fail(t.get("kind"), prefix + "kind", "expected \"relative\", \"absolute\" or \"max\"");
-      }
-      if (source == "metrics" && j["metric"] == "") {
-        r.Fail(&node, prefix + "metric", "required when source = \"metrics\"");
-      }
-      if (j["split"] != "train" && j["split"] != "test") {
-        r.Fail(t.get("split"), prefix + "split", "expected \"train\" or \"test\"");
-      }
-      spec.verdicts[name] = j;
+      spec->verdicts[name] = ReadVerdict(r, name, node);
     }
   }
+}
 
-  // [outputs]
+// [outputs]
+void ReadOutputs(const Reader& r, const toml::table& root, StudySpec* spec) {
   if (const toml::table* o = r.Table(root, "", "outputs")) {
     r.CheckKeys(*o, "outputs.", {"previews", "report"});
-    spec.previews = r.Bool(*o, "outputs.", "previews", true);
-    spec.report = r.Bool(*o, "outputs.", "report", true);
+    spec->previews = r.Bool(*o, "outputs.", "previews", true);
+    spec->report = r.Bool(*o, "outputs.", "report", true);
   }
+}
+
+}  // namespace
+
+StudySpec LoadStudy(const std::string& path, bool quick) {
+  StudySpec spec;
+  spec.quick = quick;
+  const Reader r(path);
+  const toml::table root = ParseStudyFile(path, r, &spec);
+  ReadStudyTable(r, root, &spec);
+  const QuickFilter q = ReadQuick(r, root, quick);
+  const fs::path base = fs::path(spec.path).parent_path();
+  ReadMeasured(r, root, base, q, &spec);
+  ReadGroups(r, root, base, q, &spec);
+  ReadFit(r, root, q, &spec);
+  ReadMetrics(r, root, &spec);
+  ReadProbes(r, root, q, &spec);
+  ReadVerdicts(r, root, &spec);
+  ReadOutputs(r, root, &spec);
   return spec;
 }
 

@@ -16,15 +16,24 @@
 //
 // Masks: the mean is over pixels whose whole window lies inside the image AND inside the mask
 // (the mask eroded by the square window), so masked-out content never contributes to a pooled
-// value. No such pixel -> shadefit::Error.
+// value. No such pixel -> NoSsimWindowInMaskError.
 #pragma once
 
 #include <array>
 #include <vector>
 
+#include "shadefit/render/error.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics {
+
+// No pixel's whole window lies inside the mask (a small object, or MS-SSIM's coarsest scale):
+// its own type so that a caller may fall back to an unmasked comparison without reading the
+// message (the study runner does; ComputeMetrics rethrows it as this type).
+class NoSsimWindowInMaskError : public Error {
+ public:
+  using Error::Error;
+};
 
 struct SsimParameters {
   // Width of the value range L (max - min possible value); C1 = (K1 L)^2, C2 = (K2 L)^2.

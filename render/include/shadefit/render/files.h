@@ -1,5 +1,5 @@
-// Small file utilities shared by every writer: content hashes for provenance, atomic
-// text writes, and one-line error text.
+// Small file utilities shared by every writer: content hashes for provenance, the one atomic
+// writer (text, bytes, or any file a callback fills: images, plots), and one-line error text.
 #pragma once
 
 #include <functional>
@@ -31,8 +31,17 @@ void CheckOutputPath(const std::string& path);
 using OutputWrite = std::pair<std::string, std::function<void()>>;  // path, its atomic writer
 void WriteAllOrNothing(const std::vector<OutputWrite>& writes);
 
-// Writes text to a temporary sibling and renames it over `path`, so a reader never sees a partial
-// file and a failure leaves nothing. Throws shadefit::Error naming the file.
+// The one atomic writer: every output file of shadefit is written through it. Checks the path
+// (CheckOutputPath), has `fill` write the complete file at `temporary` (TemporaryPathFor(path):
+// a hidden sibling, so the rename stays on one file system), then renames it over `path`. A
+// reader never sees a partial file; when `fill` throws or the rename fails the temporary is
+// removed and nothing is left under `path`. Concurrent writers of one path each use their own
+// temporary, and the last rename wins with a complete file. Throws shadefit::Error naming `path`
+// (and rethrows what `fill` throws).
+using AtomicFill = std::function<void(const std::string& temporary)>;
+void WriteAtomic(const std::string& path, const AtomicFill& fill);
+
+// WriteAtomic of `text`, byte for byte (binary-safe: any bytes, no newline translation).
 void WriteTextAtomic(const std::string& path, const std::string& text);
 
 // Holds back what C libraries print on stderr while it lives (libpng prints "libpng error: ..."

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "shadefit/probes/probe_kind.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
@@ -129,12 +130,16 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& op
 ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& options = {});
 ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions& options = {});
 
+// The probe of `kind` with its default options.
+ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs);
+
 // {"probe": ..., "numbers": ..., "curves": ..., "notes": ...}; non-finite numbers are null.
 nlohmann::json ProbeResultToJson(const ProbeResult& result);
 
-// Writes <dir>/<probe>.json (atomic) and <dir>/<probe>.png, a plot of the curves (one panel per
-// distinct (x_label, y_label), drawn by /usr/bin/python3 with matplotlib). Both are written to
-// temporary files and renamed only when both succeeded. Throws shadefit::Error naming the path.
+// Writes <dir>/<probe>.png, a plot of the curves (one panel per distinct (x_label, y_label),
+// drawn by /usr/bin/python3 with matplotlib), then <dir>/<probe>.json, each through the atomic
+// writer (render/files.h); when either fails, neither is left. Throws shadefit::Error naming the
+// path.
 void WriteProbeOutputs(const ProbeResult& result, const std::string& dir);
 
 // Checks one reference: non-empty RGBA image, its size equals the G-buffer's and the scene

@@ -131,7 +131,4 @@ SlurmScripts WriteSlurmScripts(const StudySpec& spec, const SlurmOptions& option
 // Version string recorded in outputs and job hashes ("0.1.0+<git revision>").
 std::string ShadefitVersion();
 
-// Writes `text` to `path` through a temporary file in the same directory and a rename.
-void WriteFileAtomic(const std::string& path, const std::string& text);
-
 }  // namespace shadefit::studies

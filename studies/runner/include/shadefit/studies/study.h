@@ -9,6 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shadefit/probes/probe_kind.h"
+
 namespace shadefit::studies {
 
 // One reference image of a group, with the names the runner and report use.
@@ -74,7 +76,7 @@ struct StudySpec {
 
   float metrics_exposure_stops = 0.0f;
   double metrics_ppd = 67.0;
-  std::vector<std::string> probes;  // "fresnel", "highlight", "energy", "portability".
+  std::vector<probes::ProbeKind> probes;  // [probes] run, in the file's order.
   nlohmann::json verdicts;          // [verdicts] as JSON, read by the report.
   bool previews = true;             // Reference / fit / error PNGs per reference and fit.
   bool report = true;               // `study run` makes the report at the end.

@@ -7,10 +7,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "shadefit/fit/fitter.h"
+#include "shadefit/refs/reference.h"
+#include "shadefit/refs/sidecar.h"
 #include "shadefit/render/error.h"
+#include "shadefit/render/files.h"
+#include "sidecar_fields.h"
 
-namespace shadefit::fit {
+namespace shadefit::refs {
 namespace fs = std::filesystem;
 namespace {
 
@@ -31,9 +34,9 @@ constexpr float kClippedCode = 254.0f / 255.0f;
 
 }  // namespace
 
-FitReference LoadReference(const std::string& image_path, const std::string& scene_override,
-                           const std::string& mask_path) {
-  FitReference ref;
+Reference LoadReference(const std::string& image_path, const std::string& scene_override,
+                        const std::string& mask_path) {
+  Reference ref;
   ref.image_path = image_path;
   ref.name = fs::path(image_path).stem().string();
   if (!fs::exists(image_path)) throw Error(image_path, "", "reference image does not exist");
@@ -54,7 +57,7 @@ FitReference LoadReference(const std::string& image_path, const std::string& sce
   }
 
   // The scene: --scene, else the sidecar's scene_file resolved relative to the sidecar.
-  const fs::path sidecar = fs::path(image_path).replace_extension(".json");
+  const fs::path sidecar = SidecarPathFor(image_path);
   if (!scene_override.empty()) {
     ref.scene_path = scene_override;
   } else {
@@ -71,12 +74,8 @@ FitReference LoadReference(const std::string& image_path, const std::string& sce
       throw Error(sidecar.string(), "json", fmt::format("cannot parse: {}", e.what()));
     }
     ref.sha256["sidecar"] = Sha256File(sidecar.string());
-    std::string scene_field;
-    if (meta.contains("scene_file") && meta["scene_file"].is_string()) {
-      scene_field = meta["scene_file"].get<std::string>();
-    } else if (meta.contains("scene") && meta["scene"].is_string()) {
-      scene_field = meta["scene"].get<std::string>();
-    } else {
+    const std::string scene_field = internal::SceneFieldOf(meta);
+    if (scene_field.empty()) {
       throw Error(sidecar.string(), "scene_file",
                   "missing: the sidecar must name the scene TOML (or give --scene)");
     }
@@ -113,4 +112,4 @@ FitReference LoadReference(const std::string& image_path, const std::string& sce
   return ref;
 }
 
-}  // namespace shadefit::fit
+}  // namespace shadefit::refs

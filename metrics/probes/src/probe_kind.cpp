@@ -1,0 +1,47 @@
+#include "shadefit/probes/probe_kind.h"
+
+#include "shadefit/probes/probes.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::probes {
+
+const std::vector<ProbeKind>& AllProbeKinds() {
+  static const std::vector<ProbeKind> kAll = {ProbeKind::kFresnel, ProbeKind::kHighlight,
+                                              ProbeKind::kEnergy, ProbeKind::kPortability};
+  return kAll;
+}
+
+const char* ProbeName(ProbeKind kind) {
+  switch (kind) {
+    case ProbeKind::kFresnel: return "fresnel";
+    case ProbeKind::kHighlight: return "highlight";
+    case ProbeKind::kEnergy: return "energy";
+    case ProbeKind::kPortability: return "portability";
+  }
+  return "";
+}
+
+std::optional<ProbeKind> ParseProbeKind(std::string_view name) {
+  for (ProbeKind kind : AllProbeKinds()) {
+    if (name == ProbeName(kind)) return kind;
+  }
+  return std::nullopt;
+}
+
+std::vector<std::string> ProbeNames() {
+  std::vector<std::string> names;
+  for (ProbeKind kind : AllProbeKinds()) names.emplace_back(ProbeName(kind));
+  return names;
+}
+
+ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs) {
+  switch (kind) {
+    case ProbeKind::kFresnel: return FresnelProbe(inputs);
+    case ProbeKind::kHighlight: return HighlightProbe(inputs);
+    case ProbeKind::kEnergy: return EnergyProbe(inputs);
+    case ProbeKind::kPortability: return PortabilityProbe(inputs);
+  }
+  throw Error("", "probe", "unknown probe kind");
+}
+
+}  // namespace shadefit::probes

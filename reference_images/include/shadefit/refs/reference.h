@@ -1,0 +1,43 @@
+// A reference read from its files: the image, its sidecar JSON (which names the scene), the
+// scene TOML and an optional mask. The fitter, the probes and the study runner read references
+// through LoadReference; the sidecar's schema lives with the references (refs/sidecar.h).
+#pragma once
+
+#include <limits>
+#include <map>
+#include <string>
+
+#include "shadefit/render/image.h"
+#include "shadefit/render/scene.h"
+
+namespace shadefit::refs {
+
+// One reference with everything a fit or a probe needs. LoadReference() fills it from files;
+// tests and the study runner may fill it in memory (image_path etc. then only name outputs).
+struct Reference {
+  std::string name;          // Short name used in outputs ("<json stem>.<name>.fit.exr").
+  std::string image_path;    // "" for in-memory references.
+  std::string sidecar_path;  // "" when none was read.
+  std::string scene_path;
+  std::string mask_path;     // "" when no mask.
+  Image image;               // RGB or RGBA (alpha = coverage), linear radiance.
+  Scene scene;
+  Image mask;                // Empty, or same size: channel 0 > 0.5 marks pixels to use.
+  // Pixels with any channel >= clip_level (linear) are excluded: saturated LDR pixels.
+  float clip_level = std::numeric_limits<float>::infinity();
+  // SHA-256 (hex) of the bytes of every input file read, keyed by role: image, sidecar, scene,
+  // mask.
+  std::map<std::string, std::string> sha256;
+};
+
+// Reads a reference as the CLI does. The image: EXR/HDR are linear radiance; any other format
+// (PNG, JPEG, TIFF: display images) is decoded from sRGB, and pixels with a channel >= 254/255
+// before decoding are excluded as clipped. The scene: `scene_override` if not empty, else the
+// sidecar `<image path without extension>.json` field "scene_file" (or "scene" when it is a
+// string), resolved relative to the sidecar. Mask: optional image, channel 0 > 0.5 = use.
+// Throws shadefit::Error naming the file and field on missing files, bad JSON, a missing scene
+// field, or a size mismatch between image, scene resolution and mask.
+Reference LoadReference(const std::string& image_path, const std::string& scene_override = "",
+                        const std::string& mask_path = "");
+
+}  // namespace shadefit::refs

@@ -1,0 +1,133 @@
+#include "job_graph.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "job_cost.h"
+#include "shadefit/refs/sidecar.h"
+#include "shadefit/render/files.h"
+#include "shadefit/studies/runner.h"
+
+namespace shadefit::studies::internal {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// A fit job's hash context: everything its results depend on besides shadefit's version.
+json FitContext(const StudySpec& spec, const std::string& model,
+                const std::vector<std::string>& train, const std::string& label,
+                const json& refs) {
+  return {{"kind", "fit"},
+          {"model", model},
+          {"label", label},
+          {"train", train},
+          {"test_lightings", spec.test_lightings},
+          {"settings", spec.model_settings.at(model).ToJson()},
+          {"metrics", {{"exposure_stops", spec.metrics_exposure_stops}, {"ppd", spec.metrics_ppd}}},
+          {"previews", spec.previews},
+          {"references", refs}};
+}
+
+std::vector<std::string> ProbeNamesOf(const StudySpec& spec) {
+  std::vector<std::string> names;
+  for (probes::ProbeKind kind : spec.probes) names.emplace_back(probes::ProbeName(kind));
+  return names;
+}
+
+}  // namespace
+
+std::map<std::string, InputHashes> HashInputs(const StudySpec& spec) {
+  std::map<std::string, InputHashes> hashes;
+  for (const ReferenceGroup& g : spec.groups) {
+    for (const ReferenceSpec& r : g.references) {
+      InputHashes h;
+      h.image = Sha256File(r.image_path);
+      if (!r.sidecar_path.empty()) h.sidecar = Sha256File(r.sidecar_path);
+      h.scene_path = refs::SceneOfSidecar(r.sidecar_path);
+      if (!h.scene_path.empty() && fs::exists(h.scene_path)) h.scene = Sha256File(h.scene_path);
+      hashes[r.image_path] = h;
+    }
+  }
+  return hashes;
+}
+
+std::vector<Job> BuildJobs(const StudySpec& spec,
+                           const std::map<std::string, InputHashes>& hashes) {
+  const std::string version = ShadefitVersion();
+  std::vector<Job> jobs;
+  for (std::size_t gi = 0; gi < spec.groups.size(); ++gi) {
+    const ReferenceGroup& g = spec.groups[gi];
+    json refs = json::array();
+    for (const ReferenceSpec& r : g.references) {
+      const InputHashes& h = hashes.at(r.image_path);
+      refs.push_back({{"name", r.name}, {"lighting", r.lighting}, {"image", h.image},
+                      {"sidecar", h.sidecar}, {"scene", h.scene}});
+    }
+    std::vector<int> fit_jobs;
+    std::vector<std::string> fit_hashes;
+    for (const auto& train : spec.training_sets) {
+      for (const std::string& model : spec.models) {
+        Job job;
+        job.kind = Job::Kind::kFit;
+        job.group = static_cast<int>(gi);
+        job.model = model;
+        job.train = train;
+        job.label = spec.Label(model, train);
+        job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model, JoinTrain(train)));
+        const json context = FitContext(spec, model, train, job.label, refs);
+        job.hash = Sha256String(version + "\n" + context.dump());
+        job.weight = FitJobCost(spec.model_settings.at(model), train.size(), g.references.size());
+        fit_jobs.push_back(static_cast<int>(jobs.size()));
+        fit_hashes.push_back(job.hash);
+        jobs.push_back(job);
+      }
+    }
+    if (!spec.probes.empty()) {
+      Job job;
+      job.kind = Job::Kind::kProbe;
+      job.group = static_cast<int>(gi);
+      job.id = FileSafe("probe." + g.material);
+      job.deps = fit_jobs;
+      const json context = {{"kind", "probe"}, {"probes", ProbeNamesOf(spec)},
+                            {"references", refs}, {"fits", fit_hashes}};
+      job.hash = Sha256String(version + "\n" + context.dump());
+      job.weight = ProbeJobCost(spec.probes.size());
+      jobs.push_back(job);
+    }
+  }
+  return jobs;
+}
+
+std::string JoinTrain(const std::vector<std::string>& train) {
+  std::string s;
+  for (std::size_t i = 0; i < train.size(); ++i) s += (i ? "+" : "") + train[i];
+  return s;
+}
+
+std::string FileSafe(std::string s) {
+  for (char& c : s) {
+    if (c == '/' || c == ' ' || c == '\\') c = '_';
+  }
+  return s;
+}
+
+std::string SplitOf(const StudySpec& spec, const std::string& lighting,
+                    const std::vector<std::string>& train) {
+  if (std::find(train.begin(), train.end(), lighting) != train.end()) return "train";
+  return spec.IsTest(lighting, train) ? "test" : "other";
+}
+
+std::string StudyPaths::JobJson(const Job& job) const {
+  return (dir / "jobs" / (job.id + ".json")).string();
+}
+
+std::string StudyPaths::TimingJson(const Job& job) const {
+  return (dir / "jobs" / (job.id + ".timing.json")).string();
+}
+
+}  // namespace shadefit::studies::internal

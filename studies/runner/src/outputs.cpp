@@ -1,0 +1,221 @@
+#include "outputs.h"
+
+#include <fmt/core.h>
+#include <sys/utsname.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <ceres/version.h>
+#include <OpenImageIO/oiioversion.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core/version.hpp>
+
+#include "fit_status.h"
+#include "job_kinds.h"
+#include "shadefit/render/files.h"
+
+namespace shadefit::studies::internal {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+const std::vector<std::string> kMetricColumns = {
+    "rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim", "ciede2000_mean",
+    "flip_ldr_mean", "flip_hdr_mean"};
+
+std::string HostName() {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) != 0) return "unknown";
+  return host;
+}
+
+// One fit job's rows of results.csv.
+void AppendResultRows(const RunContext& context, const Job& job, std::ostringstream& csv) {
+  std::ifstream in(context.paths.JobJson(job));
+  const json j = json::parse(in);
+  const std::string status = j.value("status", FitStatusName(FitStatus::kOk));
+  const auto row_start = [&](const std::string& lighting, const std::string& reference,
+                             const std::string& split) {
+    csv << j["material"].get<std::string>() << "," << lighting << "," << reference << ","
+        << j["label"].get<std::string>() << "," << j["model"].get<std::string>() << ","
+        << JoinTrain(j["train"]) << "," << split << "," << (j["converged"].get<bool>() ? 1 : 0)
+        << "," << status;
+  };
+  if (!HasFit(ParseFitStatus(status))) {  // No parameters: one row per reference, no metrics.
+    for (const ReferenceSpec& r : context.spec.groups[job.group].references) {
+      row_start(r.lighting, r.name, SplitOf(context.spec, r.lighting, job.train));
+      csv << std::string(kMetricColumns.size(), ',') << "\n";
+    }
+    return;
+  }
+  for (const json& e : j["evaluations"]) {
+    row_start(e["lighting"].get<std::string>(), e["reference"].get<std::string>(),
+              e["split"].get<std::string>());
+    for (const auto& c : kMetricColumns) {
+      const json& v = e["metrics"][c];
+      csv << "," << (v.is_null() ? std::string("") : fmt::format("{:.9g}", v.get<double>()));
+    }
+    csv << "\n";
+  }
+}
+
+json ProvenanceInputs(const StudySpec& spec, const std::map<std::string, InputHashes>& hashes) {
+  json inputs = json::array();
+  for (const ReferenceGroup& g : spec.groups) {
+    for (const ReferenceSpec& r : g.references) {
+      const InputHashes& h = hashes.at(r.image_path);
+      inputs.push_back({{"reference", r.name},
+                        {"image", {{"path", r.image_path}, {"sha256", h.image}}},
+                        {"sidecar", {{"path", r.sidecar_path}, {"sha256", h.sidecar}}},
+                        {"scene", {{"path", h.scene_path}, {"sha256", h.scene}}}});
+    }
+  }
+  return inputs;
+}
+
+json JobHashes(const std::vector<Job>& jobs) {
+  json out = json::array();
+  for (const Job& job : jobs) out.push_back({{"id", job.id}, {"hash", job.hash}});
+  return out;
+}
+
+json DependencyVersions() {
+  return {{"ceres", CERES_VERSION_STRING},
+          {"opencv", CV_VERSION},
+          {"openimageio", OIIO_VERSION_STRING},
+          {"nlohmann_json", fmt::format("{}.{}.{}", NLOHMANN_JSON_VERSION_MAJOR,
+                                        NLOHMANN_JSON_VERSION_MINOR, NLOHMANN_JSON_VERSION_PATCH)},
+          {"fmt", FMT_VERSION}};
+}
+
+// The merged shards' own records, for a merge's provenance.
+json MergedShards(const std::vector<json>& manifests) {
+  json shards = json::array();
+  for (const json& m : manifests) {
+    shards.push_back({{"shard", m.value("shard", 0)}, {"count", m.value("count", 0)},
+                      {"host", m.value("host", "")}, {"gl_renderer", m.value("gl_renderer", "")},
+                      {"workers", m.value("workers", 0)}, {"seconds", m.value("seconds", 0.0)},
+                      {"materials", m.value("materials", json::array())}});
+  }
+  return shards;
+}
+
+}  // namespace
+
+void WriteStudyJson(const RunContext& context) {
+  json study = context.spec.ToJson();
+  study["shadefit_version"] = ShadefitVersion();
+  WriteTextAtomic((context.paths.dir / "study.json").string(), study.dump(2) + "\n");
+}
+
+void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs) {
+  std::ostringstream csv;
+  csv << "material,lighting,reference,label,model,train,split,converged,status";
+  for (const auto& c : kMetricColumns) csv << "," << c;
+  csv << "\n";
+  for (const Job& job : jobs) {
+    if (job.kind == Job::Kind::kFit) AppendResultRows(context, job, csv);
+  }
+  WriteTextAtomic((context.paths.dir / "results.csv").string(), csv.str());
+}
+
+void WriteTiming(const RunContext& context, const Job& job, double seconds,
+                 double solver_seconds) {
+  json t = {{"schema", "shadefit.study.timing/1"},
+            {"id", job.id},
+            {"seconds", seconds},
+            {"host", HostName()},
+            {"shard", context.options.shard.Name()}};
+  if (solver_seconds >= 0) t["solver_seconds"] = solver_seconds;  // Fits only.
+  WriteTextAtomic(context.paths.TimingJson(job), t.dump(1) + "\n");
+}
+
+// Kept out of results.csv, which holds results only and is the same bytes on every run.
+void WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs) {
+  std::ostringstream csv;
+  csv << "id,kind,material,label,seconds,solver_seconds,host,shard\n";
+  for (const Job& job : jobs) {
+    json t = json::object();
+    std::ifstream in(context.paths.TimingJson(job));
+    if (in) {
+      try {
+        t = json::parse(in);
+      } catch (const json::exception&) {
+        t = json::object();  // A timing is a diagnostic; a bad one leaves its cells empty.
+      }
+    }
+    const auto number = [&](const char* key) {
+      return t.contains(key) && t[key].is_number() ? fmt::format("{:.3f}", t[key].get<double>())
+                                                   : std::string();
+    };
+    const auto text = [&](const char* key) {
+      return t.contains(key) && t[key].is_string() ? t[key].get<std::string>() : std::string();
+    };
+    csv << job.id << "," << (job.kind == Job::Kind::kFit ? "fit" : "probe") << ","
+        << context.spec.groups[job.group].material << "," << job.label << ","
+        << number("seconds") << "," << number("solver_seconds") << "," << text("host") << ","
+        << text("shard") << "\n";
+  }
+  WriteTextAtomic((context.paths.dir / "timings.csv").string(), csv.str());
+}
+
+void WriteProvenance(const RunContext& context, const std::vector<Job>& jobs,
+                     const std::map<std::string, InputHashes>& hashes,
+                     const std::string& gl_renderer) {
+  const StudySpec& spec = context.spec;
+  struct utsname u {};
+  uname(&u);
+  const std::string version = ShadefitVersion();
+  const auto plus = version.find('+');
+  json p = {
+      {"schema", "shadefit.study.provenance/1"},
+      {"study", {{"name", spec.name}, {"path", spec.path}, {"sha256", Sha256String(spec.text)},
+                 {"text", spec.text}, {"quick", spec.quick}}},
+      {"shadefit", {{"version", version},
+                    {"git_revision",
+                     plus == std::string::npos ? "unknown" : version.substr(plus + 1)}}},
+      {"options", spec.ToJson()},
+      {"inputs", ProvenanceInputs(spec, hashes)},
+      {"jobs", JobHashes(jobs)},
+      {"dependencies", DependencyVersions()},
+      {"gl_renderer", gl_renderer},
+      {"machine",
+       {{"uname", fmt::format("{} {} {} {}", u.sysname, u.release, u.version, u.machine)},
+        {"cpu_count", std::thread::hardware_concurrency()}}},
+      {"run",
+       {{"workers", context.options.jobs}, {"ceres_threads_per_fit", kCeresThreadsPerFit}}}};
+  if (context.options.merge_only) {
+    p["run"]["merged_shards"] = MergedShards(context.options.shard_manifests);
+  }
+  WriteTextAtomic((context.paths.dir / "provenance.json").string(), p.dump(2) + "\n");
+}
+
+void WriteShardManifest(const RunContext& context, const std::vector<Job>& jobs,
+                        const std::string& gl_renderer, double seconds) {
+  std::set<std::string> materials;
+  for (const Job& job : jobs) materials.insert(context.spec.groups[job.group].material);
+  const RunOptions& o = context.options;
+  const json m = {{"schema", "shadefit.study.shard/1"},
+                  {"shard", o.shard.index},
+                  {"count", o.shard.count},
+                  {"study_path", context.spec.path},
+                  {"study_sha256", Sha256String(context.spec.text)},
+                  {"quick", context.spec.quick},
+                  {"shadefit_version", ShadefitVersion()},
+                  {"materials", materials},
+                  {"jobs", JobHashes(jobs)},
+                  {"gl_renderer", gl_renderer},
+                  {"host", HostName()},
+                  {"workers", o.jobs},
+                  {"seconds", seconds}};
+  WriteTextAtomic((context.paths.dir / "shards" / (o.shard.Name() + ".json")).string(),
+                  m.dump(1) + "\n");
+}
+
+}  // namespace shadefit::studies::internal

@@ -1,0 +1,116 @@
+// A probe job: the study's probes on one material's references, its fits and (when the sidecar
+// has an exact twin) its true BRDF; then the job JSON, last.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "job_kinds.h"
+#include "outputs.h"
+#include "shadefit/probes/probes.h"
+#include "shadefit/refs/reference.h"
+#include "shadefit/refs/sidecar.h"
+#include "test_hooks.h"
+
+namespace shadefit::studies::internal {
+namespace {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+std::vector<probes::ProbeReference> ProbeReferences(const ReferenceGroup& g,
+                                                    Renderer& renderer) {
+  std::vector<probes::ProbeReference> out;
+  for (const ReferenceSpec& r : g.references) {
+    refs::Reference ref = refs::LoadReference(r.image_path);
+    probes::ProbeReference pr;
+    pr.name = r.name;
+    pr.lighting = r.lighting;
+    pr.gbuffer = renderer.RenderGBuffer(ref.scene);
+    pr.image = std::move(ref.image);
+    pr.scene = std::move(ref.scene);
+    out.push_back(std::move(pr));
+  }
+  return out;
+}
+
+// The fits the job depends on, from their JSONs; the labels of those that left no parameters go
+// to `without_fit`.
+std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, const Job& job,
+                                                 const std::vector<Job>& jobs,
+                                                 std::vector<std::string>* without_fit) {
+  const ReferenceGroup& g = context.spec.groups[job.group];
+  std::vector<probes::ModelUnderTest> models;
+  for (int d : job.deps) {
+    std::ifstream f(context.paths.JobJson(jobs[d]));
+    const json fj = json::parse(f);
+    if (!HasFit(ParseFitStatus(fj.value("status", FitStatusName(FitStatus::kOk))))) {
+      without_fit->push_back(fj.value("label", jobs[d].label));
+      continue;
+    }
+    probes::ModelUnderTest m;
+    m.label = fj["label"];
+    m.model = fj["model"];
+    m.params = fj["values"].get<std::vector<double>>();
+    m.exposure = fj["exposure"];
+    // The probes name training references by reference name, the study by lighting.
+    for (const std::string& lighting : fj["train"].get<std::vector<std::string>>()) {
+      for (const ReferenceSpec& r : g.references) {
+        if (r.lighting == lighting) m.trained_on.push_back(r.name);
+      }
+    }
+    models.push_back(std::move(m));
+  }
+  return models;
+}
+
+}  // namespace
+
+void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Job>& jobs,
+                 Renderer& renderer) {
+  const ReferenceGroup& g = context.spec.groups[job.group];
+  const auto t0 = Clock::now();
+  probes::ProbeInputs in;
+  in.renderer = &renderer;
+  in.references = ProbeReferences(g, renderer);
+  std::vector<std::string> without_fit;
+  in.models = FittedModels(context, job, jobs, &without_fit);
+  if (const auto truth = refs::TruthOfSidecar(g.references.front().sidecar_path)) {
+    probes::ModelUnderTest t;
+    t.label = "truth";
+    t.model = truth->model;
+    t.params = truth->params;
+    in.truth = t;
+  }
+  const fs::path probe_dir = context.paths.dir / "probes" / g.material;
+  fs::create_directories(probe_dir);
+  json results = json::object();
+  json outputs = json::array();
+  // Every fit of the material failed (a black reference, say): nothing to probe.
+  const std::vector<probes::ProbeKind> kinds =
+      in.models.empty() ? std::vector<probes::ProbeKind>{} : context.spec.probes;
+  for (const probes::ProbeKind kind : kinds) {
+    const probes::ProbeResult r = probes::RunProbe(kind, in);
+    probes::WriteProbeOutputs(r, probe_dir.string());
+    results[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
+    for (const char* ext : {".json", ".png"}) {
+      const fs::path p = probe_dir / (r.probe + ext);
+      if (fs::exists(p)) outputs.push_back(fs::relative(p, context.paths.dir).string());
+    }
+  }
+  const json j = {{"schema", "shadefit.study.job/1"},
+                  {"id", job.id},
+                  {"kind", "probe"},
+                  {"hash", job.hash},
+                  {"shadefit_version", ShadefitVersion()},
+                  {"material", g.material},
+                  {"status", in.models.empty() ? "no-fit" : "ok"},
+                  {"fits_without_parameters", without_fit},
+                  {"probes", results},
+                  {"outputs", outputs}};
+  WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
+  WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");
+}
+
+}  // namespace shadefit::studies::internal
