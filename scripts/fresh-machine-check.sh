@@ -187,6 +187,15 @@ cp "$sources" "$root/etc/apt/sources.list"
 rm -f "$root"/etc/apt/sources.list.d/*.sources "$root"/etc/apt/sources.list.d/*.list
 [ -s "$proxy_conf" ] && cp "$proxy_conf" "$root/etc/apt/apt.conf.d/90-host-proxy.conf"
 cp -L /etc/resolv.conf "$root/etc/resolv.conf" 2>/dev/null || true
+# A minbase root has no /etc/hosts (no package ships it: on a real machine the Debian installer,
+# cloud-init or the container runtime writes it), so 'localhost' does not resolve there, and
+# whatever talks to a local service by that name fails: selenium polls chromedriver at
+# localhost:<port> and gave up with "Can not connect to the Service /usr/bin/chromedriver" (the
+# report_browser failure of 2026-12-01). Write the file the Debian installer (netcfg) writes.
+if [ ! -e "$root/etc/hosts" ]; then
+  printf '127.0.0.1\tlocalhost\n127.0.1.1\t%s\n\n::1\tlocalhost ip6-localhost ip6-loopback\nff02::1\tip6-allnodes\nff02::2\tip6-allrouters\n' \
+    "$(uname -n)" >"$root/etc/hosts"
+fi
 for p in build-essential cmake libceres-dev; do
   if chroot "$root" dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
     die "the base root already has $p: it is not a fresh machine"

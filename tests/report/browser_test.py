@@ -13,6 +13,7 @@ Exit 0 pass, 1 fail, 77 skip (no chromium, chromedriver or selenium: CTest SKIP_
 
 import os
 import shutil
+import socket
 import sys
 import time
 
@@ -66,6 +67,14 @@ def main(argv):
         opts.add_argument(a)
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     failures = []
+    # selenium reaches chromedriver at localhost:<port>; where 'localhost' does not resolve (no
+    # /etc/hosts, as in a bare minbase chroot) it only says "Can not connect to the Service".
+    try:
+        socket.getaddrinfo("localhost", None)
+    except OSError as e:
+        print(f"FAILED: 'localhost' does not resolve ({e}): selenium cannot reach chromedriver "
+              "(is /etc/hosts missing its '127.0.0.1 localhost' line?)")
+        return 1
     driver = webdriver.Chrome(service=Service(driver_bin), options=opts)
     try:
         t0 = time.time()
