@@ -37,13 +37,13 @@ bool FittedInLogSpace(const ParamSpec& spec) {
   //    Gauss-Newton step from the defaults typically drives them to the bound 0, where the
   //    roughness (or shininess) derivative vanishes and the fit is stranded (measured on the
   //    synthetic GGX recovery set: 60 iterations or a wrong minimum; in log space: ~20).
-  return spec.log_scale || spec.name == "roughness" || spec.name == "f0" ||
-         spec.name == "f0_dielectric" || spec.name == "ks";
+  // The model tables mark those rows kMultiplicative (render/models/<name>.glsl).
+  return spec.log_scale || (spec.roles & kMultiplicative) != 0;
 }
 
 double LogFloor(const ParamSpec& spec) {
   if (spec.min > 0) return spec.min;
-  return spec.name == "ks" && spec.log_scale ? kLogFloor : kSpecularLogFloor;
+  return spec.log_scale ? kLogFloor : kSpecularLogFloor;
 }
 
 Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::string>& fixed)

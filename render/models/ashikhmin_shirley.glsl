@@ -7,9 +7,10 @@
 SF_MODEL(AshikhminShirley)
 SF_INFO("ashikhmin-shirley", "isotropic Ashikhmin-Shirley 2000: Phong lobe with Schlick Fresnel")
 
-#define ASHIKHMIN_SHIRLEY_PARAMS(X)                                                          \
-  X(Color, rd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse reflectance")                          \
-  X(Color, rs, 0.0, 1.0, 0.04, kSpecularParam, "specular reflectance at normal incidence")   \
+#define ASHIKHMIN_SHIRLEY_PARAMS(X)                                                                \
+  X(Color, rd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse reflectance")                                \
+  X(Color, rs, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "specular reflectance at normal incidence")                                                    \
   X(Real, n, 1.0, 100000.0, 32.0, kWidthParam | kLogScale, "Phong exponent of the lobe")
 SF_PARAMS(ASHIKHMIN_SHIRLEY_PARAMS)
 #undef ASHIKHMIN_SHIRLEY_PARAMS
@@ -24,7 +25,7 @@ SF_FN Real Lobe(Params p, Dots d) {
          Real(d.NoL / (d.LoH * max(d.NoL, d.NoV)));
 }
 SF_FN Color Fresnel(Params p, Dots d) {
-  return Color(F_Schlick(p.rs.r, d.LoH), F_Schlick(p.rs.g, d.LoH), F_Schlick(p.rs.b, d.LoH));
+  return F_SchlickColor(p.rs, d.LoH);
 }
 // Walter et al. 2007, section 5.2 (see phong.glsl).
 SF_FN Real LobeAlpha(Params p) { return sqrt(Real(2) / (p.n + Real(2))); }

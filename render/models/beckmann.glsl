@@ -3,10 +3,12 @@
 SF_MODEL(Beckmann)
 SF_INFO("beckmann", "Lambert + Beckmann D, separable Smith-Beckmann G (Walter approx.), Schlick")
 
-#define BECKMANN_PARAMS(X)                                                                       \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")       \
-  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam, "Fresnel reflectance at normal incidence")   \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2")
+#define BECKMANN_PARAMS(X)                                                                         \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "Fresnel reflectance at normal incidence")                                                     \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(BECKMANN_PARAMS)
 #undef BECKMANN_PARAMS
 
@@ -17,7 +19,7 @@ SF_FN Real Lobe(Params p, Dots d) {
          V_SmithBeckmannSeparable(d.NoV, d.NoL, alpha) * Real(d.NoL);
 }
 SF_FN Color Fresnel(Params p, Dots d) {
-  return Color(F_Schlick(p.f0.r, d.LoH), F_Schlick(p.f0.g, d.LoH), F_Schlick(p.f0.b, d.LoH));
+  return F_SchlickColor(p.f0, d.LoH);
 }
 SF_FN Real LobeAlpha(Params p) { return p.roughness * p.roughness; }
 SF_FN Color Ambient(Params p) { return Color(Real(0)); }

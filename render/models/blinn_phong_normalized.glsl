@@ -6,9 +6,10 @@
 SF_MODEL(BlinnPhongNormalized)
 SF_INFO("blinn-phong-normalized", "f = kd/pi + ks (n+8)/(8 pi) (n.h)^n")
 
-#define BLINN_PHONG_NORMALIZED_PARAMS(X)                                                  \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")      \
-  X(Color, ks, 0.0, 1.0, 0.04, kSpecularParam, "specular reflectance (normalised lobe)")   \
+#define BLINN_PHONG_NORMALIZED_PARAMS(X)                                                           \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, ks, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "specular reflectance (normalised lobe)")                                                      \
   X(Real, shininess, 1.0, 100000.0, 32.0, kWidthParam | kLogScale, "specular exponent n")
 SF_PARAMS(BLINN_PHONG_NORMALIZED_PARAMS)
 #undef BLINN_PHONG_NORMALIZED_PARAMS

@@ -8,10 +8,12 @@
 SF_MODEL(CookTorrance)
 SF_INFO("cook-torrance", "Cook-Torrance 1982: Beckmann D, V-cavity G, dielectric Fresnel from f0")
 
-#define COOK_TORRANCE_PARAMS(X)                                                              \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")        \
-  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam, "Fresnel reflectance at normal incidence") \
-  X(Real, m, 0.01, 1.0, 0.25, kWidthParam, "Beckmann rms slope of the microfacets")
+#define COOK_TORRANCE_PARAMS(X)                                                                    \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam | kMultiplicative,                                \
+    "Fresnel reflectance at normal incidence")                                                     \
+  X(Real, m, 0.01, 1.0, 0.25, kWidthParam | kMultiplicative,                                       \
+    "Beckmann rms slope of the microfacets")
 SF_PARAMS(COOK_TORRANCE_PARAMS)
 #undef COOK_TORRANCE_PARAMS
 

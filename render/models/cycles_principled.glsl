@@ -7,11 +7,12 @@ SF_INFO("cycles-principled",
         "Cycles 3.4 Principled BSDF, single scattering (separable Smith, Burley, Cycles Fresnel)")
 
 // base_color and metallic carry kSpecularParam: base 1 and metallic 1 give cspec0 = 1, no diffuse.
-#define CYCLES_PRINCIPLED_PARAMS(X)                                                          \
-  X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                         \
-  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                  \
-  X(Real, specular, 0.0, 1.0, 0.5, kPlainParam, "Cycles specular; F0 = 0.08 specular")       \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2")
+#define CYCLES_PRINCIPLED_PARAMS(X)                                                                \
+  X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                               \
+  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                        \
+  X(Real, specular, 0.0, 1.0, 0.5, kPlainParam, "Cycles specular; F0 = 0.08 specular")             \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(CYCLES_PRINCIPLED_PARAMS)
 #undef CYCLES_PRINCIPLED_PARAMS
 

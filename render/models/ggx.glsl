@@ -4,10 +4,12 @@
 SF_MODEL(Ggx)
 SF_INFO("ggx", "Cook-Torrance: Lambert + D_GGX V_SmithGGXCorrelated F_Schlick(f0)")
 
-#define GGX_PARAMS(X)                                                                       \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")       \
-  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam, "Fresnel reflectance at normal incidence")   \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2")
+#define GGX_PARAMS(X)                                                                              \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "Fresnel reflectance at normal incidence")                                                     \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(GGX_PARAMS)
 #undef GGX_PARAMS
 
@@ -18,7 +20,7 @@ SF_FN Real Lobe(Params p, Dots d) {
          Real(d.NoL);
 }
 SF_FN Color Fresnel(Params p, Dots d) {
-  return Color(F_Schlick(p.f0.r, d.LoH), F_Schlick(p.f0.g, d.LoH), F_Schlick(p.f0.b, d.LoH));
+  return F_SchlickColor(p.f0, d.LoH);
 }
 SF_FN Real LobeAlpha(Params p) { return p.roughness * p.roughness; }
 SF_FN Color Ambient(Params p) { return Color(Real(0)); }

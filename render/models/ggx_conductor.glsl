@@ -5,10 +5,11 @@ SF_MODEL(GgxConductor)
 SF_INFO("ggx-conductor",
         "GGX with conductor Fresnel from a complex IOR (n, k) per channel, no diffuse")
 
-#define GGX_CONDUCTOR_PARAMS(X)                                                              \
-  X(Color, eta, 0.01, 10.0, 0.2, kPlainParam, "real part of the IOR")                        \
-  X(Color, k, 0.0, 10.0, 3.0, kPlainParam, "extinction coefficient")                         \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2")
+#define GGX_CONDUCTOR_PARAMS(X)                                                                    \
+  X(Color, eta, 0.01, 10.0, 0.2, kPlainParam, "real part of the IOR")                              \
+  X(Color, k, 0.0, 10.0, 3.0, kPlainParam, "extinction coefficient")                               \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(GGX_CONDUCTOR_PARAMS)
 #undef GGX_CONDUCTOR_PARAMS
 

@@ -6,11 +6,12 @@ SF_INFO("ggx-metallic",
         "ggx in metallic-roughness form: kd = base (1-m), f0 = mix(f0_dielectric, base, m)")
 
 // base_color and metallic carry kSpecularParam: base 1 and metallic 1 give f0 = 1 and kd = 0.
-#define GGX_METALLIC_PARAMS(X)                                                               \
-  X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                         \
-  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                  \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2") \
-  X(Real, f0_dielectric, 0.0, 1.0, 0.04, kPlainParam, "F0 of the dielectric part")
+#define GGX_METALLIC_PARAMS(X)                                                                     \
+  X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                               \
+  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                        \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")                                                   \
+  X(Real, f0_dielectric, 0.0, 1.0, 0.04, kMultiplicative, "F0 of the dielectric part")
 SF_PARAMS(GGX_METALLIC_PARAMS)
 #undef GGX_METALLIC_PARAMS
 
@@ -24,7 +25,7 @@ SF_FN Real Lobe(Params p, Dots d) {
 }
 SF_FN Color Fresnel(Params p, Dots d) {
   Color f0 = Color(p.f0_dielectric * (Real(1) - p.metallic)) + p.base_color * p.metallic;
-  return Color(F_Schlick(f0.r, d.LoH), F_Schlick(f0.g, d.LoH), F_Schlick(f0.b, d.LoH));
+  return F_SchlickColor(f0, d.LoH);
 }
 SF_FN Real LobeAlpha(Params p) { return p.roughness * p.roughness; }
 SF_FN Color Ambient(Params p) { return Color(Real(0)); }

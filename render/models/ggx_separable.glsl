@@ -3,20 +3,23 @@
 SF_MODEL(GgxSeparable)
 SF_INFO("ggx-separable", "ggx with separable Smith G (Walter 2007)")
 
-#define GGX_SEPARABLE_PARAMS(X)                                                                       \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")       \
-  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam, "Fresnel reflectance at normal incidence")   \
-  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam, "perceptual roughness; alpha = roughness^2")
+#define GGX_SEPARABLE_PARAMS(X)                                                                    \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "Fresnel reflectance at normal incidence")                                                     \
+  X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
+    "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(GGX_SEPARABLE_PARAMS)
 #undef GGX_SEPARABLE_PARAMS
 
 SF_FN Color Diffuse(Params p, Dots d) { return p.kd * Real(kInvPi); }
 SF_FN Real Lobe(Params p, Dots d) {
   Real alpha = p.roughness * p.roughness;
-  return D_GGX(d.NoH, d.one_minus_NoH2, alpha) * V_SmithGGXSeparable(d.NoV, d.NoL, alpha) * Real(d.NoL);
+  return D_GGX(d.NoH, d.one_minus_NoH2, alpha) * V_SmithGGXSeparable(d.NoV, d.NoL, alpha) *
+         Real(d.NoL);
 }
 SF_FN Color Fresnel(Params p, Dots d) {
-  return Color(F_Schlick(p.f0.r, d.LoH), F_Schlick(p.f0.g, d.LoH), F_Schlick(p.f0.b, d.LoH));
+  return F_SchlickColor(p.f0, d.LoH);
 }
 SF_FN Real LobeAlpha(Params p) { return p.roughness * p.roughness; }
 SF_FN Color Ambient(Params p) { return Color(Real(0)); }

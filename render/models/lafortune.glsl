@@ -9,11 +9,11 @@
 SF_MODEL(Lafortune)
 SF_INFO("lafortune", "one-lobe isotropic Lafortune 1997: kd/pi + ks (n+2)/(2 pi) (C . (l, v))^n")
 
-#define LAFORTUNE_PARAMS(X)                                                                  \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")        \
-  X(Color, ks, 0.0, 1000.0, 0.04, kSpecularParam | kLogScale, "specular coefficient")        \
-  X(Real, cxy, -2.0, 2.0, -1.0, kPlainParam, "C_x = C_y: tangential weight (-1 = mirror)")  \
-  X(Real, cz, 0.0, 2.0, 1.0, kPlainParam, "C_z: normal weight")                              \
+#define LAFORTUNE_PARAMS(X)                                                                        \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, ks, 0.0, 1000.0, 0.04, kSpecularParam | kLogScale, "specular coefficient")              \
+  X(Real, cxy, -2.0, 2.0, -1.0, kPlainParam, "C_x = C_y: tangential weight (-1 = mirror)")         \
+  X(Real, cz, 0.0, 2.0, 1.0, kPlainParam, "C_z: normal weight")                                    \
   X(Real, n, 1.0, 100000.0, 32.0, kWidthParam | kLogScale, "lobe exponent")
 SF_PARAMS(LAFORTUNE_PARAMS)
 #undef LAFORTUNE_PARAMS

@@ -3,7 +3,7 @@
 SF_MODEL(Lambert)
 SF_INFO("lambert", "Lambert diffuse, f = kd / pi")
 
-#define LAMBERT_PARAMS(X) \
+#define LAMBERT_PARAMS(X)                                                                          \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")
 SF_PARAMS(LAMBERT_PARAMS)
 #undef LAMBERT_PARAMS

@@ -10,8 +10,8 @@
 SF_MODEL(OrenNayar)
 SF_INFO("oren-nayar", "Oren-Nayar 1994 rough diffuse (qualitative model), no specular lobe")
 
-#define OREN_NAYAR_PARAMS(X)                                                                 \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo of the facets")                 \
+#define OREN_NAYAR_PARAMS(X)                                                                       \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo of the facets")                       \
   X(Real, sigma, 0.0, 1.5, 0.3, kPlainParam, "facet slope standard deviation (radians)")
 SF_PARAMS(OREN_NAYAR_PARAMS)
 #undef OREN_NAYAR_PARAMS

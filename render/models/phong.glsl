@@ -6,11 +6,11 @@
 SF_MODEL(Phong)
 SF_INFO("phong", "classic Phong 1975: ka amb + kd (n.l) + ks (r.v)^n")
 
-#define PHONG_PARAMS(X)                                                                    \
-  X(Color, ka, 0.0, 1.0, 0.0, kDiffuseParam, "ambient reflectance (times the ambient light)") \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse coefficient: kd (n.l) per unit light")  \
-  X(Color, ks, 0.0, 100000.0, 0.5, kSpecularParam | kLogScale,                               \
-    "specular coefficient (unnormalised)")                                                   \
+#define PHONG_PARAMS(X)                                                                            \
+  X(Color, ka, 0.0, 1.0, 0.0, kDiffuseParam, "ambient reflectance (times the ambient light)")      \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse coefficient: kd (n.l) per unit light")       \
+  X(Color, ks, 0.0, 100000.0, 0.5, kSpecularParam | kLogScale,                                     \
+    "specular coefficient (unnormalised)")                                                         \
   X(Real, shininess, 1.0, 100000.0, 32.0, kWidthParam | kLogScale, "specular exponent n")
 SF_PARAMS(PHONG_PARAMS)
 #undef PHONG_PARAMS

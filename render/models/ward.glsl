@@ -5,12 +5,15 @@
 // only for small alpha; ward_duer.glsl is the bounded variant); over this table's widths the
 // lobe at ks = 1 measures at most 0.992 (tests/render/brdf_physics_test.cpp, Ngan2005/ward).
 SF_MODEL(Ward)
-SF_INFO("ward", "isotropic Ward 1992: kd/pi + ks exp(-tan^2 h / a^2) / (4 pi a^2 sqrt(cos i cos o))")
+SF_INFO("ward",
+        "isotropic Ward 1992: kd/pi + ks exp(-tan^2 h / a^2) / (4 pi a^2 sqrt(cos i cos o))")
 
-#define WARD_PARAMS(X)                                                                       \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")        \
-  X(Color, ks, 0.0, 1.0, 0.04, kSpecularParam, "specular reflectance of the lobe")           \
-  X(Real, alpha, 0.01, 1.0, 0.25, kWidthParam, "rms slope of the surface (lobe width)")
+#define WARD_PARAMS(X)                                                                             \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
+  X(Color, ks, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+    "specular reflectance of the lobe")                                                            \
+  X(Real, alpha, 0.01, 1.0, 0.25, kWidthParam | kMultiplicative,                                   \
+    "rms slope of the surface (lobe width)")
 SF_PARAMS(WARD_PARAMS)
 #undef WARD_PARAMS
 

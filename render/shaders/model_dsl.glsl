@@ -55,6 +55,11 @@ Dots ComputeShadingDots(vec3 n, vec3 l, vec3 v) {
   return d;
 }
 
+// F_Schlick (brdf.glsl) per channel of a colour f0.
+vec3 F_SchlickColor(vec3 f0, float LoH) {
+  return vec3(F_Schlick(f0.r, LoH), F_Schlick(f0.g, LoH), F_Schlick(f0.b, LoH));
+}
+
 // cos^n of an angle given its cosine and squared sine; 0 for cos <= 0. In float, pow(cos, n)
 // loses about n ulps of cos near the peak (1e-3 relative at n = 10^4); there the squared sine
 // from a cross product keeps full relative precision: cos^n = exp(n/2 ln(1 - sin2)), ln(1 - s)

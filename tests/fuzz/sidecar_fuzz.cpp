@@ -1,4 +1,4 @@
-// libFuzzer harness: the sidecar reader of fit::LoadReference (fit/src/reference.cpp), which
+// libFuzzer harness: the sidecar reader of refs::LoadReference (reference_images/src/reference.cpp), which
 // finds a reference's scene through <image>.json. The input is the sidecar; the image, the scene
 // it names in the seeds and a mask are fixtures. Any input either loads or is rejected with
 // shadefit::Error.

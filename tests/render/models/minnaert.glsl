@@ -5,8 +5,8 @@
 SF_MODEL(Minnaert)
 SF_INFO("minnaert", "Minnaert limb darkening, f = kd/pi (n.l n.v)^(k-1) (test-only toy)")
 
-#define MINNAERT_PARAMS(X)                                                                  \
-  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo")                              \
+#define MINNAERT_PARAMS(X)                                                                         \
+  X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo")                                     \
   X(Real, k, 0.5, 2.0, 1.0, kPlainParam, "darkening exponent (1 = Lambert)")
 SF_PARAMS(MINNAERT_PARAMS)
 #undef MINNAERT_PARAMS

@@ -40,6 +40,9 @@ inline constexpr unsigned kDiffuseParam = 1u << 0;   // 0 switches the diffuse t
 inline constexpr unsigned kSpecularParam = 1u << 1;  // 1 makes the specular term unit (F = 1).
 inline constexpr unsigned kWidthParam = 1u << 2;     // The lobe width (roughness, shininess).
 inline constexpr unsigned kLogScale = 1u << 3;       // Spans decades: fitted in log space.
+// Acts multiplicatively on the image (a lobe width, a specular scale): fitted in log space
+// although its range is linear (fit/src/residuals.cpp, FittedInLogSpace, says why).
+inline constexpr unsigned kMultiplicative = 1u << 4;
 
 // One row of a model's parameter table (as the `[type name min max default]` blocks of the Disney
 // BRDF Explorer). Colours have size 3 and share the row's bounds and default.
@@ -121,6 +124,12 @@ T PowCos(const G& cos_x, const G& sin2_x, const T& n) {
   using std::pow;
   (void)sin2_x;
   return cos_x > G(0) ? T(pow(T(cos_x), n)) : T(0);
+}
+
+// F_Schlick (brdf.h) per channel of a colour f0.
+template <typename T, typename G>
+Rgb<T> F_SchlickColor(const Rgb<T>& f0, const G& LoH) {
+  return {F_Schlick(f0.r, LoH), F_Schlick(f0.g, LoH), F_Schlick(f0.b, LoH)};
 }
 
 template <typename T>
