@@ -20,6 +20,10 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 
+namespace shadefit::refs {
+class MeasuredBrdf;  // refs/measured_brdf.h
+}
+
 namespace shadefit::probes {
 
 struct ProbeReference {  // one image of the material under one lighting
@@ -43,6 +47,7 @@ struct ProbeInputs {
   std::vector<ModelUnderTest> models;
   std::optional<ModelUnderTest> truth;  // the true BRDF as one of our models when known
   Renderer* renderer = nullptr;         // GL context current on the calling thread
+  const refs::MeasuredBrdf* measured_brdf = nullptr;  // the BRDF itself (brdf probe only)
 };
 
 struct ProbeResult {
