@@ -143,7 +143,7 @@ TEST(BrdfSpaceProbe, GgxTableGivesBackSchlickFresnelRise) {
   EXPECT_LT(worst_schlick, (1 - g75) + 0.01);
   // Rim band [70, 80] in 1 deg steps: 76..80 of its 11 samples lie beyond 75 deg.
   EXPECT_NEAR(Get(r.numbers["measured"], "fresnel_rim_extrapolated_fraction"), 5.0 / 11, 1e-12);
-  EXPECT_TRUE(r.curves.contains("measured: Fresnel rise (extrapolated, theta_d > 75)"));
+  EXPECT_TRUE(r.curves.contains("measured (extrapolated, theta_d > 75): Fresnel rise"));
 }
 
 // The floor the probe's rule should find: the smallest analytic f over theta_h in [60, 80] deg on

@@ -443,14 +443,16 @@ ProbeResult BrdfSpaceProbe(const refs::MeasuredBrdf& measured,
     r.curves[s.label + ": highlight specular"] = hs;
     r.curves[s.label + ": albedo"] = al;
     if (s.measured) {
-      const std::string tag =
-          fmt::format(" (extrapolated, theta_d > {:g})", o.extrapolated_theta_d_deg);
-      AddExtrapolatedSegment("measured: Fresnel rise" + tag, s.fresnel.theta_d, s.fresnel.rise, fx,
-                             rise, &r.curves);
-      AddExtrapolatedSegment("measured: specular peak" + tag, s.fresnel.theta_d, s.fresnel.peak_f,
-                             fx, peak, &r.curves);
-      AddExtrapolatedSegment("measured: albedo" + tag, s.albedo.theta_o, s.albedo.y,
-                             s.albedo.extrapolated, al, &r.curves);
+      // "<series>: <kind>" like every curve name, so that the report draws the segment in the
+      // panel of its kind, as a series of its own.
+      const std::string head =
+          fmt::format("measured (extrapolated, theta_d > {:g}): ", o.extrapolated_theta_d_deg);
+      AddExtrapolatedSegment(head + "Fresnel rise", s.fresnel.theta_d, s.fresnel.rise, fx, rise,
+                             &r.curves);
+      AddExtrapolatedSegment(head + "specular peak", s.fresnel.theta_d, s.fresnel.peak_f, fx, peak,
+                             &r.curves);
+      AddExtrapolatedSegment(head + "albedo", s.albedo.theta_o, s.albedo.y, s.albedo.extrapolated,
+                             al, &r.curves);
     }
   }
   const auto& m = series.front();
