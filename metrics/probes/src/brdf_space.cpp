@@ -120,14 +120,14 @@ Highlight MeasureHighlight(const BrdfFn& f, const BrdfSpaceOptions& o) {
   if (!std::isfinite(h.hwhm_deg)) return h;
   // Tail fraction: the share of the specular part, weighted by the projected solid angle of the
   // half vector (sin cos dtheta_h: for a microfacet BRDF, the share of the projected microfacet
-  // area, whose total is 1), beyond tail_hwhm_multiple * HWHM, up to the floor band.
+  // area, whose total is 1), beyond tail_hwhm_multiple * HWHM, up to tail_max_deg.
   std::vector<double> g(n);
   for (int i = 0; i < n; ++i) {
     const double t = h.theta_h[i] * kDegToRad;
     g[i] = std::max(s[i], 0.0) * std::sin(t) * std::cos(t);
   }
-  const double total = Integrate(h.theta_h, g, 0.0, o.floor_min_deg);
-  const double tail = Integrate(h.theta_h, g, o.tail_hwhm_multiple * h.hwhm_deg, o.floor_min_deg);
+  const double total = Integrate(h.theta_h, g, 0.0, o.tail_max_deg);
+  const double tail = Integrate(h.theta_h, g, o.tail_hwhm_multiple * h.hwhm_deg, o.tail_max_deg);
   h.tail_fraction = total > 0 ? tail / total : kNaN;
   return h;
 }
@@ -376,6 +376,9 @@ void ValidateOptions(const BrdfSpaceOptions& o) {
     fail("floor_max_deg", "needs floor_min_deg < floor_max_deg <= highlight_max_deg < 90");
   }
   if (!(o.tail_hwhm_multiple >= 1)) fail("tail_hwhm_multiple", "needs >= 1");
+  if (!(o.tail_max_deg > 0 && o.tail_max_deg <= o.highlight_max_deg)) {
+    fail("tail_max_deg", "needs 0 < tail_max_deg <= highlight_max_deg");
+  }
   if (o.view_angles_deg.empty()) fail("view_angles_deg", "empty");
   for (double t : o.view_angles_deg) {
     if (!(t >= 0 && t < 90)) fail("view_angles_deg", fmt::format("{} outside [0, 90)", t));
@@ -469,7 +472,7 @@ ProbeResult BrdfSpaceProbe(const refs::MeasuredBrdf& measured,
       "deg (measured: {:.4g} 1/sr); HWHM of (f - floor) n.l n.v; tail beyond {:g} HWHM up to "
       "{:g} deg, weighted by sin cos theta_h",
       o.highlight_theta_d_deg, o.floor_min_deg, o.floor_max_deg, m.highlight.floor,
-      o.tail_hwhm_multiple, o.floor_min_deg));
+      o.tail_hwhm_multiple, o.tail_max_deg));
   r.notes.push_back(fmt::format(
       "extrapolation: MERL data beyond theta_d = {:g} deg is extrapolated; measured Fresnel "
       "points beyond it are marked, {:.0f}% of the rim band lies there; measured albedo points "

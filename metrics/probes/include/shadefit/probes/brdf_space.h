@@ -42,9 +42,13 @@ struct BrdfSpaceOptions {
   int highlight_samples = 361;      // theta_h = (i / (n - 1))^2 * highlight_max_deg: dense at
                                     // the peak like MERL's own square-root spacing (4x finer).
   double highlight_max_deg = 80.0;  // Last theta_h of the curve.
-  double floor_min_deg = 60.0;      // Diffuse floor = the smallest f over theta_h in
-  double floor_max_deg = 80.0;      // [floor_min, floor_max] on the highlight slice.
-  double tail_hwhm_multiple = 2.0;  // Tail = theta_h beyond this many HWHM (up to floor_min).
+  double floor_min_deg = 30.0;      // Diffuse floor = the smallest f over theta_h in
+  double floor_max_deg = 80.0;      // [floor_min, floor_max] on the highlight slice (a wide
+                                    // band: measured diffuse is not flat, red-plastic's f has
+                                    // its minimum near 45 deg, and a minimum over a wider band
+                                    // is never more raised by the lobe's tail).
+  double tail_hwhm_multiple = 2.0;  // Tail = theta_h beyond this many HWHM,
+  double tail_max_deg = 60.0;       // up to this theta_h (total: 0 to this).
 
   // --- Energy: directional albedo over view angle theta_o.
   std::vector<double> view_angles_deg = {0, 10, 20, 30, 40, 50, 60, 65, 70, 75, 80, 85, 89};
