@@ -13,7 +13,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
 
 struct AlbedoCurve {
@@ -85,11 +84,7 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
   if (models.empty()) throw Error("energy", "models", "no model and no truth given");
   for (const ModelUnderTest& m : models) internal::ValidateModel(m);
 
-  ProbeResult result;
-  result.probe = "energy";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
+  ProbeResult result(ProbeKind::kEnergy);
   result.notes.push_back(fmt::format(
       "E(theta_o) = DirectionalAlbedo (stratified, MIS cosine + GGX-equivalent lobe, balance "
       "heuristic), {}^2 strata per technique doubled up to {}^2 until sigma <= {}; BRDF only "
@@ -146,8 +141,12 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
     n["strata_per_axis"] = a.max_strata;
     n["error_target_met"] = max_sigma <= o.target_std_error;
     n["verdict"] = max_e <= 1.0 + o.sigma_multiple * sigma_at_max ? "conserves" : "violates";
-    result.curves[label + ": albedo (quadrature)"] =
-        Curve(a.theta_deg, y, "theta_o (deg)", "directional albedo E (max channel)");
+    result.curves.push_back({.series = label,
+                             .kind = CurveKind::kAlbedo,
+                             .x = a.theta_deg,
+                             .y = std::move(y),
+                             .x_label = "theta_o (deg)",
+                             .y_label = "directional albedo E (max channel)"});
     if (furnace) {
       Image img = inputs.renderer->Render(*furnace, info.id, m.params);
       double sum_sq = 0, fmax = 0, fsum = 0;
@@ -189,8 +188,12 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
         fx.push_back(tsum[b] / bn[b]);
         fy.push_back(bsum[b] / bn[b]);
       }
-      result.curves[label + ": white furnace (GL)"] =
-          Curve(fx, fy, "theta_o (deg)", "directional albedo E (max channel)");
+      result.curves.push_back({.series = label,
+                               .kind = CurveKind::kWhiteFurnace,
+                               .x = std::move(fx),
+                               .y = std::move(fy),
+                               .x_label = "theta_o (deg)",
+                               .y_label = "directional albedo E (max channel)"});
     }
   }
 
@@ -227,21 +230,28 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
     n["flux_min"] = Num(*lo);
     n["flux_max"] = Num(*hi);
     n["flux_max_over_min"] = Num(*lo > 0 ? *hi / *lo : std::nan(""));
-    nlohmann::json c = Curve(x, y, "shininess n", "specular albedo at normal view (flux)");
-    c["x_scale"] = "log";
-    result.curves["sweep: " + s.name] = c;
-  }
-  {
-    double worst = 0;
-    const auto& sweep = result.curves["sweep: " + series[1].name];
-    for (std::size_t i = 0; i < closed.size(); ++i) {
-      worst = std::max(worst, std::abs(sweep["y"][i].get<double>() - closed[i]));
+    result.curves.push_back({.series = s.name,
+                             .kind = CurveKind::kLobeWidthSweep,
+                             .x = std::move(x),
+                             .y = std::move(y),
+                             .x_label = "shininess n",
+                             .y_label = "specular albedo at normal view (flux)",
+                             .x_scale = AxisScale::kLog});
+    if (s.model == "blinn-phong-normalized") {
+      const std::vector<double>& flux = result.curves.back().y;
+      double worst = 0;
+      for (std::size_t i = 0; i < closed.size(); ++i) {
+        worst = std::max(worst, std::abs(flux[i] - closed[i]));
+      }
+      n["max_abs_error_vs_closed_form"] = worst;
+      result.curves.push_back({.series = "blinn-phong-normalized closed form",
+                               .kind = CurveKind::kLobeWidthSweep,
+                               .x = o.sweep_shininess,
+                               .y = closed,
+                               .x_label = "shininess n",
+                               .y_label = "specular albedo at normal view (flux)",
+                               .x_scale = AxisScale::kLog});
     }
-    result.numbers["sweep"]["blinn-phong-normalized"]["max_abs_error_vs_closed_form"] = worst;
-    nlohmann::json c =
-        Curve(o.sweep_shininess, closed, "shininess n", "specular albedo at normal view (flux)");
-    c["x_scale"] = "log";
-    result.curves["sweep: blinn-phong-normalized closed form"] = c;
   }
   result.notes.push_back(fmt::format(
       "sweep: specular-only albedo at normal view, {}^2 strata; GGX roughness from n by Walter "

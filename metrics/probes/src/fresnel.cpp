@@ -15,7 +15,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
 
 struct Binned {
@@ -86,11 +85,7 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
   if (inputs.truth) internal::ValidateModel(*inputs.truth);
   for (const ModelUnderTest& m : inputs.models) internal::ValidateModel(m);
 
-  ProbeResult result;
-  result.probe = "fresnel";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
+  ProbeResult result(ProbeKind::kFresnel);
   const auto refs = internal::SelectTwinReferences(inputs, o.lightings, &result.notes);
   if (refs.empty()) {
     throw Error("fresnel", "references",
@@ -140,8 +135,13 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
     n["pixels"] = dec.pixels.size();
     std::vector<double> x, y;
     tv.Points(&x, &y);
-    result.curves[fmt::format("{} @ {}: specular vs theta_v", label, ref.name)] =
-        Curve(x, y, "theta_v (deg)", "mean specular luminance");
+    result.curves.push_back({.series = label,
+                             .reference = ref.name,
+                             .kind = CurveKind::kSpecularVsThetaV,
+                             .x = std::move(x),
+                             .y = std::move(y),
+                             .x_label = "theta_v (deg)",
+                             .y_label = "mean specular luminance"});
     result.notes.push_back(
         fmt::format("{} @ {}: diffuse estimate from {}", label, ref.name, dec.diffuse_source));
     st->theta_v.emplace(ref.name, tv);
@@ -178,8 +178,12 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
       n["rim_to_centre"] = Num(f_centre > 0 ? f_rim / f_centre : std::nan(""));
       std::vector<double> x, y;
       st.theta_d.Points(&x, &y);
-      result.curves[label + ": F vs theta_d"] =
-          Curve(x, y, "theta_d (deg)", "effective Fresnel sum(spec) / sum(lobe_F=1)");
+      result.curves.push_back({.series = label,
+                               .kind = CurveKind::kFresnelVsThetaD,
+                               .x = std::move(x),
+                               .y = std::move(y),
+                               .x_label = "theta_d (deg)",
+                               .y_label = "effective Fresnel sum(spec) / sum(lobe_F=1)"});
     } else {
       n["F_centre"] = nullptr;
       n["F_rim"] = nullptr;

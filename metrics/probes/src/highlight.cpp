@@ -13,7 +13,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -169,11 +168,7 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
   if (inputs.truth) internal::ValidateModel(*inputs.truth);
   for (const ModelUnderTest& m : inputs.models) internal::ValidateModel(m);
 
-  ProbeResult result;
-  result.probe = "highlight";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
+  ProbeResult result(ProbeKind::kHighlight);
   const auto refs = internal::SelectTwinReferences(inputs, o.lightings, &result.notes);
   if (refs.empty()) {
     throw Error("highlight", "references",
@@ -198,10 +193,14 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
             fmt::format("{} @ {}: no highlight (no positive specular residual)", label, ref->name));
         return;
       }
-      nlohmann::json c =
-          Curve(s.falloff_x, s.falloff_y, "theta_h (deg)", "specular / peak (mean per bin)");
-      c["y_scale"] = "log";
-      result.curves[fmt::format("{} @ {}: falloff", label, ref->name)] = c;
+      result.curves.push_back({.series = label,
+                               .reference = ref->name,
+                               .kind = CurveKind::kFalloff,
+                               .x = s.falloff_x,
+                               .y = s.falloff_y,
+                               .x_label = "theta_h (deg)",
+                               .y_label = "specular / peak (mean per bin)",
+                               .y_scale = AxisScale::kLog});
       result.notes.push_back(
           fmt::format("{} @ {}: diffuse estimate from {}", label, ref->name, dec.diffuse_source));
     };
