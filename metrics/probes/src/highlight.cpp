@@ -22,6 +22,7 @@ struct Shape {
   double offset_px = kNaN, offset_deg = kNaN, area_px = kNaN, fwhm_px = kNaN;
   double hwhm_deg = kNaN, fwhm_deg = kNaN, aspect = kNaN, orientation_deg = kNaN;
   double tail_fraction = kNaN;
+  double peak_fraction = kNaN;  // peak / the brightest pixel's total: how much highlight there is
   std::vector<double> falloff_x, falloff_y;
 };
 
@@ -127,7 +128,9 @@ Shape Measure(const internal::Decomposition& dec, int width, int height,
   std::vector<double> spec(static_cast<std::size_t>(width) * height, kNaN);
   std::vector<double> theta(spec.size(), -1.0);
   int peak = -1, mirror = -1;
+  double brightest = 0;
   for (const auto& p : dec.pixels) {
+    brightest = std::max(brightest, p.total);
     const int i = p.y * width + p.x;
     spec[i] = p.specular;
     theta[i] = p.theta_h_deg;
@@ -136,6 +139,7 @@ Shape Measure(const internal::Decomposition& dec, int width, int height,
   }
   if (peak < 0 || !(spec[peak] > 0)) return s;  // No lit pixel or no highlight.
   s.peak = spec[peak];
+  s.peak_fraction = brightest > 0 ? s.peak / brightest : kNaN;
   s.peak_x = peak % width;
   s.peak_y = peak / width;
   s.mirror_x = mirror % width;
@@ -161,7 +165,8 @@ nlohmann::json ShapeJson(const Shape& s) {
           {"fwhm_deg", Num(s.fwhm_deg)},
           {"aspect", Num(s.aspect)},
           {"orientation_deg", Num(s.orientation_deg)},
-          {"tail_fraction", Num(s.tail_fraction)}};
+          {"tail_fraction", Num(s.tail_fraction)},
+          {"peak_fraction", Num(s.peak_fraction)}};
 }
 
 }  // namespace
@@ -197,7 +202,20 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
       const internal::Decomposition dec =
           internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
       const Shape s = Measure(dec, image.width, image.height, o);
+      // A reference without a highlight (a Lambert material: its residual is render noise) has
+      // no shape to reproduce: it gets no shape numbers, so its highlight verdicts read "not
+      // applicable" rather than "not reproduced".
+      if (label == "reference" && !(s.peak_fraction >= o.min_peak_fraction)) {
+        result.numbers[label][ref->name] = {{"has_highlight", false},
+                                            {"peak_fraction", Num(s.peak_fraction)}};
+        result.notes.push_back(fmt::format(
+            "reference @ {}: no highlight (specular peak {:.3g} of the brightest pixel < {}): "
+            "highlight verdicts not applicable",
+            ref->name, s.peak_fraction, o.min_peak_fraction));
+        return;
+      }
       result.numbers[label][ref->name] = ShapeJson(s);
+      result.numbers[label][ref->name]["has_highlight"] = s.peak > 0;
       if (!(s.peak > 0)) {
         result.notes.push_back(
             fmt::format("{} @ {}: no highlight (no positive specular residual)", label, ref->name));
@@ -221,7 +239,8 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
       nlohmann::json& n = result.numbers[m.label][ref->name];
       const nlohmann::json& r = result.numbers["reference"][ref->name];
       for (const char* f : {"fwhm_deg", "tail_fraction", "peak", "area_px"}) {
-        const bool ok = n[f].is_number() && r[f].is_number() && r[f].get<double>() != 0.0;
+        const bool ok = n.contains(f) && r.contains(f) && n[f].is_number() &&
+                        r[f].is_number() && r[f].get<double>() != 0.0;
         n[std::string(f) + "_ratio"] =
             ok ? Num(n[f].get<double>() / r[f].get<double>()) : nlohmann::json();
       }

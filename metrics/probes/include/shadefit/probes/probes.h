@@ -125,6 +125,9 @@ struct HighlightOptions {
   double tail_hwhm_multiple = 2.0;     // Tail = theta_h beyond this many HWHM.
   double min_coverage = 0.999;         // Pixels with lower coverage (edges) are skipped.
   double diffuse_percentile = 25.0;    // No truth: Lambert-fit diffuse estimate (FresnelOptions).
+  // A reference whose specular peak is below this fraction of its brightest pixel has no
+  // highlight (render noise on a Lambert material): no shape numbers, verdicts not applicable.
+  double min_peak_fraction = 0.05;
   std::vector<std::string> lightings;  // Use only these lightings; empty = every twin-supported.
 };
 
