@@ -98,6 +98,24 @@ def check_fit_job(job, path):
         need(e, "lighting", path, str, f"evaluations[{i}]")
 
 
+PROBE_SCHEMA = "shadefit.probe/2"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
+
+
+def check_probe_result(result, path, where):
+    """A probe result as ProbeResultToJson writes it: curves are records, never parsed names."""
+    schema = result.get("schema") if isinstance(result, dict) else None
+    if schema != PROBE_SCHEMA:
+        raise ReportInputError(f"{path}: {where}.schema: want {PROBE_SCHEMA}, got {schema!r} "
+                               "(written by an older shadefit: run the study again)")
+    for i, c in enumerate(need(result, "curves", path, list, where)):
+        for field, kind in (("series", str), ("kind", str), ("x", list), ("y", list),
+                            ("x_label", str), ("y_label", str), ("x_scale", str),
+                            ("y_scale", str)):
+            need(c, field, path, kind, f"{where}.curves[{i}]")
+        if c.get("reference") is not None:
+            need(c, "reference", path, str, f"{where}.curves[{i}]")
+
+
 def load_study(study_dir):
     study_path = os.path.join(study_dir, "study.json")
     study = load_json(study_path)
@@ -123,7 +141,8 @@ def load_study(study_dir):
             fits[(job["material"], job["label"])] = job
         elif job.get("kind") == "probe":
             need(job, "material", path, str)
-            need(job, "probes", path, dict)
+            for probe, result in need(job, "probes", path, dict).items():
+                check_probe_result(result, path, f"probes.{probe}")
             probes[job["material"]] = job
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = load_json(prov_path) if os.path.exists(prov_path) else {}

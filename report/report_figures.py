@@ -268,41 +268,29 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
 # Lighting shown per probe: one per panel keeps a figure readable (all lightings stay in the JSON
 # and the tables). Back light for Fresnel, key light for the highlight shape.
 PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key", "camera"]}
-
-
-def parse_curve_names(curves):
-    """(kind, label, reference, curve) per curve named "<label> @ <reference>: <kind>" or
-    "<label>: <kind>"; the energy probe's "sweep: <model ...>" curves share one "sweep" panel."""
-    parsed = []
-    for name, c in curves.items():
-        xs, ys = c.get("x", []), c.get("y", [])
-        if not xs or len(xs) != len(ys):
-            continue
-        head, _, kind = name.partition(": ")
-        if head == "sweep":
-            parsed.append(("sweep of the lobe width", kind, "", c))
-            continue
-        head, _, kind = name.rpartition(": ")
-        label, _, ref = head.partition(" @ ")
-        parsed.append((kind or name, label or name, ref, c))
-    return parsed
+# The energy probe's sweep (CurveKindName, metrics/probes/src/probe_kind.cpp).
+SWEEP_KIND = "sweep of the lobe width"
 
 
 def probe_curve_figure(probe, material, curves, labels):
-    parsed = parse_curve_names(curves)
-    if not parsed:
+    """One panel per curve kind, in the order the probe measured them; per-reference curves show
+    one reference (PREFERRED_LIGHTING). `curves`: the probe's curve records, {"series",
+    "reference", "kind", "x", "y", "x_label", "y_label", "x_scale", "y_scale", ...}
+    (ProbeResultToJson, docs/probes.md)."""
+    curves = [c for c in curves if c["x"] and len(c["x"]) == len(c["y"])]
+    if not curves:
         return None
     kinds = []
-    for k, _, _, _ in parsed:
-        if k not in kinds:
-            kinds.append(k)
+    for c in curves:
+        if c["kind"] not in kinds:
+            kinds.append(c["kind"])
     n = len(kinds)
     width = COLUMN_IN if n == 1 else PAGE_IN
     panel_h = 1.9
     legend_h = 0.55
     fig = plt.figure(figsize=(width, panel_h + legend_h + 0.25))
     handles = {}
-    series = sorted({lab for _, lab, _, _ in parsed if lab not in ("reference", "truth")},
+    series = sorted({c["series"] for c in curves if c["series"] not in ("reference", "truth")},
                     key=lambda x: (labels.index(x) if x in labels else len(labels), x))
     for k_i, kind in enumerate(kinds):
         left_in = 0.72  # Room for a two-line axis label and its tick labels.
@@ -310,15 +298,19 @@ def probe_curve_figure(probe, material, curves, labels):
                            (legend_h + 0.3) / (panel_h + legend_h + 0.25),
                            (width / n - left_in - 0.2) / width,
                            (panel_h - 0.45) / (panel_h + legend_h + 0.25)])
-        items = [p for p in parsed if p[0] == kind]
-        refs = sorted({r for _, _, r, _ in items if r})
+        # Fits in the study's order, the reference (dashed black) last, on top of them.
+        items = sorted((c for c in curves if c["kind"] == kind), key=lambda c: (
+            c["series"] in ("reference", "truth"),
+            series.index(c["series"]) if c["series"] in series else len(series)))
+        refs = sorted({c["reference"] for c in items if c["reference"]})
         chosen = None
         for want in PREFERRED_LIGHTING.get(probe, []):
             chosen = next((r for r in refs if r.endswith("-" + want)), None)
             if chosen:
                 break
         chosen = chosen or (refs[0] if refs else None)
-        for _, lab, ref, c in items:
+        for c in items:
+            lab, ref = c["series"], c["reference"]
             if ref and ref != chosen:
                 continue
             ys = np.array([np.nan if y is None else y for y in c["y"]], dtype=float)
@@ -328,11 +320,12 @@ def probe_curve_figure(probe, material, curves, labels):
             else:
                 h, = ax.plot(c["x"], ys, linewidth=1.1, label=lab, **style_of(lab, series))
             handles.setdefault(lab, h)
-            ax.set_xlabel(textwrap.fill(c.get("x_label", ""), 40))
-            ax.set_ylabel(textwrap.fill(c.get("y_label", ""), 26))
-            if c.get("y_scale") == "log" or probe == "highlight" or kind.startswith("sweep"):
+            ax.set_xlabel(textwrap.fill(c["x_label"], 40))
+            ax.set_ylabel(textwrap.fill(c["y_label"], 26))
+            # The highlight falloff and the energy sweep span decades: log y for both.
+            if c["y_scale"] == "log" or probe == "highlight" or kind == SWEEP_KIND:
                 ax.set_yscale("log")
-            if kind.startswith("sweep"):
+            if c["x_scale"] == "log":
                 ax.set_xscale("log")
         title = kind + (f" ({chosen})" if chosen else "")
         ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
@@ -374,7 +367,7 @@ def probe_figures(study, probes, fig_dir, manifest, flatten):
     labels = [f["label"] for f in study["fits"]]
     for material, job in sorted(probes.items()):
         for probe, result in job.get("probes", {}).items():
-            curves = result.get("curves") or {}
+            curves = result.get("curves") or []
             fig = None
             if probe != "portability" and curves:
                 fig = probe_curve_figure(probe, material, curves, labels)

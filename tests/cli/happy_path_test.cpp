@@ -455,7 +455,10 @@ TEST(CliHappyPath, ProbeFresnelGivesSchlickAtConstantThetaD) {
   EXPECT_NEAR(g["F_centre"].get<double>(), y0, 1e-4 * y0);
   EXPECT_NEAR(g["F_rim"].get<double>(), y75, 1e-4 * y75);
   EXPECT_NEAR(g["rim_to_centre"].get<double>(), y75 / y0, 2e-4 * y75 / y0);
-  const json& curve = j["curves"]["ggx: F vs theta_d"];
+  json curve;
+  for (const json& c : j["curves"]) {
+    if (c["series"] == "ggx" && c["kind"] == "F vs theta_d") curve = c;
+  }
   ASSERT_EQ(curve["x"].size(), 2u) << curve.dump();
   EXPECT_NEAR(curve["x"][0].get<double>(), 0.0, 1e-3);
   EXPECT_NEAR(curve["x"][1].get<double>(), 75.0, 1e-3);

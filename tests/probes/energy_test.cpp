@@ -42,7 +42,9 @@ TEST(EnergyProbe, LambertAlbedoIsKdAndFurnaceAgrees) {
   EXPECT_EQ(n["verdict"], "conserves");
   EXPECT_TRUE(n["error_target_met"].get<bool>());
   EXPECT_LE(n["max_std_error"].get<double>(), 1e-3);
-  for (const double y : r.curves["truth: albedo (quadrature)"]["y"]) EXPECT_NEAR(y, 0.6, 1e-3);
+  for (const double y : CurveOf(r, probes::CurveKind::kAlbedo, "truth").y) {
+    EXPECT_NEAR(y, 0.6, 1e-3);
+  }
   EXPECT_LT(n["furnace_vs_quadrature_rmse"].get<double>(), 0.01);
 }
 

@@ -9,6 +9,7 @@
 namespace shadefit::testing {
 namespace {
 
+using probes::CurveKind;
 using probes::FresnelProbe;
 using probes::ProbeInputs;
 
@@ -42,7 +43,7 @@ TEST(FresnelProbe, SchlickGgxGivesF0AndSchlickCurve) {
               f_centre, r.numbers["reference"]["F_rim"].get<double>(),
               r.numbers["reference"]["rim_to_centre"].get<double>());
   EXPECT_NEAR(f_centre, 0.04, 1e-3);
-  const auto pts = CurvePoints(r.curves.at("reference: F vs theta_d"));
+  const auto pts = CurvePoints(CurveOf(r, CurveKind::kFresnelVsThetaD, "reference"));
   // The camera light gives theta_d = 0, rim and mirror85 the grazing end: the curve must span
   // both, so the loop below cannot pass on a handful of flat-region bins.
   ASSERT_GE(pts.size(), 5u);
@@ -114,7 +115,7 @@ TEST(FresnelProbe, PrincipledTruthGivesCyclesFresnelCurve) {
   std::printf("[ fresnel ] principled F_centre %.5f (cspec0 0.04), rim/centre %.3f\n", f_centre,
               r.numbers["reference"]["rim_to_centre"].get<double>());
   EXPECT_NEAR(f_centre, 0.04, 2e-3);
-  const auto pts = CurvePoints(r.curves.at("reference: F vs theta_d"));
+  const auto pts = CurvePoints(CurveOf(r, CurveKind::kFresnelVsThetaD, "reference"));
   ASSERT_GE(pts.size(), 5u);
   double x_min = 90, x_max = 0;
   for (const auto& [x, y] : pts) {
@@ -136,7 +137,7 @@ TEST(FresnelProbe, PrincipledTruthGivesCyclesFresnelCurve) {
 TEST(FresnelProbe, BlinnPhongCurveIsFlat) {
   const ProbeInputs in = GgxInputs();
   const probes::ProbeResult r = FresnelProbe(in);
-  const auto pts = CurvePoints(r.curves.at("blinn-phong: F vs theta_d"));
+  const auto pts = CurvePoints(CurveOf(r, CurveKind::kFresnelVsThetaD, "blinn-phong"));
   ASSERT_GE(pts.size(), 4u);
   for (const auto& [x, y] : pts) EXPECT_NEAR(y, 0.3, 2e-3) << "theta_d " << x;
   EXPECT_NEAR(r.numbers["blinn-phong"]["rim_to_centre"].get<double>(), 1.0, 0.01);
@@ -154,8 +155,11 @@ TEST(FresnelProbe, LambertPercentileEstimateLeavesNoSpecular) {
   in.references.push_back(MakeReference(lambert, "side"));
   const probes::ProbeResult r = FresnelProbe(in);
   EXPECT_TRUE(r.numbers["reference"]["F_centre"].is_null());
-  for (const auto& [name, curve] : r.curves.items()) {
-    for (const auto& [x, y] : CurvePoints(curve)) EXPECT_NEAR(y, 0.0, 2e-4) << name << " " << x;
+  for (const probes::ProbeCurve& curve : r.curves) {
+    for (const auto& [x, y] : CurvePoints(curve)) {
+      EXPECT_NEAR(y, 0.0, 2e-4) << curve.series << " @ " << curve.reference << ": "
+                                << probes::CurveKindName(curve.kind) << " " << x;
+    }
   }
 }
 
@@ -167,8 +171,8 @@ TEST(FresnelProbe, TwinPathMatchesGlPath) {
   in.renderer = nullptr;  // models by the C++ twin
   const probes::ProbeResult twin = FresnelProbe(in);
   for (const char* label : {"ggx-f0x2", "blinn-phong"}) {
-    const std::string series = std::string(label) + ": F vs theta_d";
-    const auto a = CurvePoints(gl.curves.at(series)), b = CurvePoints(twin.curves.at(series));
+    const auto a = CurvePoints(CurveOf(gl, CurveKind::kFresnelVsThetaD, label)),
+               b = CurvePoints(CurveOf(twin, CurveKind::kFresnelVsThetaD, label));
     ASSERT_EQ(a.size(), b.size()) << label;
     ASSERT_GE(a.size(), 5u) << label;
     double lo = 1e9, hi = 0;

@@ -154,5 +154,40 @@ TEST(HighlightProbe, KeyLightHighlightIsUpRightAndElongated) {
   EXPECT_NEAR(n["orientation_deg"].get<double>(), -45.0, 10.0);
 }
 
+// A material without a highlight (white Lambert, rendered with 2% noise as a path tracer leaves
+// it, diffuse estimated from the image) has no shape to reproduce: the reference gets
+// has_highlight = false and no shape numbers, so its highlight verdicts read "not applicable".
+// The same sphere with a GGX lobe keeps its shape numbers.
+TEST(HighlightProbe, NoHighlightOnLambertMeansNotApplicable) {
+  auto run = [](const ModelUnderTest& material) {
+    ProbeInputs in;
+    in.renderer = &SharedRenderer();
+    in.references.push_back(MakeReference(material, "camera", kRes));
+    Image& image = in.references.back().image;
+    std::uint32_t state = 12345;  // Fixed-seed LCG noise of +-2%.
+    for (std::size_t i = 0; i < image.data.size(); ++i) {
+      if (image.channels == 4 && i % 4 == 3) continue;
+      state = state * 1664525u + 1013904223u;
+      image.data[i] *= 1.0f + 0.02f * (static_cast<float>(state >> 8) / 8388608.0f - 1.0f);
+    }
+    in.models = {material};
+    return HighlightProbe(in);
+  };
+  const ModelUnderTest lambert = MakeModel("lambert", "lambert", {"kd=0.8"});
+  const probes::ProbeResult flat = run(lambert);
+  const auto& ref = flat.numbers["reference"]["lambert-camera"];
+  EXPECT_EQ(ref["has_highlight"], false) << ref.dump();
+  EXPECT_FALSE(ref.contains("fwhm_deg")) << ref.dump();
+  EXPECT_LT(ref["peak_fraction"].get<double>(), 0.05);
+  EXPECT_FALSE(flat.numbers["lambert"]["lambert-camera"]["fwhm_deg_ratio"].is_number());
+
+  const ModelUnderTest glossy = MakeModel("ggx", "ggx", {"roughness=0.3"});
+  const probes::ProbeResult shiny = run(glossy);
+  const auto& gref = shiny.numbers["reference"]["ggx-camera"];
+  EXPECT_EQ(gref["has_highlight"], true) << gref.dump();
+  EXPECT_TRUE(gref["fwhm_deg"].is_number()) << gref.dump();
+  EXPECT_GT(gref["peak_fraction"].get<double>(), 0.05);
+}
+
 }  // namespace
 }  // namespace shadefit::testing

@@ -84,8 +84,11 @@ TEST(ProbeOutputs, WritesJsonAndPngAtomically) {
   EXPECT_GT(fs::file_size(fs::path(dir) / "fresnel.png"), 1000u);
   std::ifstream f(fs::path(dir) / "fresnel.json");
   const auto j = nlohmann::json::parse(f);
+  EXPECT_EQ(j["schema"], probes::kProbeResultSchema);
   EXPECT_EQ(j["probe"], "fresnel");
-  EXPECT_TRUE(j["curves"].is_object());
+  ASSERT_TRUE(j["curves"].is_array());
+  ASSERT_EQ(j["curves"].size(), result.curves.size());
+  EXPECT_EQ(j["curves"][0]["series"], result.curves[0].series);
   for (const auto& e : fs::directory_iterator(dir)) {
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
   }
@@ -94,14 +97,55 @@ TEST(ProbeOutputs, WritesJsonAndPngAtomically) {
 TEST(ProbeOutputs, UnwritableDirectoryIsAnError) {
   const std::string dir = TestOutputDir("probes");
   { std::ofstream(dir + "/a_file") << "x"; }
-  probes::ProbeResult r;
-  r.probe = "energy";
+  probes::ProbeResult r(probes::ProbeKind::kEnergy);
   try {
     probes::WriteProbeOutputs(r, dir + "/a_file/sub");
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("a_file/sub"), std::string::npos) << e.what();
   }
+}
+
+// A curve is written as one record whose fields are the typed curve's, value for value: no name
+// to parse back (docs/probes.md).
+TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
+  probes::ProbeResult r(probes::ProbeKind::kHighlight);
+  r.curves.push_back({.series = "ggx",
+                      .reference = "gold-key",
+                      .kind = probes::CurveKind::kFalloff,
+                      .x = {0.25, 0.75},
+                      .y = {1.0, std::numeric_limits<double>::quiet_NaN()},
+                      .x_label = "theta_h (deg)",
+                      .y_label = "specular / peak",
+                      .y_scale = probes::AxisScale::kLog});
+  r.curves.push_back({.series = "truth",
+                      .kind = probes::CurveKind::kRmsePerReference,
+                      .x = {0.0},
+                      .y = {0.5},
+                      .x_ticks = {"gold-key"}});
+  const nlohmann::json j = probes::ProbeResultToJson(r);
+  EXPECT_EQ(j["probe"], "highlight");
+  ASSERT_EQ(j["curves"].size(), 2u);
+  const nlohmann::json& a = j["curves"][0];
+  EXPECT_EQ(a["series"], "ggx");
+  EXPECT_EQ(a["reference"], "gold-key");
+  EXPECT_EQ(a["kind"], "falloff");
+  EXPECT_EQ(a["x"], nlohmann::json({0.25, 0.75}));
+  EXPECT_EQ(a["y"][0], 1.0);
+  EXPECT_TRUE(a["y"][1].is_null());
+  EXPECT_EQ(a["x_label"], "theta_h (deg)");
+  EXPECT_EQ(a["x_scale"], "linear");
+  EXPECT_EQ(a["y_scale"], "log");
+  EXPECT_TRUE(a["x_ticks"].empty());
+  const nlohmann::json& b = j["curves"][1];
+  EXPECT_TRUE(b["reference"].is_null());
+  EXPECT_EQ(b["kind"], "RMSE per reference");
+  EXPECT_EQ(b["x_ticks"], nlohmann::json({"gold-key"}));
+  EXPECT_EQ(probes::FindCurve(r, probes::CurveKind::kFalloff, "ggx", "gold-key"), &r.curves[0]);
+  EXPECT_EQ(probes::FindCurve(r, probes::CurveKind::kFalloff, "ggx"), nullptr);
+
+  r.curves[1].y.push_back(1.0);  // x and y of different lengths: a bug, not a file
+  EXPECT_THROW(probes::ProbeResultToJson(r), Error);
 }
 
 // Probe names are parsed once into kinds; every kind's name parses back to it.

@@ -2,7 +2,10 @@
 // lightings (reference_images/cycles/scenes, scaled down), plus the GL context.
 #pragma once
 
+#include <cmath>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../render/test_util.h"
@@ -70,12 +73,25 @@ inline probes::ProbeReference MakeReference(const probes::ModelUnderTest& truth,
   return ref;
 }
 
-// Points of a curve as (x, y) pairs (nulls skipped).
-inline std::vector<std::pair<double, double>> CurvePoints(const nlohmann::json& curve) {
+// The curve of `kind` for `series` (on `reference`; empty: pooled); throws when there is none, so
+// that the test fails naming it.
+inline const probes::ProbeCurve& CurveOf(const probes::ProbeResult& r, probes::CurveKind kind,
+                                         const std::string& series,
+                                         const std::string& reference = "") {
+  const probes::ProbeCurve* c = probes::FindCurve(r, kind, series, reference);
+  if (c == nullptr) {
+    throw std::runtime_error("no curve '" + std::string(probes::CurveKindName(kind)) + "' of " +
+                             series + (reference.empty() ? "" : " @ " + reference));
+  }
+  return *c;
+}
+
+// Points of a curve as (x, y) pairs (non-finite ones, written as null, skipped).
+inline std::vector<std::pair<double, double>> CurvePoints(const probes::ProbeCurve& curve) {
   std::vector<std::pair<double, double>> out;
-  for (std::size_t i = 0; i < curve.at("x").size(); ++i) {
-    if (curve["x"][i].is_null() || curve["y"][i].is_null()) continue;
-    out.emplace_back(curve["x"][i].get<double>(), curve["y"][i].get<double>());
+  for (std::size_t i = 0; i < curve.x.size(); ++i) {
+    if (!std::isfinite(curve.x[i]) || !std::isfinite(curve.y[i])) continue;
+    out.emplace_back(curve.x[i], curve.y[i]);
   }
   return out;
 }

@@ -122,13 +122,14 @@ TEST_P(GlslTwinTest, EveryTermMatchesCppTwin) {
   Renderer& renderer = testing::SharedRenderer();
   const auto sets = ParameterSets(model);
   const std::pair<ModelTerm, const char*> terms[] = {
-      {ModelTerm::kDiffuse, "diffuse"}, {ModelTerm::kLobe, "lobe"}, {ModelTerm::kFresnel, "fresnel"}};
+      {ModelTerm::kDiffuse, "diffuse"},
+      {ModelTerm::kLobe, "lobe"},
+      {ModelTerm::kFresnel, "fresnel"}};
   int terms_compared = 0;
-  for (const auto& [term, term_name] : terms) {
-    for (std::size_t s = 0; s < sets.size(); s += 5) {
-      const Scene scene =
-          ParseScene(testing::SphereSceneToml(64, 64, LightsFor(s)), "twin.toml");
-      const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+  for (std::size_t s = 0; s < sets.size(); s += 5) {
+    const Scene scene = ParseScene(testing::SphereSceneToml(64, 64, LightsFor(s)), "twin.toml");
+    const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+    for (const auto& [term, term_name] : terms) {
       const Image twin = ShadeGBuffer(scene, gbuffer, model.id, sets[s], term);
       double peak = 0;
       for (int y = 0; y < twin.height; ++y) {

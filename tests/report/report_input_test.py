@@ -48,6 +48,17 @@ def first_fit_job(d):
     return sorted(n for n in os.listdir(os.path.join(d, "jobs")) if n.startswith("fit."))[0]
 
 
+def first_probe_job(d):
+    return sorted(n for n in os.listdir(os.path.join(d, "jobs")) if n.startswith("probe."))[0]
+
+
+def old_curves(j):
+    """A probe result as shadefit.probe/1 wrote it: no schema, curves keyed by a built name."""
+    r = j["probes"]["fresnel"]
+    r.pop("schema")
+    r["curves"] = {f"{c['series']}: {c['kind']}": c for c in r["curves"]}
+
+
 CASES = [
     ("study.json not JSON", lambda d: open(os.path.join(d, "study.json"), "w").write("{nope"),
      "study.json", "not JSON"),
@@ -64,6 +75,13 @@ CASES = [
     ("fit job without parameters", lambda d: edit_json(
         os.path.join(d, "jobs", first_fit_job(d)), lambda j: j.pop("parameters")),
      "jobs/fit.", "parameters: missing"),
+    ("probe result of an older shadefit", lambda d: edit_json(
+        os.path.join(d, "jobs", first_probe_job(d)), old_curves),
+     "jobs/probe.", "probes.fresnel.schema: want shadefit.probe/2"),
+    ("probe curve without a kind", lambda d: edit_json(
+        os.path.join(d, "jobs", first_probe_job(d)),
+        lambda j: j["probes"]["fresnel"]["curves"][0].pop("kind")),
+     "jobs/probe.", "probes.fresnel.curves[0].kind: missing"),
     ("chart manifest with a short row", lambda d: edit_json(
         os.path.join(d, "charts", "charts.json"), lambda j: j["charts"][0]["images"][0].pop()),
      "charts/charts.json", "charts[0].images"),

@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "probe_common.h"
 #include "shadefit/render/albedo.h"
@@ -13,8 +16,10 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
+
+constexpr const char* kAlbedoAxis = "directional albedo E (max channel)";
+constexpr const char* kSweepAxis = "specular albedo at normal view (flux)";
 
 struct AlbedoCurve {
   std::vector<double> theta_deg;
@@ -64,9 +69,8 @@ std::string FurnaceToml(int res, int samples) {
       res, samples);
 }
 
-}  // namespace
 
-ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
+void ValidateOptions(const EnergyOptions& o) {
   if (o.view_angles_deg.empty()) throw Error("energy", "view_angles_deg", "empty");
   for (double t : o.view_angles_deg) {
     if (!(t >= 0 && t < 90)) {
@@ -79,17 +83,185 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
   if (o.strata_per_axis < 1 || o.max_strata_per_axis < o.strata_per_axis) {
     throw Error("energy", "strata_per_axis", "needs 1 <= strata_per_axis <= max_strata_per_axis");
   }
+}
+
+// The truth first, then every model, each validated; the truth is labelled "truth".
+std::vector<ModelUnderTest> ModelsOf(const ProbeInputs& inputs) {
   std::vector<ModelUnderTest> models;
   if (inputs.truth) models.push_back(*inputs.truth);
   for (const ModelUnderTest& m : inputs.models) models.push_back(m);
   if (models.empty()) throw Error("energy", "models", "no model and no truth given");
   for (const ModelUnderTest& m : models) internal::ValidateModel(m);
+  if (inputs.truth) models.front().label = "truth";
+  return models;
+}
 
-  ProbeResult result;
-  result.probe = "energy";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
+// Albedo numbers of one model (max over angles and channels, its sigma, the verdict) and its
+// curve, the largest channel per angle.
+ProbeCurve AlbedoNumbers(const ModelUnderTest& m, const AlbedoCurve& a, const EnergyOptions& o,
+                         nlohmann::json* numbers) {
+  double max_e = -1, max_sigma = 0, max_at = 0, sigma_at_max = 0;
+  int max_channel = 0;
+  std::vector<double> y;
+  for (std::size_t i = 0; i < a.e.size(); ++i) {
+    double row = -1;
+    for (int c = 0; c < 3; ++c) {
+      max_sigma = std::max(max_sigma, a.e[i].std_error[c]);
+      row = std::max(row, a.e[i].value[c]);
+      if (a.e[i].value[c] > max_e) {
+        max_e = a.e[i].value[c];
+        max_at = a.theta_deg[i];
+        max_channel = c;
+        sigma_at_max = a.e[i].std_error[c];
+      }
+    }
+    y.push_back(row);
+  }
+  nlohmann::json& n = *numbers;
+  n["model"] = m.model;
+  n["albedo_normal"] = Num(std::max({a.e[0].value[0], a.e[0].value[1], a.e[0].value[2]}));
+  n["max_albedo"] = Num(max_e);
+  n["max_albedo_theta_deg"] = max_at;
+  n["max_albedo_channel"] = std::string(1, "rgb"[max_channel]);
+  n["max_albedo_std_error"] = Num(sigma_at_max);
+  n["max_std_error"] = Num(max_sigma);
+  n["strata_per_axis"] = a.max_strata;
+  n["error_target_met"] = max_sigma <= o.target_std_error;
+  n["verdict"] = max_e <= 1.0 + o.sigma_multiple * sigma_at_max ? "conserves" : "violates";
+  return {.series = m.label,
+          .kind = CurveKind::kAlbedo,
+          .x = a.theta_deg,
+          .y = std::move(y),
+          .x_label = "theta_o (deg)",
+          .y_label = kAlbedoAxis};
+}
+
+// The white-furnace scene and its G-buffer, rendered once per probe.
+struct Furnace {
+  Scene scene;
+  GBuffer gbuffer;
+};
+
+// One model in the furnace: per covered pixel, E(theta_v) (largest channel) against the
+// quadrature curve `a`; numbers furnace_max, furnace_mean, furnace_vs_quadrature_rmse and the
+// curve binned in 5 degree steps of theta_v.
+ProbeCurve FurnaceCheck(Renderer& renderer, const Furnace& furnace, const ModelUnderTest& m,
+                        const AlbedoCurve& a, nlohmann::json* numbers) {
+  const Image img = renderer.Render(furnace.scene, FindModel(m.model).id, m.params);
+  const GBuffer& gb = furnace.gbuffer;
+  double sum_sq = 0, fmax = 0, fsum = 0;
+  int count = 0;
+  const int nb = 18;
+  std::vector<double> bsum(nb, 0), tsum(nb, 0);
+  std::vector<int> bn(nb, 0);
+  for (int py = 0; py < img.height; ++py) {
+    for (int px = 0; px < img.width; ++px) {
+      if (img.at(px, py, 3) < 0.999f || !gb.Hit(px, py)) continue;
+      const Vec3d nrm{gb.normal.at(px, py, 0), gb.normal.at(px, py, 1), gb.normal.at(px, py, 2)};
+      const Vec3d v{gb.view.at(px, py, 0), gb.view.at(px, py, 1), gb.view.at(px, py, 2)};
+      const double theta = std::acos(std::clamp(Dot(nrm, v), -1.0, 1.0)) * internal::kRadToDeg;
+      double row = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double d = img.at(px, py, c) - Interpolate(a, c, theta);
+        sum_sq += d * d;
+        row = std::max(row, static_cast<double>(img.at(px, py, c)));
+      }
+      fmax = std::max(fmax, row);
+      fsum += row;
+      ++count;
+      const int b = std::min(nb - 1, static_cast<int>(theta / 5.0));
+      bsum[b] += row;
+      tsum[b] += theta;
+      ++bn[b];
+    }
+  }
+  nlohmann::json& n = *numbers;
+  n["furnace_max"] = Num(fmax);
+  n["furnace_mean"] = Num(count ? fsum / count : std::nan(""));
+  n["furnace_vs_quadrature_rmse"] = Num(count ? std::sqrt(sum_sq / (3.0 * count)) : std::nan(""));
+  ProbeCurve curve{.series = m.label,
+                   .kind = CurveKind::kWhiteFurnace,
+                   .x_label = "theta_o (deg)",
+                   .y_label = kAlbedoAxis};
+  for (int b = 0; b < nb; ++b) {
+    if (bn[b] == 0) continue;
+    curve.x.push_back(tsum[b] / bn[b]);
+    curve.y.push_back(bsum[b] / bn[b]);
+  }
+  return curve;
+}
+
+// Normalised Blinn-Phong's specular albedo at normal view, in closed form
+// (tests/render/brdf_physics_test.cpp).
+double NormalizedBlinnPhongFlux(double n) {
+  return (n + 8.0) * (2.0 * (1.0 - std::pow(2.0, -(n + 4.0) / 2.0)) / (n + 4.0) -
+                      (1.0 - std::pow(2.0, -(n + 2.0) / 2.0)) / (n + 2.0));
+}
+
+// The sweep: specular-only albedo at normal view over the shininess list for classic and
+// normalised Blinn-Phong and GGX, plus normalised Blinn-Phong's closed form as a check.
+void LobeWidthSweep(const EnergyOptions& o, ProbeResult* result) {
+  struct Series {
+    std::string name, model;
+  };
+  const std::vector<Series> series = {{"blinn-phong (classic, ks = 1)", "blinn-phong"},
+                                      {"blinn-phong-normalized (ks = 1)", "blinn-phong-normalized"},
+                                      {"ggx (f0 = 1, alpha = sqrt(2 / (n + 2)))", "ggx"}};
+  AlbedoOptions ao;
+  ao.strata_per_axis = o.sweep_strata_per_axis;
+  nlohmann::json& numbers = result->numbers["sweep"];
+  for (const Series& s : series) {
+    const ModelInfo& info = FindModel(s.model);
+    ProbeCurve curve{.series = s.name,
+                     .kind = CurveKind::kLobeWidthSweep,
+                     .x_label = "shininess n",
+                     .y_label = kSweepAxis,
+                     .x_scale = AxisScale::kLog};
+    for (const double nexp : o.sweep_shininess) {
+      // The model's specular lobe alone at unit scale (its table's roles), its width set so that
+      // its lobe stands for a Blinn-Phong exponent n: alpha = sqrt(2 / (n + 2)) (Walter et al.
+      // 2007, sec. 5.2, Beckmann width; close for GGX near the peak), clamped to the table.
+      std::vector<double> p = SpecularOnlyParams(info);
+      SetWidthForAlpha(info, std::sqrt(2.0 / (nexp + 2.0)), &p);
+      curve.x.push_back(nexp);
+      curve.y.push_back(DirectionalAlbedo(info.id, p, 1.0, ao).value[0]);
+    }
+    const auto [lo, hi] = std::minmax_element(curve.y.begin(), curve.y.end());
+    nlohmann::json& n = numbers[s.model];
+    n["flux_min"] = Num(*lo);
+    n["flux_max"] = Num(*hi);
+    n["flux_max_over_min"] = Num(*lo > 0 ? *hi / *lo : std::nan(""));
+    if (s.model == "blinn-phong-normalized") {
+      ProbeCurve closed{.series = "blinn-phong-normalized closed form",
+                        .kind = CurveKind::kLobeWidthSweep,
+                        .x = o.sweep_shininess,
+                        .x_label = "shininess n",
+                        .y_label = kSweepAxis,
+                        .x_scale = AxisScale::kLog};
+      double worst = 0;
+      for (std::size_t i = 0; i < o.sweep_shininess.size(); ++i) {
+        closed.y.push_back(NormalizedBlinnPhongFlux(o.sweep_shininess[i]));
+        worst = std::max(worst, std::abs(curve.y[i] - closed.y.back()));
+      }
+      n["max_abs_error_vs_closed_form"] = worst;
+      result->curves.push_back(std::move(curve));
+      result->curves.push_back(std::move(closed));
+    } else {
+      result->curves.push_back(std::move(curve));
+    }
+  }
+  result->notes.push_back(fmt::format(
+      "sweep: specular-only albedo at normal view, {}^2 strata; GGX roughness from n by Walter "
+      "et al. 2007 sec. 5.2",
+      o.sweep_strata_per_axis));
+}
+
+}  // namespace
+
+ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
+  ValidateOptions(o);
+  const std::vector<ModelUnderTest> models = ModelsOf(inputs);
+  ProbeResult result(ProbeKind::kEnergy);
   result.notes.push_back(fmt::format(
       "E(theta_o) = DirectionalAlbedo (stratified, MIS cosine + GGX-equivalent lobe, balance "
       "heuristic), {}^2 strata per technique doubled up to {}^2 until sigma <= {}; BRDF only "
@@ -100,11 +272,11 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
   if (!inputs.references.empty()) {
     result.notes.push_back("references are not used: energy is a property of the BRDF");
   }
-  std::optional<Scene> furnace;
-  GBuffer furnace_gbuffer;
+  std::optional<Furnace> furnace;
   if (inputs.renderer) {
-    furnace = ParseScene(FurnaceToml(o.furnace_resolution, o.furnace_samples), "furnace");
-    furnace_gbuffer = inputs.renderer->RenderGBuffer(*furnace);
+    furnace = Furnace{ParseScene(FurnaceToml(o.furnace_resolution, o.furnace_samples), "furnace"),
+                      GBuffer{}};
+    furnace->gbuffer = inputs.renderer->RenderGBuffer(furnace->scene);
     result.notes.push_back(
         fmt::format("white furnace: unit sphere, uniform light radiance 1, {}^2 px, {} samples per "
                     "technique; pixel value = E(theta_v) (one bounce)",
@@ -112,141 +284,13 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
   } else {
     result.notes.push_back("white furnace skipped: no GL renderer");
   }
-
-  for (std::size_t k = 0; k < models.size(); ++k) {
-    const ModelUnderTest& m = models[k];
-    const std::string label = (inputs.truth && k == 0) ? "truth" : m.label;
-    const ModelInfo& info = FindModel(m.model);
-    const AlbedoCurve a = Albedo(info.id, m.params, o);
-    nlohmann::json& n = result.numbers[label];
-    double max_e = -1, max_sigma = 0, max_at = 0, sigma_at_max = 0;
-    int max_channel = 0;
-    std::vector<double> y;
-    for (std::size_t i = 0; i < a.e.size(); ++i) {
-      double row = -1;
-      for (int c = 0; c < 3; ++c) {
-        max_sigma = std::max(max_sigma, a.e[i].std_error[c]);
-        row = std::max(row, a.e[i].value[c]);
-        if (a.e[i].value[c] > max_e) {
-          max_e = a.e[i].value[c];
-          max_at = a.theta_deg[i];
-          max_channel = c;
-          sigma_at_max = a.e[i].std_error[c];
-        }
-      }
-      y.push_back(row);
-    }
-    n["model"] = m.model;
-    n["albedo_normal"] = Num(std::max({a.e[0].value[0], a.e[0].value[1], a.e[0].value[2]}));
-    n["max_albedo"] = Num(max_e);
-    n["max_albedo_theta_deg"] = max_at;
-    n["max_albedo_channel"] = std::string(1, "rgb"[max_channel]);
-    n["max_albedo_std_error"] = Num(sigma_at_max);
-    n["max_std_error"] = Num(max_sigma);
-    n["strata_per_axis"] = a.max_strata;
-    n["error_target_met"] = max_sigma <= o.target_std_error;
-    n["verdict"] = max_e <= 1.0 + o.sigma_multiple * sigma_at_max ? "conserves" : "violates";
-    result.curves[label + ": albedo (quadrature)"] =
-        Curve(a.theta_deg, y, "theta_o (deg)", "directional albedo E (max channel)");
-    if (furnace) {
-      Image img = inputs.renderer->Render(*furnace, info.id, m.params);
-      double sum_sq = 0, fmax = 0, fsum = 0;
-      int count = 0;
-      const int nb = 18;
-      std::vector<double> bsum(nb, 0), tsum(nb, 0);
-      std::vector<int> bn(nb, 0);
-      for (int py = 0; py < img.height; ++py) {
-        for (int px = 0; px < img.width; ++px) {
-          if (img.at(px, py, 3) < 0.999f || !furnace_gbuffer.Hit(px, py)) continue;
-          const Vec3d nrm{furnace_gbuffer.normal.at(px, py, 0),
-                          furnace_gbuffer.normal.at(px, py, 1),
-                          furnace_gbuffer.normal.at(px, py, 2)};
-          const Vec3d v{furnace_gbuffer.view.at(px, py, 0), furnace_gbuffer.view.at(px, py, 1),
-                        furnace_gbuffer.view.at(px, py, 2)};
-          const double theta = std::acos(std::clamp(Dot(nrm, v), -1.0, 1.0)) * internal::kRadToDeg;
-          double row = 0;
-          for (int c = 0; c < 3; ++c) {
-            const double d = img.at(px, py, c) - Interpolate(a, c, theta);
-            sum_sq += d * d;
-            row = std::max(row, static_cast<double>(img.at(px, py, c)));
-          }
-          fmax = std::max(fmax, row);
-          fsum += row;
-          ++count;
-          const int b = std::min(nb - 1, static_cast<int>(theta / 5.0));
-          bsum[b] += row;
-          tsum[b] += theta;
-          ++bn[b];
-        }
-      }
-      n["furnace_max"] = Num(fmax);
-      n["furnace_mean"] = Num(count ? fsum / count : std::nan(""));
-      n["furnace_vs_quadrature_rmse"] =
-          Num(count ? std::sqrt(sum_sq / (3.0 * count)) : std::nan(""));
-      std::vector<double> fx, fy;
-      for (int b = 0; b < nb; ++b) {
-        if (bn[b] == 0) continue;
-        fx.push_back(tsum[b] / bn[b]);
-        fy.push_back(bsum[b] / bn[b]);
-      }
-      result.curves[label + ": white furnace (GL)"] =
-          Curve(fx, fy, "theta_o (deg)", "directional albedo E (max channel)");
-    }
+  for (const ModelUnderTest& m : models) {
+    const AlbedoCurve a = Albedo(FindModel(m.model).id, m.params, o);
+    nlohmann::json& n = result.numbers[m.label];
+    result.curves.push_back(AlbedoNumbers(m, a, o, &n));
+    if (furnace) result.curves.push_back(FurnaceCheck(*inputs.renderer, *furnace, m, a, &n));
   }
-
-  // Sweep: specular-only albedo at normal view.
-  struct Series {
-    std::string name, model;
-  };
-  const std::vector<Series> series = {{"blinn-phong (classic, ks = 1)", "blinn-phong"},
-                                      {"blinn-phong-normalized (ks = 1)", "blinn-phong-normalized"},
-                                      {"ggx (f0 = 1, alpha = sqrt(2 / (n + 2)))", "ggx"}};
-  AlbedoOptions ao;
-  ao.strata_per_axis = o.sweep_strata_per_axis;
-  std::vector<double> closed;
-  for (const Series& s : series) {
-    const ModelInfo& info = FindModel(s.model);
-    std::vector<double> x, y;
-    for (const double nexp : o.sweep_shininess) {
-      // The model's specular lobe alone at unit scale (its table's roles), its width set so that
-      // its lobe stands for a Blinn-Phong exponent n: alpha = sqrt(2 / (n + 2)) (Walter et al.
-      // 2007, sec. 5.2, Beckmann width; close for GGX near the peak), clamped to the table.
-      std::vector<double> p = SpecularOnlyParams(info);
-      SetWidthForAlpha(info, std::sqrt(2.0 / (nexp + 2.0)), &p);
-      x.push_back(nexp);
-      y.push_back(DirectionalAlbedo(info.id, p, 1.0, ao).value[0]);
-      if (s.model == "blinn-phong-normalized") {
-        // Closed form at normal view (tests/render/brdf_physics_test.cpp).
-        closed.push_back((nexp + 8.0) *
-                         (2.0 * (1.0 - std::pow(2.0, -(nexp + 4.0) / 2.0)) / (nexp + 4.0) -
-                          (1.0 - std::pow(2.0, -(nexp + 2.0) / 2.0)) / (nexp + 2.0)));
-      }
-    }
-    const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
-    nlohmann::json& n = result.numbers["sweep"][s.model];
-    n["flux_min"] = Num(*lo);
-    n["flux_max"] = Num(*hi);
-    n["flux_max_over_min"] = Num(*lo > 0 ? *hi / *lo : std::nan(""));
-    nlohmann::json c = Curve(x, y, "shininess n", "specular albedo at normal view (flux)");
-    c["x_scale"] = "log";
-    result.curves["sweep: " + s.name] = c;
-  }
-  {
-    double worst = 0;
-    const auto& sweep = result.curves["sweep: " + series[1].name];
-    for (std::size_t i = 0; i < closed.size(); ++i) {
-      worst = std::max(worst, std::abs(sweep["y"][i].get<double>() - closed[i]));
-    }
-    result.numbers["sweep"]["blinn-phong-normalized"]["max_abs_error_vs_closed_form"] = worst;
-    nlohmann::json c =
-        Curve(o.sweep_shininess, closed, "shininess n", "specular albedo at normal view (flux)");
-    c["x_scale"] = "log";
-    result.curves["sweep: blinn-phong-normalized closed form"] = c;
-  }
-  result.notes.push_back(fmt::format(
-      "sweep: specular-only albedo at normal view, {}^2 strata; GGX roughness from n by Walter "
-      "et al. 2007 sec. 5.2",
-      o.sweep_strata_per_axis));
+  LobeWidthSweep(o, &result);
   return result;
 }
 

@@ -15,7 +15,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
 
 struct Binned {
@@ -74,102 +73,62 @@ struct LabelState {
   explicit LabelState(int n) : theta_d(n) {}
 };
 
-}  // namespace
-
-ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
-  if (!(o.bin_width_deg > 0 && o.bin_width_deg <= 90)) {
-    throw Error("fresnel", "bin_width_deg",
-                fmt::format("must be in (0, 90], got {}", o.bin_width_deg));
-  }
-  if (inputs.references.empty()) throw Error("fresnel", "references", "no reference given");
-  for (const ProbeReference& r : inputs.references) ValidateReference(r, o.min_coverage);
-  if (inputs.truth) internal::ValidateModel(*inputs.truth);
-  for (const ModelUnderTest& m : inputs.models) internal::ValidateModel(m);
-
-  ProbeResult result;
-  result.probe = "fresnel";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
-  const auto refs = internal::SelectTwinReferences(inputs, o.lightings, &result.notes);
-  if (refs.empty()) {
-    throw Error("fresnel", "references",
-                "no reference with point/directional lighting among the selected ones");
-  }
-  const int nbins = static_cast<int>(std::ceil(90.0 / o.bin_width_deg));
+// One image (the reference or a model's render) under one reference: its theta_v curve and
+// centre/rim numbers go to `result`, its theta_d sums into the label's pooled state.
+void MeasureImage(const FresnelOptions& o, const std::string& label, const ModelUnderTest* known,
+                  const ProbeReference& ref, const Image& image, LabelState* st,
+                  ProbeResult* result) {
+  const int nbins = static_cast<int>(st->theta_d.num.size());
   const double w = o.bin_width_deg;
-
-  result.notes.push_back(fmt::format(
-      "specular = Y(image) - Y(diffuse estimate), Y = Rec.709 luminance; pixels with coverage >= "
-      "{}; theta bins of {} deg; centre band theta <= {} deg, rim band theta >= {} deg",
-      o.min_coverage, w, o.centre_max_deg, o.rim_min_deg));
-  result.notes.push_back(
-      "F(theta_d) = sum(specular) / sum(unit-Fresnel lobe) per bin, pooled over references, "
-      "pixels whose lobe >= " +
-      fmt::format("{}", o.lobe_min_fraction) +
-      " x the image's max lobe; theta_d = acos(l.h) of the dominant light");
-
-  std::vector<std::pair<std::string, LabelState>> states;
-  auto process = [&](const std::string& label, const ModelUnderTest* known,
-                     const ProbeReference& ref, const Image& image, LabelState* st) {
-    const auto points = PrepareShading(ref.scene, ref.gbuffer, static_cast<float>(o.min_coverage));
-    const internal::Decomposition dec =
-        internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
-    st->has_lobe = dec.has_lobe;
-    Binned tv(nbins);
-    double max_lobe = 0;
-    for (const auto& p : dec.pixels) max_lobe = std::max(max_lobe, p.lobe);
-    double centre_sum = 0, rim_sum = 0;
-    int centre_n = 0, rim_n = 0;
-    for (const auto& p : dec.pixels) {
-      const int b = BinOf(p.theta_v_deg, w, nbins);
-      tv.Add(b, p.specular, 1.0, p.theta_v_deg);
-      if (p.theta_v_deg <= o.centre_max_deg) centre_sum += p.specular, ++centre_n;
-      if (p.theta_v_deg >= o.rim_min_deg) rim_sum += p.specular, ++rim_n;
-      if (dec.has_lobe && max_lobe > 0 && p.lobe >= o.lobe_min_fraction * max_lobe) {
-        const int bd = BinOf(p.theta_d_deg, w, nbins);
-        if (bd >= 0) st->theta_d.Add(bd, p.specular, p.lobe, p.theta_d_deg);
-      }
+  const auto points = PrepareShading(ref.scene, ref.gbuffer, static_cast<float>(o.min_coverage));
+  const internal::Decomposition dec =
+      internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
+  st->has_lobe = dec.has_lobe;
+  Binned tv(nbins);
+  double max_lobe = 0;
+  for (const auto& p : dec.pixels) max_lobe = std::max(max_lobe, p.lobe);
+  double centre_sum = 0, rim_sum = 0;
+  int centre_n = 0, rim_n = 0;
+  for (const auto& p : dec.pixels) {
+    const int b = BinOf(p.theta_v_deg, w, nbins);
+    tv.Add(b, p.specular, 1.0, p.theta_v_deg);
+    if (p.theta_v_deg <= o.centre_max_deg) centre_sum += p.specular, ++centre_n;
+    if (p.theta_v_deg >= o.rim_min_deg) rim_sum += p.specular, ++rim_n;
+    if (dec.has_lobe && max_lobe > 0 && p.lobe >= o.lobe_min_fraction * max_lobe) {
+      const int bd = BinOf(p.theta_d_deg, w, nbins);
+      if (bd >= 0) st->theta_d.Add(bd, p.specular, p.lobe, p.theta_d_deg);
     }
-    const double centre = centre_n ? centre_sum / centre_n : std::nan("");
-    const double rim = rim_n ? rim_sum / rim_n : std::nan("");
-    nlohmann::json& n = result.numbers[label][ref.name];
-    n["specular_centre"] = Num(centre);
-    n["specular_rim"] = Num(rim);
-    n["rim_to_centre_theta_v"] = Num(centre > 1e-9 ? rim / centre : std::nan(""));
-    n["pixels"] = dec.pixels.size();
-    std::vector<double> x, y;
-    tv.Points(&x, &y);
-    result.curves[fmt::format("{} @ {}: specular vs theta_v", label, ref.name)] =
-        Curve(x, y, "theta_v (deg)", "mean specular luminance");
-    result.notes.push_back(
-        fmt::format("{} @ {}: diffuse estimate from {}", label, ref.name, dec.diffuse_source));
-    st->theta_v.emplace(ref.name, tv);
-  };
-
-  // The reference first, then every model.
-  {
-    LabelState st(nbins);
-    const ModelUnderTest* truth = inputs.truth ? &*inputs.truth : nullptr;
-    for (const ProbeReference* ref : refs) process("reference", truth, *ref, ref->image, &st);
-    if (!truth) {
-      result.notes.push_back(
-          "reference: no truth BRDF, so no unit-Fresnel lobe: F(theta_d) not measured and "
-          "theta_d curve errors are null");
-    }
-    states.emplace_back("reference", std::move(st));
   }
-  for (const ModelUnderTest& m : inputs.models) {
-    LabelState st(nbins);
-    for (const ProbeReference* ref : refs) {
-      process(m.label, &m, *ref, internal::RenderModel(inputs, m, *ref), &st);
-    }
-    states.emplace_back(m.label, std::move(st));
-  }
+  const double centre = centre_n ? centre_sum / centre_n : std::nan("");
+  const double rim = rim_n ? rim_sum / rim_n : std::nan("");
+  nlohmann::json& n = result->numbers[label][ref.name];
+  n["specular_centre"] = Num(centre);
+  n["specular_rim"] = Num(rim);
+  n["rim_to_centre_theta_v"] = Num(centre > 1e-9 ? rim / centre : std::nan(""));
+  n["pixels"] = dec.pixels.size();
+  std::vector<double> x, y;
+  tv.Points(&x, &y);
+  result->curves.push_back({.series = label,
+                            .reference = ref.name,
+                            .kind = CurveKind::kSpecularVsThetaV,
+                            .x = std::move(x),
+                            .y = std::move(y),
+                            .x_label = "theta_v (deg)",
+                            .y_label = "mean specular luminance"});
+  result->notes.push_back(
+      fmt::format("{} @ {}: diffuse estimate from {}", label, ref.name, dec.diffuse_source));
+  st->theta_v.emplace(ref.name, tv);
+}
 
+// Per label: the pooled F(theta_d) curve and its centre/rim numbers, and for models the curve
+// RMSEs against the reference (states.front()).
+void Summarise(const FresnelOptions& o,
+               const std::vector<std::pair<std::string, LabelState>>& states,
+               ProbeResult* result) {
+  const double w = o.bin_width_deg;
   const LabelState& reference = states.front().second;
-  for (auto& [label, st] : states) {
-    nlohmann::json& n = result.numbers[label];
+  for (const auto& [label, st] : states) {
+    nlohmann::json& n = result->numbers[label];
     if (st.has_lobe) {
       const double f_centre = st.theta_d.Band(w, 0.0, o.centre_max_deg);
       const double f_rim = st.theta_d.Band(w, o.rim_min_deg, 90.0);
@@ -178,8 +137,12 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
       n["rim_to_centre"] = Num(f_centre > 0 ? f_rim / f_centre : std::nan(""));
       std::vector<double> x, y;
       st.theta_d.Points(&x, &y);
-      result.curves[label + ": F vs theta_d"] =
-          Curve(x, y, "theta_d (deg)", "effective Fresnel sum(spec) / sum(lobe_F=1)");
+      result->curves.push_back({.series = label,
+                                .kind = CurveKind::kFresnelVsThetaD,
+                                .x = std::move(x),
+                                .y = std::move(y),
+                                .x_label = "theta_d (deg)",
+                                .y_label = "effective Fresnel sum(spec) / sum(lobe_F=1)"});
     } else {
       n["F_centre"] = nullptr;
       n["F_rim"] = nullptr;
@@ -197,6 +160,60 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
     }
     n["curve_rmse_theta_v"] = Num(cnt ? std::sqrt(sq / cnt) : std::nan(""));
   }
+}
+
+}  // namespace
+
+ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
+  if (!(o.bin_width_deg > 0 && o.bin_width_deg <= 90)) {
+    throw Error("fresnel", "bin_width_deg",
+                fmt::format("must be in (0, 90], got {}", o.bin_width_deg));
+  }
+  if (inputs.references.empty()) throw Error("fresnel", "references", "no reference given");
+  for (const ProbeReference& r : inputs.references) ValidateReference(r, o.min_coverage);
+  if (inputs.truth) internal::ValidateModel(*inputs.truth);
+  for (const ModelUnderTest& m : inputs.models) internal::ValidateModel(m);
+
+  ProbeResult result(ProbeKind::kFresnel);
+  const auto refs = internal::SelectTwinReferences(inputs, o.lightings, &result.notes);
+  if (refs.empty()) {
+    throw Error("fresnel", "references",
+                "no reference with point/directional lighting among the selected ones");
+  }
+  const int nbins = static_cast<int>(std::ceil(90.0 / o.bin_width_deg));
+  result.notes.push_back(fmt::format(
+      "specular = Y(image) - Y(diffuse estimate), Y = Rec.709 luminance; pixels with coverage >= "
+      "{}; theta bins of {} deg; centre band theta <= {} deg, rim band theta >= {} deg",
+      o.min_coverage, o.bin_width_deg, o.centre_max_deg, o.rim_min_deg));
+  result.notes.push_back(
+      "F(theta_d) = sum(specular) / sum(unit-Fresnel lobe) per bin, pooled over references, "
+      "pixels whose lobe >= " +
+      fmt::format("{}", o.lobe_min_fraction) +
+      " x the image's max lobe; theta_d = acos(l.h) of the dominant light");
+
+  // The reference first, then every model.
+  std::vector<std::pair<std::string, LabelState>> states;
+  {
+    LabelState st(nbins);
+    const ModelUnderTest* truth = inputs.truth ? &*inputs.truth : nullptr;
+    for (const ProbeReference* ref : refs) {
+      MeasureImage(o, "reference", truth, *ref, ref->image, &st, &result);
+    }
+    if (!truth) {
+      result.notes.push_back(
+          "reference: no truth BRDF, so no unit-Fresnel lobe: F(theta_d) not measured and "
+          "theta_d curve errors are null");
+    }
+    states.emplace_back("reference", std::move(st));
+  }
+  for (const ModelUnderTest& m : inputs.models) {
+    LabelState st(nbins);
+    for (const ProbeReference* ref : refs) {
+      MeasureImage(o, m.label, &m, *ref, internal::RenderModel(inputs, m, *ref), &st, &result);
+    }
+    states.emplace_back(m.label, std::move(st));
+  }
+  Summarise(o, states, &result);
   return result;
 }
 

@@ -16,7 +16,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Groups curves by (x_label, y_label) into panels; honours y_scale/x_scale "log" and x_ticks.
+// Groups curves by (x_label, y_label) into panels; honours y_scale/x_scale "log" and x_ticks. The
+// legend names a curve "<series> @ <reference>: <kind>" (display only: nothing reads it back).
 constexpr const char* kPlotScript = R"PY(
 import json, sys
 import matplotlib
@@ -24,7 +25,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 d = json.load(open(sys.argv[1]))
 groups = {}
-for name, c in d.get("curves", {}).items():
+for c in d.get("curves", []):
+    name = c["series"] + (" @ " + c["reference"] if c.get("reference") else "") + ": " + c["kind"]
     groups.setdefault((c.get("x_label", ""), c.get("y_label", "")), []).append((name, c))
 n = max(1, len(groups))
 cols = min(2, n)
@@ -106,23 +108,47 @@ class PlotScratch {
   std::string script_, data_, log_;
 };
 
+const char* ScaleName(AxisScale scale) { return scale == AxisScale::kLog ? "log" : "linear"; }
+
+nlohmann::json CurveToJson(const ProbeCurve& c) {
+  if (c.x.size() != c.y.size()) {
+    throw Error(c.series, CurveKindName(c.kind),
+                fmt::format("curve has {} x and {} y values", c.x.size(), c.y.size()));
+  }
+  nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array();
+  for (std::size_t i = 0; i < c.x.size(); ++i) {
+    x.push_back(internal::Num(c.x[i]));
+    y.push_back(internal::Num(c.y[i]));
+  }
+  return {{"series", c.series},
+          {"reference", c.reference.empty() ? nlohmann::json() : nlohmann::json(c.reference)},
+          {"kind", CurveKindName(c.kind)},
+          {"x", std::move(x)},
+          {"y", std::move(y)},
+          {"x_label", c.x_label},
+          {"y_label", c.y_label},
+          {"x_scale", ScaleName(c.x_scale)},
+          {"y_scale", ScaleName(c.y_scale)},
+          {"x_ticks", c.x_ticks}};
+}
+
 }  // namespace
 
 nlohmann::json ProbeResultToJson(const ProbeResult& result) {
-  nlohmann::json j;
-  j["probe"] = result.probe;
-  j["numbers"] = result.numbers.is_null() ? nlohmann::json::object() : result.numbers;
-  j["curves"] = result.curves.is_null() ? nlohmann::json::object() : result.curves;
-  j["notes"] = result.notes.is_null() ? nlohmann::json::array() : result.notes;
-  return j;
+  nlohmann::json curves = nlohmann::json::array();
+  for (const ProbeCurve& c : result.curves) curves.push_back(CurveToJson(c));
+  return {{"schema", kProbeResultSchema},
+          {"probe", ProbeName(result.probe)},
+          {"numbers", result.numbers.is_null() ? nlohmann::json::object() : result.numbers},
+          {"curves", std::move(curves)},
+          {"notes", result.notes}};
 }
 
 void WriteProbeOutputs(const ProbeResult& result, const std::string& dir) {
-  if (result.probe.empty()) throw Error(dir, "probe", "result has no probe name");
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir, "", "output directory cannot be created");
-  const fs::path base = fs::path(dir) / result.probe;
+  const fs::path base = fs::path(dir) / ProbeName(result.probe);
   const std::string json_path = base.string() + ".json", png_path = base.string() + ".png";
   const std::string text = ProbeResultToJson(result).dump(1) + "\n";
   // The plot first: when it fails, neither file is written (WriteAllOrNothing).

@@ -12,7 +12,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::Num;
 
 // Sum of squared RGB errors and the valid pixel count (coverage >= min in both images).
@@ -47,11 +46,7 @@ ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions
       }
     }
   }
-  ProbeResult result;
-  result.probe = "portability";
-  result.numbers = nlohmann::json::object();
-  result.curves = nlohmann::json::object();
-  result.notes = nlohmann::json::array();
+  ProbeResult result(ProbeKind::kPortability);
   result.notes.push_back(fmt::format(
       "RMSE of linear RGB radiance over pixels with coverage >= {} in both reference and render; "
       "train/test RMSE pooled over the pixels of each set; ratio = test / train; renders by {}",
@@ -92,9 +87,13 @@ ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions
     n["test_rmse"] = Num(test);
     n["test_over_train"] = Num(train > 0 ? test / train : std::nan(""));
     n["train_references"] = static_cast<int>(m.trained_on.size());
-    nlohmann::json c = Curve(xs, per_ref, "reference", "RMSE (linear radiance)");
-    c["x_ticks"] = ticks;
-    result.curves[label + ": RMSE per reference"] = c;
+    result.curves.push_back({.series = label,
+                             .kind = CurveKind::kRmsePerReference,
+                             .x = xs,
+                             .y = std::move(per_ref),
+                             .x_label = "reference",
+                             .y_label = "RMSE (linear radiance)",
+                             .x_ticks = ticks});
   };
 
   if (inputs.truth) {

@@ -210,7 +210,7 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
 
 std::vector<const ProbeReference*> SelectTwinReferences(const ProbeInputs& inputs,
                                                         const std::vector<std::string>& lightings,
-                                                        nlohmann::json* notes) {
+                                                        std::vector<std::string>* notes) {
   std::vector<const ProbeReference*> out;
   for (const ProbeReference& r : inputs.references) {
     if (!lightings.empty() &&
@@ -238,20 +238,6 @@ double Percentile(std::vector<double> values, double p) {
 }
 
 nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
-
-nlohmann::json Curve(const std::vector<double>& x, const std::vector<double>& y,
-                     const std::string& x_label, const std::string& y_label) {
-  nlohmann::json c;
-  c["x"] = nlohmann::json::array();
-  c["y"] = nlohmann::json::array();
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    c["x"].push_back(Num(x[i]));
-    c["y"].push_back(Num(y[i]));
-  }
-  c["x_label"] = x_label;
-  c["y_label"] = y_label;
-  return c;
-}
 
 }  // namespace internal
 }  // namespace shadefit::probes

@@ -61,16 +61,12 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
 // others are named in `notes`.
 std::vector<const ProbeReference*> SelectTwinReferences(const ProbeInputs& inputs,
                                                         const std::vector<std::string>& lightings,
-                                                        nlohmann::json* notes);
+                                                        std::vector<std::string>* notes);
 
 // p-th percentile (0..100, linear interpolation) of values (copied); NaN when empty.
 double Percentile(std::vector<double> values, double p);
 
 // A JSON number, or null when not finite.
 nlohmann::json Num(double v);
-
-// A curve object.
-nlohmann::json Curve(const std::vector<double>& x, const std::vector<double>& y,
-                     const std::string& x_label, const std::string& y_label);
 
 }  // namespace shadefit::probes::internal

@@ -37,6 +37,27 @@ std::vector<std::string> ProbeNames() {
   return names;
 }
 
+const char* CurveKindName(CurveKind kind) {
+  switch (kind) {
+    case CurveKind::kSpecularVsThetaV: return "specular vs theta_v";
+    case CurveKind::kFresnelVsThetaD: return "F vs theta_d";
+    case CurveKind::kFalloff: return "falloff";
+    case CurveKind::kAlbedo: return "albedo (quadrature)";
+    case CurveKind::kWhiteFurnace: return "white furnace (GL)";
+    case CurveKind::kLobeWidthSweep: return "sweep of the lobe width";
+    case CurveKind::kRmsePerReference: return "RMSE per reference";
+  }
+  return "";
+}
+
+const ProbeCurve* FindCurve(const ProbeResult& result, CurveKind kind, std::string_view series,
+                            std::string_view reference) {
+  for (const ProbeCurve& c : result.curves) {
+    if (c.kind == kind && c.series == series && c.reference == reference) return &c;
+  }
+  return nullptr;
+}
+
 ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs) {
   switch (kind) {
     case ProbeKind::kFresnel: return FresnelProbe(inputs);

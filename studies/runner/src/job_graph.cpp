@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "job_cost.h"
+#include "shadefit/probes/probes.h"
 #include "shadefit/refs/sidecar.h"
 #include "shadefit/render/files.h"
 #include "shadefit/studies/runner.h"
@@ -93,7 +94,10 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
       job.group = static_cast<int>(gi);
       job.id = FileSafe("probe." + g.material);
       job.deps = fit_jobs;
+      // The result schema too: a probe job written in an older format must run again, even by
+      // a build whose version string did not change (a stale configure).
       const json context = {{"kind", "probe"}, {"probes", ProbeNamesOf(spec)},
+                            {"schema", probes::kProbeResultSchema},
                             {"references", refs}, {"fits", fit_hashes}};
       job.hash = Sha256String(version + "\n" + context.dump());
       job.weight = ProbeJobCost(spec.probes.size());

@@ -120,7 +120,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
     probes::WriteProbeOutputs(r, probe_dir.string());
     results[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
     for (const char* ext : {".json", ".png"}) {
-      const fs::path p = probe_dir / (r.probe + ext);
+      const fs::path p = probe_dir / (std::string(probes::ProbeName(r.probe)) + ext);
       if (fs::exists(p)) outputs.push_back(fs::relative(p, context.paths.dir).string());
     }
   }

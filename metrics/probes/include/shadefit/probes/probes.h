@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "shadefit/probes/probe_kind.h"
@@ -50,14 +51,47 @@ struct ProbeInputs {
   const refs::MeasuredBrdf* measured_brdf = nullptr;  // the BRDF itself (brdf probe only)
 };
 
-struct ProbeResult {
-  std::string probe;       // "fresnel", "highlight", "energy", "portability"
-  nlohmann::json numbers;  // {"reference": {...}, "<label>": {...}, ...} named scalars
-  nlohmann::json curves;   // {"<series label>": {"x": [...], "y": [...], "x_label": "...",
-                           //   "y_label": "..."}} (+ optional "y_scale": "log",
-                           //   "x_scale": "log", "x_ticks": [names])
-  nlohmann::json notes;    // strings: what was measured, assumptions, skipped inputs
+// What a curve measures. CurveKindName is the curve's "kind" in the JSON and its panel's title.
+enum class CurveKind {
+  kSpecularVsThetaV,  // Fresnel: mean specular luminance per theta_v bin, per reference.
+  kFresnelVsThetaD,   // Fresnel: effective F per theta_d bin, pooled over references.
+  kFalloff,           // Highlight: specular / peak per theta_h bin, per reference.
+  kAlbedo,            // Energy: E(theta_o) by quadrature (DirectionalAlbedo).
+  kWhiteFurnace,      // Energy: E(theta_v) read off the GL white-furnace render.
+  kLobeWidthSweep,    // Energy: specular albedo at normal view over the shininess list.
+  kRmsePerReference,  // Portability: RMSE under each reference's lighting.
 };
+
+// "specular vs theta_v", "F vs theta_d", "falloff", "albedo (quadrature)", "white furnace (GL)",
+// "sweep of the lobe width", "RMSE per reference".
+const char* CurveKindName(CurveKind kind);
+
+enum class AxisScale { kLinear, kLog };
+
+// One curve, typed until WriteProbeOutputs / ProbeResultToJson write it. Every member has an
+// initializer so that designated initializers may leave any of them out (-Wextra).
+struct ProbeCurve {
+  std::string series{};     // Whose: "reference", "truth", a model's label, or a sweep series.
+  std::string reference{};  // The reference it was measured on; empty when pooled or BRDF-only.
+  CurveKind kind = CurveKind::kAlbedo;
+  std::vector<double> x{}, y{};  // Same length; non-finite values are written as null.
+  std::string x_label{}, y_label{};
+  AxisScale x_scale = AxisScale::kLinear, y_scale = AxisScale::kLinear;
+  std::vector<std::string> x_ticks{};  // Names of x = 0, 1, ... when x is an index; else empty.
+};
+
+struct ProbeResult {
+  explicit ProbeResult(ProbeKind kind) : probe(kind) {}
+  ProbeKind probe;
+  nlohmann::json numbers = nlohmann::json::object();  // {"reference": {...}, "<label>": {...},
+                                                      //  ...} named scalars
+  std::vector<ProbeCurve> curves;                     // In the order they were measured.
+  std::vector<std::string> notes;  // What was measured, assumptions, skipped inputs.
+};
+
+// The curve of `kind` for `series` on `reference` (empty: pooled); null when there is none.
+const ProbeCurve* FindCurve(const ProbeResult& result, CurveKind kind, std::string_view series,
+                            std::string_view reference = {});
 
 // ---------------------------------------------------------------------------------------------
 // Fresnel rim. Per pixel (coverage >= min_coverage, twin-supported scenes only): specular
@@ -96,6 +130,9 @@ struct HighlightOptions {
   double tail_hwhm_multiple = 2.0;     // Tail = theta_h beyond this many HWHM.
   double min_coverage = 0.999;         // Pixels with lower coverage (edges) are skipped.
   double diffuse_percentile = 25.0;    // No truth: Lambert-fit diffuse estimate (FresnelOptions).
+  // A reference whose specular peak is below this fraction of its brightest pixel has no
+  // highlight (render noise on a Lambert material): no shape numbers, verdicts not applicable.
+  double min_peak_fraction = 0.05;
   std::vector<std::string> lightings;  // Use only these lightings; empty = every twin-supported.
 };
 
@@ -138,7 +175,14 @@ ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions
 // The probe of `kind` with its default options.
 ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs);
 
-// {"probe": ..., "numbers": ..., "curves": ..., "notes": ...}; non-finite numbers are null.
+// The schema of ProbeResultToJson's object. 2: "curves" is a list of records (1, unnamed: an
+// object keyed "<series> @ <reference>: <kind>").
+inline constexpr const char* kProbeResultSchema = "shadefit.probe/2";
+
+// {"schema": kProbeResultSchema, "probe": name, "numbers": {...}, "curves": [{"series",
+// "reference" (null when pooled), "kind", "x", "y", "x_label", "y_label", "x_scale", "y_scale"
+// ("linear" or "log"), "x_ticks"}, ...], "notes": [...]}; non-finite numbers are null. The only
+// place a result becomes JSON (docs/probes.md).
 nlohmann::json ProbeResultToJson(const ProbeResult& result);
 
 // Writes <dir>/<probe>.png, a plot of the curves (one panel per distinct (x_label, y_label),
