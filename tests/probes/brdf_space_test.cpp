@@ -116,20 +116,22 @@ double Get(const nlohmann::json& j, const char* key) { return j.at(key).get<doub
 // = 5.2% plus that 1%.
 TEST(BrdfSpaceProbe, GgxTableGivesBackSchlickFresnelRise) {
   const auto& r = GgxResult();
-  const auto& c = r.curves.at("measured: Fresnel rise");
+  const probes::ProbeCurve* c = probes::FindCurve(r, probes::CurveKind::kFresnelRise, "measured");
+  ASSERT_NE(c, nullptr);
+  ASSERT_EQ(c->extrapolated.size(), c->x.size());
   const double alpha = kRoughness * kRoughness;
   double worst_fg = 0, worst_schlick = 0;
-  for (std::size_t i = 0; i < c["x"].size(); ++i) {
-    const double td = c["x"][i].get<double>();
+  for (std::size_t i = 0; i < c->x.size(); ++i) {
+    const double td = c->x[i];
     if (td > 75.0) {
-      EXPECT_TRUE(c["extrapolated"][i].get<bool>()) << td;
+      EXPECT_TRUE(c->extrapolated[i]) << td;
       continue;
     }
-    EXPECT_FALSE(c["extrapolated"][i].get<bool>()) << td;
+    EXPECT_FALSE(c->extrapolated[i]) << td;
     const double nol = std::cos(td * kDeg);
     const double schlick = FSchlick(kF0, nol) / kF0;
     const double fg = schlick * G2Ggx(nol, nol, alpha);
-    const double y = c["y"][i].get<double>();
+    const double y = c->y[i];
     worst_fg = std::max(worst_fg, std::abs(y / fg - 1));
     worst_schlick = std::max(worst_schlick, std::abs(y / schlick - 1));
   }
@@ -143,7 +145,16 @@ TEST(BrdfSpaceProbe, GgxTableGivesBackSchlickFresnelRise) {
   EXPECT_LT(worst_schlick, (1 - g75) + 0.01);
   // Rim band [70, 80] in 1 deg steps: 76..80 of its 11 samples lie beyond 75 deg.
   EXPECT_NEAR(Get(r.numbers["measured"], "fresnel_rim_extrapolated_fraction"), 5.0 / 11, 1e-12);
-  EXPECT_TRUE(r.curves.contains("measured (extrapolated, theta_d > 75): Fresnel rise"));
+  // The flags reach the JSON the report reads.
+  const nlohmann::json j = probes::ProbeResultToJson(r);
+  bool written = false;
+  for (const auto& jc : j["curves"]) {
+    if (jc["series"] == "measured" && jc["kind"] == "Fresnel rise") {
+      written = jc.contains("extrapolated") && jc["extrapolated"].size() == c->x.size() &&
+                jc["extrapolated"].back().get<bool>();
+    }
+  }
+  EXPECT_TRUE(written);
 }
 
 // The floor the probe's rule should find: the smallest analytic f over theta_h in [30, 80] deg on
@@ -225,21 +236,29 @@ TEST(BrdfSpaceProbe, SameModelAgreesRougherModelToldApart) {
   EXPECT_GT(Get(rough, "hwhm_ratio"), 1.8);
   EXPECT_GT(std::abs(Get(rough, "rim_centre_ratio_ratio") - 1), 0.02);
   // A model's points are never marked: only the measured table is extrapolated.
-  for (const auto& b : r.curves["same: Fresnel rise"]["extrapolated"]) EXPECT_FALSE(b.get<bool>());
+  const probes::ProbeCurve* model_rise =
+      probes::FindCurve(r, probes::CurveKind::kFresnelRise, "same");
+  ASSERT_NE(model_rise, nullptr);
+  EXPECT_TRUE(model_rise->extrapolated.empty());
 }
 
 // Albedo marks: from theta_o <= 60 deg no pair reaches theta_d > 75 deg (theta_d <= (theta_o +
 // 90) / 2), so those points carry no extrapolated share; at 89 deg the share is large.
 TEST(BrdfSpaceProbe, AlbedoMarksExtrapolatedViews) {
-  const auto& c = GgxResult().curves.at("measured: albedo");
-  for (std::size_t i = 0; i < c["x"].size(); ++i) {
-    const double to = c["x"][i].get<double>();
-    const double frac = c["extrapolated_fraction"][i].get<double>();
+  const probes::ProbeCurve* c =
+      probes::FindCurve(GgxResult(), probes::CurveKind::kBrdfAlbedo, "measured");
+  ASSERT_NE(c, nullptr);
+  ASSERT_EQ(c->extrapolated.size(), c->x.size());
+  const auto& fractions = GgxResult().numbers["measured"]["albedo_extrapolated_fraction"];
+  ASSERT_EQ(fractions.size(), c->x.size());
+  for (std::size_t i = 0; i < c->x.size(); ++i) {
+    const double to = c->x[i];
+    const double frac = fractions[i].get<double>();
     if (to <= 60.0) {
       EXPECT_EQ(frac, 0.0) << to;
     }
     if (to >= 85.0) {
-      EXPECT_TRUE(c["extrapolated"][i].get<bool>()) << to << " " << frac;
+      EXPECT_TRUE(c->extrapolated[i]) << to << " " << frac;
     }
   }
   EXPECT_TRUE(GgxResult().numbers["measured"]["albedo_max_extrapolated"].is_boolean());
@@ -261,9 +280,10 @@ TEST(BrdfSpaceProbe, LambertAlbedoIsKdAndHasNoHalfWidth) {
   const probes::ProbeResult r = probes::BrdfSpaceProbe(LambertBrdf(), {});
   const double y = 0.2126 * 0.2 + 0.7152 * 0.5 + 0.0722 * 0.8;
   double worst = 0;
-  for (const auto& v : r.curves["measured: albedo"]["y"]) {
-    worst = std::max(worst, std::abs(v.get<double>() - y));
-  }
+  const probes::ProbeCurve* albedo =
+      probes::FindCurve(r, probes::CurveKind::kBrdfAlbedo, "measured");
+  ASSERT_NE(albedo, nullptr);
+  for (const double v : albedo->y) worst = std::max(worst, std::abs(v - y));
   std::printf("[ brdf ] Lambert Y %.4f: worst albedo error %.2e\n", y, worst);
   EXPECT_LT(worst, 2e-3);
   EXPECT_NEAR(Get(r.numbers["measured"], "albedo_max_channel"), 0.8, 2e-3);

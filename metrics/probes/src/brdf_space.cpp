@@ -19,7 +19,6 @@
 namespace shadefit::probes {
 namespace {
 
-using internal::Curve;
 using internal::kRadToDeg;
 using internal::Luma;
 using internal::Num;
@@ -264,12 +263,6 @@ BrdfFn ModelBrdf(const ModelUnderTest& m) {
       };
 }
 
-nlohmann::json Flags(const std::vector<bool>& v) {
-  nlohmann::json j = nlohmann::json::array();
-  for (bool b : v) j.push_back(b);
-  return j;
-}
-
 nlohmann::json SeriesNumbers(const SeriesResult& s) {
   nlohmann::json n;
   const FresnelRise& fr = s.fresnel;
@@ -301,6 +294,7 @@ nlohmann::json SeriesNumbers(const SeriesResult& s) {
   n["albedo_max_channel"] = Num(max_ch);
   n["albedo_max_extrapolated"] = max_extrapolated;
   n["albedo_extrapolated_views_deg"] = views;
+  n["albedo_extrapolated_fraction"] = a.extrapolated_fraction;  // per view, share of E
   return n;
 }
 
@@ -332,31 +326,54 @@ nlohmann::json Comparison(const SeriesResult& model, const SeriesResult& measure
   return c;
 }
 
-nlohmann::json FlaggedCurve(const std::vector<double>& x, const std::vector<double>& y,
-                            const std::vector<bool>& extrapolated, const std::string& x_label,
-                            const std::string& y_label) {
-  nlohmann::json c = Curve(x, y, x_label, y_label);
-  c["extrapolated"] = Flags(extrapolated);
-  return c;
-}
-
-// The measured curve's extrapolated segment as its own series (from the last point before it,
-// so the two lines join), so that a figure shows it apart; absent when nothing is extrapolated.
-void AddExtrapolatedSegment(const std::string& name, const std::vector<double>& x,
-                            const std::vector<double>& y, const std::vector<bool>& extrapolated,
-                            const nlohmann::json& like, nlohmann::json* curves) {
-  std::vector<double> sx, sy;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const bool next = i + 1 < x.size() && extrapolated[i + 1];
-    if (extrapolated[i] || next) {
-      sx.push_back(x[i]);
-      sy.push_back(y[i]);
-    }
-  }
-  if (sx.size() < 2) return;
-  nlohmann::json c = Curve(sx, sy, like["x_label"], like["y_label"]);
-  if (like.contains("y_scale")) c["y_scale"] = like["y_scale"];
-  (*curves)[name] = c;
+// The five curves of one series, in the order a figure shows them. Only the measured series has
+// extrapolation flags: a model is defined at every angle.
+void AddSeriesCurves(const SeriesResult& s, const BrdfSpaceOptions& o,
+                     std::vector<ProbeCurve>* curves) {
+  const std::string td_label = "theta_d (deg), theta_h = 0";
+  const std::string th_label =
+      fmt::format("theta_h (deg), theta_d = {:g}, phi_d = 90", o.highlight_theta_d_deg);
+  const std::vector<bool> fresnel_flags = s.measured ? s.fresnel.extrapolated : std::vector<bool>{};
+  const std::vector<bool> albedo_flags = s.measured ? s.albedo.extrapolated : std::vector<bool>{};
+  auto flags = [](const std::vector<bool>& v) {  // empty when no point is extrapolated
+    return std::find(v.begin(), v.end(), true) == v.end() ? std::vector<bool>{} : v;
+  };
+  curves->push_back({.series = s.label,
+                     .kind = CurveKind::kFresnelRise,
+                     .x = s.fresnel.theta_d,
+                     .y = s.fresnel.rise,
+                     .x_label = td_label,
+                     .y_label = "Fresnel rise: (f - floor) cos^2 theta_d / centre mean",
+                     .extrapolated = flags(fresnel_flags)});
+  curves->push_back({.series = s.label,
+                     .kind = CurveKind::kSpecularPeak,
+                     .x = s.fresnel.theta_d,
+                     .y = s.fresnel.peak_f,
+                     .x_label = td_label,
+                     .y_label = "specular peak f (1/sr)",
+                     .y_scale = AxisScale::kLog,
+                     .extrapolated = flags(fresnel_flags)});
+  curves->push_back({.series = s.label,
+                     .kind = CurveKind::kHighlightF,
+                     .x = s.highlight.theta_h,
+                     .y = s.highlight.f,
+                     .x_label = th_label,
+                     .y_label = "f (1/sr)",
+                     .y_scale = AxisScale::kLog});
+  curves->push_back({.series = s.label,
+                     .kind = CurveKind::kHighlightSpecular,
+                     .x = s.highlight.theta_h,
+                     .y = s.highlight.s,
+                     .x_label = th_label,
+                     .y_label = "specular (f - floor) n.l n.v / peak",
+                     .y_scale = AxisScale::kLog});
+  curves->push_back({.series = s.label,
+                     .kind = CurveKind::kBrdfAlbedo,
+                     .x = s.albedo.theta_o,
+                     .y = s.albedo.y,
+                     .x_label = "theta_o (deg)",
+                     .y_label = "directional albedo (Y)",
+                     .extrapolated = flags(albedo_flags)});
 }
 
 void ValidateOptions(const BrdfSpaceOptions& o) {
@@ -412,54 +429,14 @@ ProbeResult BrdfSpaceProbe(const refs::MeasuredBrdf& measured,
       [&measured](const Vec3d& wi, const Vec3d& wo) { return measured.Eval(wi, wo); }, nullptr);
   for (const ModelUnderTest& m : models) run(m.label, false, ModelBrdf(m), &m);
 
-  ProbeResult r;
-  r.probe = "brdf";
-  r.numbers = nlohmann::json::object();
-  r.curves = nlohmann::json::object();
-  const std::string td_label = "theta_d (deg), theta_h = 0";
-  const std::string th_label =
-      fmt::format("theta_h (deg), theta_d = {:g}, phi_d = 90", o.highlight_theta_d_deg);
+  ProbeResult r(ProbeKind::kBrdf);
   for (const SeriesResult& s : series) {
     nlohmann::json n = SeriesNumbers(s);
     if (!s.measured) n["vs_measured"] = Comparison(s, series.front());
     r.numbers[s.label] = n;
-    const std::vector<bool> none_h(s.highlight.theta_h.size(), false);
-    const std::vector<bool>& fx =
-        s.measured ? s.fresnel.extrapolated : std::vector<bool>(s.fresnel.theta_d.size(), false);
-    nlohmann::json rise = FlaggedCurve(s.fresnel.theta_d, s.fresnel.rise, fx, td_label,
-                                       "Fresnel rise: (f - floor) cos^2 theta_d / centre mean");
-    nlohmann::json peak =
-        FlaggedCurve(s.fresnel.theta_d, s.fresnel.peak_f, fx, td_label, "specular peak f (1/sr)");
-    peak["y_scale"] = "log";
-    nlohmann::json hf =
-        FlaggedCurve(s.highlight.theta_h, s.highlight.f, none_h, th_label, "f (1/sr)");
-    hf["y_scale"] = "log";
-    nlohmann::json hs = FlaggedCurve(s.highlight.theta_h, s.highlight.s, none_h, th_label,
-                                     "specular (f - floor) n.l n.v / peak");
-    hs["y_scale"] = "log";
-    nlohmann::json al = FlaggedCurve(s.albedo.theta_o, s.albedo.y, s.albedo.extrapolated,
-                                     "theta_o (deg)", "directional albedo (Y)");
-    al["extrapolated_fraction"] = s.albedo.extrapolated_fraction;
-    r.curves[s.label + ": Fresnel rise"] = rise;
-    r.curves[s.label + ": specular peak"] = peak;
-    r.curves[s.label + ": highlight f"] = hf;
-    r.curves[s.label + ": highlight specular"] = hs;
-    r.curves[s.label + ": albedo"] = al;
-    if (s.measured) {
-      // "<series>: <kind>" like every curve name, so that the report draws the segment in the
-      // panel of its kind, as a series of its own.
-      const std::string head =
-          fmt::format("measured (extrapolated, theta_d > {:g}): ", o.extrapolated_theta_d_deg);
-      AddExtrapolatedSegment(head + "Fresnel rise", s.fresnel.theta_d, s.fresnel.rise, fx, rise,
-                             &r.curves);
-      AddExtrapolatedSegment(head + "specular peak", s.fresnel.theta_d, s.fresnel.peak_f, fx, peak,
-                             &r.curves);
-      AddExtrapolatedSegment(head + "albedo", s.albedo.theta_o, s.albedo.y, s.albedo.extrapolated,
-                             al, &r.curves);
-    }
+    AddSeriesCurves(s, o, &r.curves);
   }
   const auto& m = series.front();
-  r.notes = nlohmann::json::array();
   r.notes.push_back(fmt::format("measured BRDF: {} ({})", fmt::join(measured.SourceFiles(), ", "),
                                 measured.Format()));
   r.notes.push_back(fmt::format(

@@ -46,6 +46,11 @@ const char* CurveKindName(CurveKind kind) {
     case CurveKind::kWhiteFurnace: return "white furnace (GL)";
     case CurveKind::kLobeWidthSweep: return "sweep of the lobe width";
     case CurveKind::kRmsePerReference: return "RMSE per reference";
+    case CurveKind::kFresnelRise: return "Fresnel rise";
+    case CurveKind::kSpecularPeak: return "specular peak";
+    case CurveKind::kHighlightF: return "highlight f";
+    case CurveKind::kHighlightSpecular: return "highlight specular";
+    case CurveKind::kBrdfAlbedo: return "directional albedo";
   }
   return "";
 }
