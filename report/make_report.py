@@ -98,7 +98,7 @@ def check_fit_job(job, path):
         need(e, "lighting", path, str, f"evaluations[{i}]")
 
 
-PROBE_SCHEMA = "shadefit.probe/2"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
+PROBE_SCHEMA = "shadefit.probe/3"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
 
 
 def check_probe_result(result, path, where):

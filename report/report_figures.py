@@ -315,9 +315,10 @@ def probe_curve_figure(probe, material, curves, labels):
     cols = min(n, PANELS_PER_ROW)
     rows = (n + cols - 1) // cols
     width = COLUMN_IN if n == 1 else PAGE_IN
-    panel_h = 1.9
+    panel_h = 1.9 if rows == 1 else 2.15  # a second row leaves room for the first's x label
     legend_h = 0.55
     height = rows * panel_h + legend_h + 0.25
+    label_chars = 40 if cols < 3 else 30
     fig = plt.figure(figsize=(width, height))
     handles = {}
     series = sorted({c["series"] for c in curves if c["series"] not in GROUND_SERIES},
@@ -327,7 +328,7 @@ def probe_curve_figure(probe, material, curves, labels):
         left_in = 0.72  # Room for a two-line axis label and its tick labels.
         bottom_in = legend_h + 0.3 + (rows - 1 - row) * panel_h
         ax = fig.add_axes([(left_in + col * width / cols) / width, bottom_in / height,
-                           (width / cols - left_in - 0.2) / width, (panel_h - 0.45) / height])
+                           (width / cols - left_in - 0.2) / width, (1.9 - 0.45) / height])
         # Fits in the study's order, the ground truth (dashed black) last, on top of them.
         items = sorted((c for c in curves if c["kind"] == kind), key=lambda c: (
             c["series"] in GROUND_SERIES,
@@ -352,13 +353,20 @@ def probe_curve_figure(probe, material, curves, labels):
             handles.setdefault(lab, h)
             if e is not None:
                 handles.setdefault(f"{lab}, extrapolated", e)
-            ax.set_xlabel(textwrap.fill(c["x_label"], 40))
+            ax.set_xlabel(textwrap.fill(c["x_label"], label_chars))
             ax.set_ylabel(textwrap.fill(c["y_label"], 26))
             # The highlight falloff and the energy sweep span decades: log y for both.
             if c["y_scale"] == "log" or probe == "highlight" or kind == SWEEP_KIND:
                 ax.set_yscale("log")
             if c["x_scale"] == "log":
                 ax.set_xscale("log")
+        if ax.get_yscale() == "log":
+            # Five decades below the panel's largest value: a specular part that falls to zero
+            # (or below the floor) would otherwise stretch the axis over 1e-15.
+            top = max((np.nanmax(l.get_ydata()) for l in ax.get_lines()
+                       if np.isfinite(l.get_ydata()).any()), default=None)
+            if top and top > 0:
+                ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
         title = kind + (f" ({chosen})" if chosen else "")
         ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
     names = sorted(handles, key=lambda x: (not x.startswith(GROUND_SERIES), x))
