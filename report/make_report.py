@@ -98,7 +98,7 @@ def check_fit_job(job, path):
         need(e, "lighting", path, str, f"evaluations[{i}]")
 
 
-PROBE_SCHEMA = "shadefit.probe/2"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
+PROBE_SCHEMA = "shadefit.probe/3"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
 
 
 def check_probe_result(result, path, where):
@@ -296,7 +296,8 @@ def probes_table(study, probes):
             numbers = probe_numbers(probes, m, probe)
             if not numbers:
                 continue
-            ref = flatten(numbers.get("reference", {}))
+            ref = flatten(numbers.get("reference") or numbers.get("truth")
+                          or numbers.get("measured") or {})
             per = {l: flatten(numbers.get(l, {})) for l in labels}
             keys = list(ref.keys())
             for l in labels:
@@ -347,7 +348,9 @@ def compute_verdicts(study, rows, probes):
                     if numbers:
                         # The reference's numbers; probes that measure models only (energy)
                         # report the true BRDF as "truth".
-                        ref = flatten(numbers.get("reference") or numbers.get("truth") or {})
+                        # The brdf probe calls the measured BRDF "measured".
+                        ref = flatten(numbers.get("reference") or numbers.get("truth")
+                                      or numbers.get("measured") or {})
                         mod = flatten(numbers.get(label, {}))
                         # The energy probe's parameter sweep is per model, not per fit: it says
                         # whether the model's form conserves energy over its parameter range.

@@ -272,11 +272,38 @@ PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key
 SWEEP_KIND = "sweep of the lobe width"
 
 
+# Series drawn as the ground truth (dashed black, on top): the reference image's, the true BRDF's,
+# or the measured BRDF's (the brdf probe).
+GROUND_SERIES = ("reference", "truth", "measured")
+PANELS_PER_ROW = 3
+
+
+def plot_curve(ax, c, ys, **style):
+    """Draws one curve; points flagged "extrapolated" (MERL beyond theta_d = 75 deg) are drawn
+    dotted with open markers from the last measured point on, so they are seen, not hidden.
+    Returns the handle of the measured part."""
+    flags = c.get("extrapolated") or []
+    xs = np.array(c["x"], dtype=float)
+    if not flags or not any(flags):
+        h, = ax.plot(xs, ys, **style)
+        return h, None
+    flags = np.array(flags, dtype=bool)
+    solid = np.where(flags, np.nan, ys)
+    h, = ax.plot(xs, solid, **style)
+    # The dotted part starts at the last measured point so that the two join.
+    joined = flags.copy()
+    joined[:-1] |= flags[1:]
+    dotted = np.where(joined, ys, np.nan)
+    e, = ax.plot(xs, dotted, color=h.get_color(), linestyle=":", linewidth=1.0, marker="o",
+                 markersize=2.5, markerfacecolor="white", markeredgewidth=0.6)
+    return h, e
+
+
 def probe_curve_figure(probe, material, curves, labels):
-    """One panel per curve kind, in the order the probe measured them; per-reference curves show
-    one reference (PREFERRED_LIGHTING). `curves`: the probe's curve records, {"series",
-    "reference", "kind", "x", "y", "x_label", "y_label", "x_scale", "y_scale", ...}
-    (ProbeResultToJson, docs/probes.md)."""
+    """One panel per curve kind, in the order the probe measured them, PANELS_PER_ROW to a row;
+    per-reference curves show one reference (PREFERRED_LIGHTING). `curves`: the probe's curve
+    records, {"series", "reference", "kind", "x", "y", "x_label", "y_label", "x_scale",
+    "y_scale", "extrapolated" (optional)} (ProbeResultToJson, docs/probes.md)."""
     curves = [c for c in curves if c["x"] and len(c["x"]) == len(c["y"])]
     if not curves:
         return None
@@ -285,22 +312,26 @@ def probe_curve_figure(probe, material, curves, labels):
         if c["kind"] not in kinds:
             kinds.append(c["kind"])
     n = len(kinds)
+    cols = min(n, PANELS_PER_ROW)
+    rows = (n + cols - 1) // cols
     width = COLUMN_IN if n == 1 else PAGE_IN
-    panel_h = 1.9
+    panel_h = 1.9 if rows == 1 else 2.15  # a second row leaves room for the first's x label
     legend_h = 0.55
-    fig = plt.figure(figsize=(width, panel_h + legend_h + 0.25))
+    height = rows * panel_h + legend_h + 0.25
+    label_chars = 40 if cols < 3 else 30
+    fig = plt.figure(figsize=(width, height))
     handles = {}
-    series = sorted({c["series"] for c in curves if c["series"] not in ("reference", "truth")},
+    series = sorted({c["series"] for c in curves if c["series"] not in GROUND_SERIES},
                     key=lambda x: (labels.index(x) if x in labels else len(labels), x))
     for k_i, kind in enumerate(kinds):
+        row, col = divmod(k_i, cols)
         left_in = 0.72  # Room for a two-line axis label and its tick labels.
-        ax = fig.add_axes([(left_in + k_i * width / n) / width,
-                           (legend_h + 0.3) / (panel_h + legend_h + 0.25),
-                           (width / n - left_in - 0.2) / width,
-                           (panel_h - 0.45) / (panel_h + legend_h + 0.25)])
-        # Fits in the study's order, the reference (dashed black) last, on top of them.
+        bottom_in = legend_h + 0.3 + (rows - 1 - row) * panel_h
+        ax = fig.add_axes([(left_in + col * width / cols) / width, bottom_in / height,
+                           (width / cols - left_in - 0.2) / width, (1.9 - 0.45) / height])
+        # Fits in the study's order, the ground truth (dashed black) last, on top of them.
         items = sorted((c for c in curves if c["kind"] == kind), key=lambda c: (
-            c["series"] in ("reference", "truth"),
+            c["series"] in GROUND_SERIES,
             series.index(c["series"]) if c["series"] in series else len(series)))
         refs = sorted({c["reference"] for c in items if c["reference"]})
         chosen = None
@@ -314,22 +345,31 @@ def probe_curve_figure(probe, material, curves, labels):
             if ref and ref != chosen:
                 continue
             ys = np.array([np.nan if y is None else y for y in c["y"]], dtype=float)
-            if lab in ("reference", "truth"):
-                h, = ax.plot(c["x"], ys, color="black", linestyle=(0, (2, 1)), linewidth=1.4,
-                             label=lab)
+            if lab in GROUND_SERIES:
+                h, e = plot_curve(ax, c, ys, color="black", linestyle=(0, (2, 1)), linewidth=1.4,
+                                  label=lab)
             else:
-                h, = ax.plot(c["x"], ys, linewidth=1.1, label=lab, **style_of(lab, series))
+                h, e = plot_curve(ax, c, ys, linewidth=1.1, label=lab, **style_of(lab, series))
             handles.setdefault(lab, h)
-            ax.set_xlabel(textwrap.fill(c["x_label"], 40))
+            if e is not None:
+                handles.setdefault(f"{lab}, extrapolated", e)
+            ax.set_xlabel(textwrap.fill(c["x_label"], label_chars))
             ax.set_ylabel(textwrap.fill(c["y_label"], 26))
             # The highlight falloff and the energy sweep span decades: log y for both.
             if c["y_scale"] == "log" or probe == "highlight" or kind == SWEEP_KIND:
                 ax.set_yscale("log")
             if c["x_scale"] == "log":
                 ax.set_xscale("log")
+        if ax.get_yscale() == "log":
+            # Five decades below the panel's largest value: a specular part that falls to zero
+            # (or below the floor) would otherwise stretch the axis over 1e-15.
+            top = max((np.nanmax(l.get_ydata()) for l in ax.get_lines()
+                       if np.isfinite(l.get_ydata()).any()), default=None)
+            if top and top > 0:
+                ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
         title = kind + (f" ({chosen})" if chosen else "")
         ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
-    names = sorted(handles, key=lambda x: (x not in ("reference", "truth"), x))
+    names = sorted(handles, key=lambda x: (not x.startswith(GROUND_SERIES), x))
     fig.legend([handles[x] for x in names], names, loc="lower center", ncol=min(3, len(names)),
                frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=0.99)
@@ -351,7 +391,7 @@ def probe_bar_figure(probe, material, numbers, flatten):
         x = np.arange(len(keys))
         for i, s in enumerate(series):
             f = flatten(numbers[s])
-            colour = "black" if s in ("reference", "truth") else OKABE_ITO[i % len(OKABE_ITO)]
+            colour = "black" if s in GROUND_SERIES else OKABE_ITO[i % len(OKABE_ITO)]
             ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s, color=colour)
         ax.set_xticks(x + 0.4 - width / 2)
         # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
@@ -374,7 +414,8 @@ def probe_figures(study, probes, fig_dir, manifest, flatten):
             if fig is None:
                 fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten)
             save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
-                        f"{material}: {probe} probe (reference dashed black)")
+                        f"{material}: {probe} probe (reference or measured BRDF dashed black; "
+                        "extrapolated points dotted, open markers)")
 
 
 def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"):

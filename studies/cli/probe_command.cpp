@@ -2,6 +2,8 @@
 //      [--model M --set name=v ...] [--fit fit.json ...] [--truth-from-sidecar] -o DIR`:
 // the phenomenon probes (docs/probes.md). References load with their sidecar scene
 // (shadefit::refs::LoadReference); their G-buffers are rendered here.
+// `shadefit probe brdf --brdf x.binary|x.h5 [--model M --set ...] [--fit fit.json ...] -o DIR`:
+// the BRDF-space probes of a measured BRDF (probes/brdf_space.h); no references, no GL.
 //
 // Links: shadefit::probes, shadefit::refs (references and sidecars), CLI11::CLI11, fmt::fmt,
 // nlohmann_json.
@@ -17,7 +19,9 @@
 #include <vector>
 
 #include "commands.h"
+#include "shadefit/probes/brdf_space.h"
 #include "shadefit/probes/probes.h"
+#include "shadefit/refs/measured_brdf.h"
 #include "shadefit/refs/reference.h"
 #include "shadefit/refs/sidecar.h"
 #include "shadefit/render/error.h"
@@ -33,6 +37,7 @@ namespace fs = std::filesystem;
 struct ProbeCliOptions {
   std::string probe;
   std::vector<std::string> refs;
+  std::string brdf;
   std::string model;
   std::string label;
   std::vector<std::string> sets;
@@ -117,9 +122,42 @@ std::string LightingOf(const std::string& name) {
   return dash == std::string::npos ? name : name.substr(dash + 1);
 }
 
+// --model (with --set) and every --fit, in that order.
+std::vector<probes::ModelUnderTest> ModelsOf(const ProbeCliOptions& o) {
+  std::vector<probes::ModelUnderTest> models;
+  if (!o.model.empty()) {
+    const ModelInfo& info = FindModel(o.model);
+    probes::ModelUnderTest m;
+    m.model = o.model;
+    m.label = o.label.empty() ? o.model : o.label;
+    m.params = DefaultParams(info);
+    for (const auto& s : o.sets) SetParamFromString(info, s, "--set", &m.params);
+    m.trained_on = o.trained_on;
+    models.push_back(m);
+  } else if (!o.sets.empty()) {
+    throw Error("", "--set", "needs --model");
+  }
+  for (const std::string& f : o.fits) models.push_back(ModelFromFit(f));
+  return models;
+}
+
+void RunBrdf(const ProbeCliOptions& o) {
+  if (o.brdf.empty()) throw Error("", "--brdf", "the brdf probe needs a measured BRDF file");
+  if (!o.refs.empty()) throw Error("", "--ref", "not read by the brdf probe (it reads --brdf)");
+  if (o.truth_from_sidecar) throw Error("", "--truth-from-sidecar", "not used by the brdf probe");
+  const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(o.brdf);
+  const std::vector<probes::ModelUnderTest> models = ModelsOf(o);
+  const probes::ProbeResult result = probes::BrdfSpaceProbe(*brdf, models);
+  probes::WriteProbeOutputs(result, o.output);
+  fmt::print("brdf probe: {} ({}), {} model(s) -> {}/brdf.json, {}/brdf.png\n", o.brdf,
+             brdf->Format(), models.size(), o.output, o.output);
+}
+
 void Run(const ProbeCliOptions& o) {
   // CLI11 has checked the name against ProbeNames().
   const probes::ProbeKind kind = *probes::ParseProbeKind(o.probe);
+  if (kind == probes::ProbeKind::kBrdf) return RunBrdf(o);
+  if (!o.brdf.empty()) throw Error("", "--brdf", "only the brdf probe reads a measured BRDF");
   if (o.refs.empty() && kind != probes::ProbeKind::kEnergy) {
     throw Error("", "--ref", "at least one reference");
   }
@@ -149,19 +187,7 @@ void Run(const ProbeCliOptions& o) {
     }
     in.references.push_back(std::move(r));
   }
-  if (!o.model.empty()) {
-    const ModelInfo& info = FindModel(o.model);
-    probes::ModelUnderTest m;
-    m.model = o.model;
-    m.label = o.label.empty() ? o.model : o.label;
-    m.params = DefaultParams(info);
-    for (const auto& s : o.sets) SetParamFromString(info, s, "--set", &m.params);
-    m.trained_on = o.trained_on;
-    in.models.push_back(m);
-  } else if (!o.sets.empty()) {
-    throw Error("", "--set", "needs --model");
-  }
-  for (const std::string& f : o.fits) in.models.push_back(ModelFromFit(f));
+  in.models = ModelsOf(o);
   if (o.truth_from_sidecar) {
     if (o.refs.empty()) throw Error("", "--truth-from-sidecar", "needs --ref");
     in.truth = TruthFromSidecar(o.refs.front());
@@ -179,11 +205,13 @@ void RegisterProbeCommand(CLI::App& app) {
   auto opt = std::make_shared<ProbeCliOptions>();
   auto* cmd = app.add_subcommand("probe",
                                  "Phenomenon probes: fresnel, highlight, energy, "
-                                 "portability (docs/probes.md)");
+                                 "portability; brdf reads a measured BRDF (docs/probes.md)");
   cmd->add_option("probe", opt->probe, "Which probe")
       ->required()
       ->check(CLI::IsMember(probes::ProbeNames()));
   cmd->add_option("--ref", opt->refs, "Reference EXR with its sidecar JSON (repeatable)");
+  cmd->add_option("--brdf", opt->brdf,
+                  "Measured BRDF for the brdf probe: MERL .binary or Neural-BRDF .h5");
   cmd->add_option("--model", opt->model, "A model under test (see `shadefit models`)");
   cmd->add_option("--label", opt->label, "Label of --model in the outputs (default: its name)");
   cmd->add_option("--set", opt->sets, "Parameter of --model, name=value or name=r,g,b");

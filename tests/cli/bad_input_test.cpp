@@ -1009,4 +1009,28 @@ TEST_F(BadInput, EnvReportPythonMissing) {
   ExpectCleanFailure("report out/st", "SHADEFIT_PYTHON", "SHADEFIT_PYTHON=/no/such/python3");
 }
 
+// `probe brdf`: the measured BRDF file and the models are checked before anything is written.
+TEST_F(BadInput, ProbeBrdfNeedsBrdf) {
+  ExpectCleanFailure("probe brdf --model ggx -o out",
+                     "--brdf: the brdf probe needs a measured BRDF file");
+}
+
+TEST_F(BadInput, ProbeBrdfTruncatedMerlTable) {
+  WriteText(in() / "m.binary", std::string("\x5a\x00\x00\x00\x5a\x00\x00\x00", 8));
+  ExpectCleanFailure("probe brdf --brdf in/m.binary -o out",
+                     "in/m\\.binary: dims: file is 8 bytes, too short");
+}
+
+TEST_F(BadInput, ProbeBrdfNeuralWithoutConfig) {
+  WriteText(in() / "n.h5", "not hdf5");
+  ExpectCleanFailure("probe brdf --brdf in/n.h5 -o out",
+                     "in/n\\.h5: config: the Keras model config .*n\\.json is missing");
+}
+
+TEST_F(BadInput, ProbeBrdfRefsRejected) {
+  WriteText(in() / "m.binary", "x");
+  ExpectCleanFailure("probe brdf --brdf in/m.binary --ref in/ref.exr -o out",
+                     "--ref: not read by the brdf probe");
+}
+
 }  // namespace

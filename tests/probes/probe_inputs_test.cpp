@@ -150,12 +150,12 @@ TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
 
 // Probe names are parsed once into kinds; every kind's name parses back to it.
 TEST(ProbeKind, NamesRoundTrip) {
-  ASSERT_EQ(probes::AllProbeKinds().size(), 4u);
+  ASSERT_EQ(probes::AllProbeKinds().size(), 5u);
   for (probes::ProbeKind kind : probes::AllProbeKinds()) {
     EXPECT_EQ(probes::ParseProbeKind(probes::ProbeName(kind)), kind);
   }
   EXPECT_EQ(probes::ProbeNames(),
-            (std::vector<std::string>{"fresnel", "highlight", "energy", "portability"}));
+            (std::vector<std::string>{"fresnel", "highlight", "energy", "portability", "brdf"}));
   EXPECT_FALSE(probes::ParseProbeKind("fresnell").has_value());
   EXPECT_FALSE(probes::ParseProbeKind("").has_value());
 }

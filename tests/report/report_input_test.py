@@ -77,7 +77,7 @@ CASES = [
      "jobs/fit.", "parameters: missing"),
     ("probe result of an older shadefit", lambda d: edit_json(
         os.path.join(d, "jobs", first_probe_job(d)), old_curves),
-     "jobs/probe.", "probes.fresnel.schema: want shadefit.probe/2"),
+     "jobs/probe.", "probes.fresnel.schema: want shadefit.probe/3"),
     ("probe curve without a kind", lambda d: edit_json(
         os.path.join(d, "jobs", first_probe_job(d)),
         lambda j: j["probes"]["fresnel"]["curves"][0].pop("kind")),

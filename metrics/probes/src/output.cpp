@@ -39,13 +39,21 @@ if not groups:
 for ax, ((xl, yl), items) in zip(axes.flat, groups.items()):
     for name, c in items:
         log_y = c.get("y_scale") == "log"
-        pts = [(x, y) for x, y in zip(c["x"], c["y"]) if x is not None and y is not None]
+        flags = c.get("extrapolated") or [False] * len(c["x"])
+        pts = [(x, y, f) for x, y, f in zip(c["x"], c["y"], flags)
+               if x is not None and y is not None]
         if log_y:
-            pts = [(x, y) for x, y in pts if y > 0]
+            pts = [p for p in pts if p[1] > 0]
         if not pts:
             continue
-        xs, ys = zip(*pts)
-        ax.plot(xs, ys, marker="o" if len(xs) < 30 else None, ms=3, lw=1.2, label=name)
+        xs, ys, fs = zip(*pts)
+        solid = [p for p in pts if not p[2]]
+        line, = ax.plot([p[0] for p in solid], [p[1] for p in solid],
+                        marker="o" if len(xs) < 30 else None, ms=3, lw=1.2, label=name)
+        if any(fs):  # extrapolated points (the end of the axis): dotted, open markers
+            i0 = max(0, fs.index(True) - 1)
+            ax.plot(xs[i0:], ys[i0:], ls=":", marker="o", ms=3, mfc="white", lw=1.0,
+                    color=line.get_color(), label=name + " (extrapolated)")
         if log_y:
             ax.set_yscale("log")
         if c.get("x_scale") == "log":
@@ -84,8 +92,8 @@ class PlotScratch {
   void Draw(const std::string& json_text, const std::string& png, const std::string& final_png) {
     WriteScratch(script_, kPlotScript);
     WriteScratch(data_, json_text);
-    const std::string cmd = fmt::format("/usr/bin/python3 '{}' '{}' '{}' > '{}' 2>&1", script_,
-                                        data_, png, log_);
+    const std::string cmd =
+        fmt::format("/usr/bin/python3 '{}' '{}' '{}' > '{}' 2>&1", script_, data_, png, log_);
     const int rc = std::system(cmd.c_str());
     if (rc != 0 || !fs::exists(png)) {
       std::ifstream lf(log_);
@@ -120,16 +128,26 @@ nlohmann::json CurveToJson(const ProbeCurve& c) {
     x.push_back(internal::Num(c.x[i]));
     y.push_back(internal::Num(c.y[i]));
   }
-  return {{"series", c.series},
-          {"reference", c.reference.empty() ? nlohmann::json() : nlohmann::json(c.reference)},
-          {"kind", CurveKindName(c.kind)},
-          {"x", std::move(x)},
-          {"y", std::move(y)},
-          {"x_label", c.x_label},
-          {"y_label", c.y_label},
-          {"x_scale", ScaleName(c.x_scale)},
-          {"y_scale", ScaleName(c.y_scale)},
-          {"x_ticks", c.x_ticks}};
+  nlohmann::json j = {
+      {"series", c.series},
+      {"reference", c.reference.empty() ? nlohmann::json() : nlohmann::json(c.reference)},
+      {"kind", CurveKindName(c.kind)},
+      {"x", std::move(x)},
+      {"y", std::move(y)},
+      {"x_label", c.x_label},
+      {"y_label", c.y_label},
+      {"x_scale", ScaleName(c.x_scale)},
+      {"y_scale", ScaleName(c.y_scale)},
+      {"x_ticks", c.x_ticks}};
+  if (!c.extrapolated.empty()) {
+    if (c.extrapolated.size() != c.x.size()) {
+      throw Error(c.series, CurveKindName(c.kind),
+                  fmt::format("curve has {} points and {} extrapolation flags", c.x.size(),
+                              c.extrapolated.size()));
+    }
+    j["extrapolated"] = c.extrapolated;
+  }
+  return j;
 }
 
 }  // namespace
@@ -152,15 +170,14 @@ void WriteProbeOutputs(const ProbeResult& result, const std::string& dir) {
   const std::string json_path = base.string() + ".json", png_path = base.string() + ".png";
   const std::string text = ProbeResultToJson(result).dump(1) + "\n";
   // The plot first: when it fails, neither file is written (WriteAllOrNothing).
-  WriteAllOrNothing(
-      {{png_path,
-        [&] {
-          WriteAtomic(png_path, [&](const std::string& tmp) {
-            PlotScratch scratch(base);
-            scratch.Draw(text, tmp, png_path);
-          });
-        }},
-       {json_path, [&] { WriteTextAtomic(json_path, text); }}});
+  WriteAllOrNothing({{png_path,
+                      [&] {
+                        WriteAtomic(png_path, [&](const std::string& tmp) {
+                          PlotScratch scratch(base);
+                          scratch.Draw(text, tmp, png_path);
+                        });
+                      }},
+                     {json_path, [&] { WriteTextAtomic(json_path, text); }}});
 }
 
 }  // namespace shadefit::probes

@@ -1,5 +1,6 @@
 #include "shadefit/probes/probe_kind.h"
 
+#include "shadefit/probes/brdf_space.h"
 #include "shadefit/probes/probes.h"
 #include "shadefit/render/error.h"
 
@@ -7,7 +8,8 @@ namespace shadefit::probes {
 
 const std::vector<ProbeKind>& AllProbeKinds() {
   static const std::vector<ProbeKind> kAll = {ProbeKind::kFresnel, ProbeKind::kHighlight,
-                                              ProbeKind::kEnergy, ProbeKind::kPortability};
+                                              ProbeKind::kEnergy, ProbeKind::kPortability,
+                                              ProbeKind::kBrdf};
   return kAll;
 }
 
@@ -17,6 +19,7 @@ const char* ProbeName(ProbeKind kind) {
     case ProbeKind::kHighlight: return "highlight";
     case ProbeKind::kEnergy: return "energy";
     case ProbeKind::kPortability: return "portability";
+    case ProbeKind::kBrdf: return "brdf";
   }
   return "";
 }
@@ -43,6 +46,11 @@ const char* CurveKindName(CurveKind kind) {
     case CurveKind::kWhiteFurnace: return "white furnace (GL)";
     case CurveKind::kLobeWidthSweep: return "sweep of the lobe width";
     case CurveKind::kRmsePerReference: return "RMSE per reference";
+    case CurveKind::kFresnelRise: return "Fresnel rise";
+    case CurveKind::kSpecularPeak: return "specular peak";
+    case CurveKind::kHighlightF: return "highlight f";
+    case CurveKind::kHighlightSpecular: return "highlight specular";
+    case CurveKind::kBrdfAlbedo: return "directional albedo";
   }
   return "";
 }
@@ -61,6 +69,9 @@ ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs) {
     case ProbeKind::kHighlight: return HighlightProbe(inputs);
     case ProbeKind::kEnergy: return EnergyProbe(inputs);
     case ProbeKind::kPortability: return PortabilityProbe(inputs);
+    case ProbeKind::kBrdf:
+      if (!inputs.measured_brdf) throw Error("brdf", "measured_brdf", "the brdf probe needs one");
+      return BrdfSpaceProbe(*inputs.measured_brdf, inputs.models);
   }
   throw Error("", "probe", "unknown probe kind");
 }

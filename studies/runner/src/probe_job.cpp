@@ -1,14 +1,17 @@
 // A probe job: the study's probes on one material's references, its fits and (when the sidecar
-// has an exact twin) its true BRDF; then the job JSON, last.
+// has an exact twin) its true BRDF; for a [[measured]] material also the BRDF-space probe on the
+// measured BRDF file itself; then the job JSON, last.
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
 #include "job_kinds.h"
 #include "outputs.h"
 #include "shadefit/probes/probes.h"
+#include "shadefit/refs/measured_brdf.h"
 #include "shadefit/refs/reference.h"
 #include "shadefit/refs/sidecar.h"
 #include "test_hooks.h"
@@ -65,6 +68,16 @@ std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, cons
   return models;
 }
 
+// The measured BRDF file of a [[measured]] material; "" for a material of a [[group]].
+std::string MeasuredBrdfPath(const StudySpec& spec, const std::string& material) {
+  for (const MeasuredSource& src : spec.measured) {
+    for (std::size_t m = 0; m < src.materials.size(); ++m) {
+      if (src.materials[m] == material) return src.brdfs[m];
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Job>& jobs,
@@ -90,7 +103,19 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   // Every fit of the material failed (a black reference, say): nothing to probe.
   const std::vector<probes::ProbeKind> kinds =
       in.models.empty() ? std::vector<probes::ProbeKind>{} : context.spec.probes;
+  std::unique_ptr<refs::MeasuredBrdf> measured;
+  json skipped = json::array();
   for (const probes::ProbeKind kind : kinds) {
+    if (kind == probes::ProbeKind::kBrdf) {
+      // Only a measured material has a BRDF to read; a [[group]] of images says so and goes on.
+      const std::string path = MeasuredBrdfPath(context.spec, g.material);
+      if (path.empty()) {
+        skipped.push_back({{"probe", "brdf"}, {"why", "not a [[measured]] material"}});
+        continue;
+      }
+      if (!measured) measured = refs::LoadMeasuredBrdf(path);
+      in.measured_brdf = measured.get();
+    }
     const probes::ProbeResult r = probes::RunProbe(kind, in);
     probes::WriteProbeOutputs(r, probe_dir.string());
     results[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
@@ -107,6 +132,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
                   {"material", g.material},
                   {"status", in.models.empty() ? "no-fit" : "ok"},
                   {"fits_without_parameters", without_fit},
+                  {"probes_skipped", skipped},
                   {"probes", results},
                   {"outputs", outputs}};
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);

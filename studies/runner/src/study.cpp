@@ -653,7 +653,7 @@ void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q,
                                                : nullptr;
       r.Fail(where, from_quick ? "quick.probes" : "probes.run",
              "unknown probe '" + p + "'" + DidYouMean(p, probes::ProbeNames()) +
-                 " (fresnel, highlight, energy, portability)");
+                 " (fresnel, highlight, energy, portability, brdf)");
     }
     spec->probes.push_back(*kind);
   }
@@ -678,7 +678,7 @@ nlohmann::json ReadVerdict(const Reader& r, const std::string& name, const toml:
   const std::string source = j["source"];
   if (source != "metrics" && !probes::ParseProbeKind(source)) {
     r.Fail(t.get("source"), prefix + "source",
-           "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability)");
+           "expected \"metrics\" or a probe name (fresnel, highlight, energy, portability, brdf)");
   }
   if (j["kind"] != "relative" && j["kind"] != "max" && j["kind"] != "absolute") {
     r.Fail(t.get("kind"), prefix + "kind", "expected \"relative\", \"absolute\" or \"max\"");

@@ -10,12 +10,12 @@
 
 namespace shadefit::probes {
 
-enum class ProbeKind { kFresnel, kHighlight, kEnergy, kPortability };
+enum class ProbeKind { kFresnel, kHighlight, kEnergy, kPortability, kBrdf };
 
 // Every probe, in the order the names are listed to users.
 const std::vector<ProbeKind>& AllProbeKinds();
 
-// "fresnel", "highlight", "energy", "portability": the name in study files, on the command
+// "fresnel", "highlight", "energy", "portability", "brdf" (brdf_space.h): the name in study files, on the command
 // line, in ProbeResult::probe and in output file names.
 const char* ProbeName(ProbeKind kind);
 

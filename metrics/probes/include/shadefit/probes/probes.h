@@ -21,6 +21,10 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 
+namespace shadefit::refs {
+class MeasuredBrdf;  // refs/measured_brdf.h
+}
+
 namespace shadefit::probes {
 
 struct ProbeReference {  // one image of the material under one lighting
@@ -44,6 +48,7 @@ struct ProbeInputs {
   std::vector<ModelUnderTest> models;
   std::optional<ModelUnderTest> truth;  // the true BRDF as one of our models when known
   Renderer* renderer = nullptr;         // GL context current on the calling thread
+  const refs::MeasuredBrdf* measured_brdf = nullptr;  // the BRDF itself (brdf probe only)
 };
 
 // What a curve measures. CurveKindName is the curve's "kind" in the JSON and its panel's title.
@@ -55,10 +60,17 @@ enum class CurveKind {
   kWhiteFurnace,      // Energy: E(theta_v) read off the GL white-furnace render.
   kLobeWidthSweep,    // Energy: specular albedo at normal view over the shininess list.
   kRmsePerReference,  // Portability: RMSE under each reference's lighting.
+  // BRDF space (brdf_space.h): read off the BRDF itself, no image.
+  kFresnelRise,        // (f - floor) cos^2 theta_d / centre mean at theta_h = 0, vs theta_d.
+  kSpecularPeak,       // f(theta_h = 0, theta_d), vs theta_d (log y).
+  kHighlightF,         // f against theta_h on the small-theta_d slice (log y).
+  kHighlightSpecular,  // (f - floor) n.l n.v / peak against theta_h on that slice (log y).
+  kBrdfAlbedo,         // E(theta_o) of the BRDF: half-vector quadrature or DirectionalAlbedo.
 };
 
 // "specular vs theta_v", "F vs theta_d", "falloff", "albedo (quadrature)", "white furnace (GL)",
-// "sweep of the lobe width", "RMSE per reference".
+// "sweep of the lobe width", "RMSE per reference", "Fresnel rise", "specular peak",
+// "highlight f", "highlight specular", "directional albedo".
 const char* CurveKindName(CurveKind kind);
 
 enum class AxisScale { kLinear, kLog };
@@ -73,6 +85,9 @@ struct ProbeCurve {
   std::string x_label{}, y_label{};
   AxisScale x_scale = AxisScale::kLinear, y_scale = AxisScale::kLinear;
   std::vector<std::string> x_ticks{};  // Names of x = 0, 1, ... when x is an index; else empty.
+  // Per point: true where the value depends on data outside what was measured (MERL beyond
+  // theta_d = 75 deg, brdf_space.h). Empty when no point is; else the length of x.
+  std::vector<bool> extrapolated{};
 };
 
 struct ProbeResult {
@@ -120,11 +135,11 @@ struct FresnelOptions {
 // HWHM = theta_h where it first falls to 1/2 (linear interpolation); tail fraction = sum of s
 // over theta_h > tail_hwhm_multiple * HWHM over the sum of s (pixel sums, image space).
 struct HighlightOptions {
-  double falloff_bin_deg = 0.5;        // theta_h bin width of the radial falloff (degrees).
-  double falloff_max_deg = 60.0;       // Falloff curve range: theta_h in [0, this).
-  double tail_hwhm_multiple = 2.0;     // Tail = theta_h beyond this many HWHM.
-  double min_coverage = 0.999;         // Pixels with lower coverage (edges) are skipped.
-  double diffuse_percentile = 25.0;    // No truth: Lambert-fit diffuse estimate (FresnelOptions).
+  double falloff_bin_deg = 0.5;      // theta_h bin width of the radial falloff (degrees).
+  double falloff_max_deg = 60.0;     // Falloff curve range: theta_h in [0, this).
+  double tail_hwhm_multiple = 2.0;   // Tail = theta_h beyond this many HWHM.
+  double min_coverage = 0.999;       // Pixels with lower coverage (edges) are skipped.
+  double diffuse_percentile = 25.0;  // No truth: Lambert-fit diffuse estimate (FresnelOptions).
   // A reference whose specular peak is below this fraction of its brightest pixel has no
   // highlight (render noise on a Lambert material): no shape numbers, verdicts not applicable.
   double min_peak_fraction = 0.05;
@@ -170,13 +185,14 @@ ProbeResult PortabilityProbe(const ProbeInputs& inputs, const PortabilityOptions
 // The probe of `kind` with its default options.
 ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs);
 
-// The schema of ProbeResultToJson's object. 2: "curves" is a list of records (1, unnamed: an
-// object keyed "<series> @ <reference>: <kind>").
-inline constexpr const char* kProbeResultSchema = "shadefit.probe/2";
+// The schema of ProbeResultToJson's object. 3: a curve may carry "extrapolated" flags; 2:
+// "curves" is a list of records (1, unnamed: an object keyed "<series> @ <reference>: <kind>").
+inline constexpr const char* kProbeResultSchema = "shadefit.probe/3";
 
 // {"schema": kProbeResultSchema, "probe": name, "numbers": {...}, "curves": [{"series",
 // "reference" (null when pooled), "kind", "x", "y", "x_label", "y_label", "x_scale", "y_scale"
-// ("linear" or "log"), "x_ticks"}, ...], "notes": [...]}; non-finite numbers are null. The only
+// ("linear" or "log"), "x_ticks", and "extrapolated" (per point, only when some point is)}, ...],
+// "notes": [...]}; non-finite numbers are null. The only
 // place a result becomes JSON (docs/probes.md).
 nlohmann::json ProbeResultToJson(const ProbeResult& result);
 
