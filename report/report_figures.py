@@ -48,8 +48,11 @@ UNITS_RADIANCE = "W m\u207b\u00b2 sr\u207b\u00b9"  # W m^-2 sr^-1, as Unicode su
 
 
 def style_of(label, labels):
+    """Colour and line style of the i-th fit; distinct pairs for up to 49 fits (the style steps
+    once more on each pass through the colours)."""
     i = labels.index(label) if label in labels else len(labels)
-    return {"color": OKABE_ITO[i % len(OKABE_ITO)], "linestyle": LINE_STYLES[i % len(LINE_STYLES)]}
+    n = len(OKABE_ITO)
+    return {"color": OKABE_ITO[i % n], "linestyle": LINE_STYLES[(i + i // n) % len(LINE_STYLES)]}
 
 
 # --- Saving and checking ------------------------------------------------------------------------
@@ -270,6 +273,9 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
 PREFERRED_LIGHTING = {"fresnel": ["rim", "side", "mirror75"], "highlight": ["key", "camera"]}
 # The energy probe's sweep (CurveKindName, metrics/probes/src/probe_kind.cpp).
 SWEEP_KIND = "sweep of the lobe width"
+# Curve kinds drawn on a log y axis whatever the probe says: the sweep spans three decades, and
+# the brdf probe's Fresnel rise is a factor over the centre that fits take to 100 or more.
+LOG_KINDS = (SWEEP_KIND, "Fresnel rise")
 
 
 # Series drawn as the ground truth (dashed black, on top): the reference image's, the true BRDF's,
@@ -316,7 +322,11 @@ def probe_curve_figure(probe, material, curves, labels):
     rows = (n + cols - 1) // cols
     width = COLUMN_IN if n == 1 else PAGE_IN
     panel_h = 1.9 if rows == 1 else 2.15  # a second row leaves room for the first's x label
-    legend_h = 0.55
+    # One legend row per three entries: every series, and an "extrapolated" entry per series
+    # with flagged points.
+    entries = len({c["series"] for c in curves}) + \
+        len({c["series"] for c in curves if any(c.get("extrapolated") or [])})
+    legend_h = 0.55 + 0.13 * max(0, (entries + 2) // 3 - 2)
     height = rows * panel_h + legend_h + 0.25
     label_chars = 40 if cols < 3 else 30
     fig = plt.figure(figsize=(width, height))
@@ -356,7 +366,7 @@ def probe_curve_figure(probe, material, curves, labels):
             ax.set_xlabel(textwrap.fill(c["x_label"], label_chars))
             ax.set_ylabel(textwrap.fill(c["y_label"], 26))
             # The highlight falloff and the energy sweep span decades: log y for both.
-            if c["y_scale"] == "log" or probe == "highlight" or kind == SWEEP_KIND:
+            if c["y_scale"] == "log" or probe == "highlight" or kind in LOG_KINDS:
                 ax.set_yscale("log")
             if c["x_scale"] == "log":
                 ax.set_xscale("log")
@@ -369,7 +379,10 @@ def probe_curve_figure(probe, material, curves, labels):
                 ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
         title = kind + (f" ({chosen})" if chosen else "")
         ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
-    names = sorted(handles, key=lambda x: (not x.startswith(GROUND_SERIES), x))
+    def legend_order(name):  # ground truth first, then the fits in the study's order
+        base = name.split(", extrapolated")[0]
+        return (base not in GROUND_SERIES, series.index(base) if base in series else -1, name)
+    names = sorted(handles, key=legend_order)
     fig.legend([handles[x] for x in names], names, loc="lower center", ncol=min(3, len(names)),
                frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=0.99)
