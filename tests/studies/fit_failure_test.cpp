@@ -121,6 +121,42 @@ TEST(FitFailure, NanResidualsAreRecordedAndTheProbesGoOnWithoutThatFit) {
   EXPECT_FALSE(probe["probes"].empty());
 }
 
+// A finite solve whose parameters render an infinite pixel under one of the material's
+// references: before, the metrics threw "pixels: infinite value" and the study exited 1.
+TEST(FitFailure, NonFiniteRenderIsRecordedWithNoImageAndTheStudyGoesOn) {
+  const StudySpec spec = QuickSpec();
+  const RunSummary s = RunWithFault(spec, kOut / "inf_render", "inf-render:2");
+  ExpectCarriedOn(s, spec);
+  ASSERT_EQ(s.fits_without_parameters.size(), 1u);
+  const std::string id =
+      s.fits_without_parameters[0].substr(0, s.fits_without_parameters[0].find(':'));
+  const json job = ReadJson(fs::path(s.study_dir) / "jobs" / (id + ".json"));
+  EXPECT_EQ(job["status"], "non-finite-render");
+  EXPECT_NE(job["error"].get<std::string>().find("the fit renders inf at"), std::string::npos)
+      << job["error"];
+  EXPECT_TRUE(job["parameters"].empty());
+  int rows = 0;
+  for (const Row& r : ReadResults(fs::path(s.study_dir) / "results.csv")) {
+    if (r.status != "non-finite-render") continue;
+    ++rows;
+    EXPECT_EQ(job["label"], r.label);
+    EXPECT_TRUE(r.rmse.empty()) << "no parameters, no metrics";
+  }
+  EXPECT_GT(rows, 0);
+  // The fit's previews of the references evaluated before the failing one are gone.
+  auto ends_with = [](const std::string& s, const std::string& end) {
+    return s.size() > end.size() && s.compare(s.size() - end.size(), end.size(), end) == 0;
+  };
+  const std::string label = job["label"].get<std::string>();
+  for (const auto& e : fs::directory_iterator(fs::path(s.study_dir) / "images")) {
+    const std::string name = e.path().filename().string();
+    const bool of_fit = name.rfind(job["material"].get<std::string>() + "-", 0) == 0 &&
+                        (ends_with(name, "." + label + ".png") ||
+                         ends_with(name, "." + label + ".error.png"));
+    EXPECT_FALSE(of_fit) << name << " left by the failed fit";
+  }
+}
+
 TEST(FitFailure, BlackReferenceIsRecordedForEveryModelAndTheStudyGoesOn) {
   StudySpec spec = QuickSpec();
   // A black copy of red plastic's key reference, with a sidecar naming the same scene.

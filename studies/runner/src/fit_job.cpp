@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
 #include <nlohmann/json.hpp>
@@ -150,6 +151,31 @@ void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpe
   outputs->push_back(err_png);
 }
 
+// The fitted parameters render NaN or Inf under a reference's lighting (for example a lobe
+// whose exponent overflows at a view the training lighting did not reach): the fit is recorded
+// as non-finite-render and the study goes on.
+class NonFiniteRenderError : public Error {
+ public:
+  using Error::Error;
+};
+
+// The first covered pixel of `prediction` with a non-finite channel; throws NonFiniteRenderError.
+void CheckFinite(const Image& prediction, const Image& reference, const std::string& name) {
+  for (int y = 0; y < prediction.height; ++y) {
+    for (int x = 0; x < prediction.width; ++x) {
+      if (reference.channels > 3 && !(reference.at(x, y, 3) > 0)) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite(prediction.at(x, y, c))) {
+          throw NonFiniteRenderError(
+              name, "render",
+              fmt::format("the fit renders {} at ({}, {}) channel {}", prediction.at(x, y, c), x,
+                          y, c));
+        }
+      }
+    }
+  }
+}
+
 // The fit rendered under one reference's lighting and compared with it.
 json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
               const refs::Reference& ref, const fit::FitResult& result, Renderer& renderer,
@@ -158,6 +184,9 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
   Image prediction;
   const double rmse = fit::EvaluateModelOnReference(ref, job.model, result.values,
                                                     result.exposure, &renderer, &prediction);
+  if (FaultArmed("inf-render")) prediction.at(prediction.width / 2, prediction.height / 2, 0) =
+      std::numeric_limits<float>::infinity();
+  CheckFinite(prediction, ref.image, rs.name);
   const Image mask = CoverageMask(ref.image);
   metrics::MetricsParameters mp;
   mp.exposure_stops = spec.metrics_exposure_stops;
@@ -235,9 +264,19 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
 
   json evaluations = json::array();
   json outputs = json::array();
-  for (std::size_t i = 0; i < references.size(); ++i) {
-    evaluations.push_back(
-        Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs));
+  try {
+    for (std::size_t i = 0; i < references.size(); ++i) {
+      evaluations.push_back(
+          Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs));
+    }
+  } catch (const NonFiniteRenderError& e) {
+    // The previews of the references evaluated before it go too: a failed fit leaves no image.
+    for (const json& o : outputs) {
+      std::error_code ec;
+      std::filesystem::remove(context.paths.dir / o.get<std::string>(), ec);
+    }
+    WriteFailedFit(context, job, FitStatus::kNonFiniteRender, e.what());
+    return;
   }
   json j = FitJobHeader(context, job,
                         result.converged ? FitStatus::kOk : FitStatus::kNotConverged);

@@ -1,5 +1,5 @@
-// A fit job's outcome: results.csv's `status` column and the job JSON's "status". The last three
-// leave no fitted parameters; the study carries on without that fit.
+// A fit job's outcome: results.csv's `status` column and the job JSON's "status". All but the
+// first two leave no fitted parameters; the study carries on without that fit.
 #pragma once
 
 #include <optional>
@@ -8,7 +8,14 @@
 
 namespace shadefit::studies::internal {
 
-enum class FitStatus { kOk, kNotConverged, kDegenerateReference, kNanResiduals, kGlContextLost };
+enum class FitStatus {
+  kOk,
+  kNotConverged,
+  kDegenerateReference,
+  kNanResiduals,
+  kNonFiniteRender,  // finite cost, but the fit renders NaN/Inf under one of its references
+  kGlContextLost,
+};
 
 inline const char* FitStatusName(FitStatus s) {
   switch (s) {
@@ -16,6 +23,7 @@ inline const char* FitStatusName(FitStatus s) {
     case FitStatus::kNotConverged: return "not-converged";
     case FitStatus::kDegenerateReference: return "degenerate-reference";
     case FitStatus::kNanResiduals: return "nan-residuals";
+    case FitStatus::kNonFiniteRender: return "non-finite-render";
     case FitStatus::kGlContextLost: return "gl-context-lost";
   }
   return "";
@@ -24,7 +32,8 @@ inline const char* FitStatusName(FitStatus s) {
 // The status a job JSON records; nullopt for a name this version does not write.
 inline std::optional<FitStatus> ParseFitStatus(std::string_view name) {
   for (FitStatus s : {FitStatus::kOk, FitStatus::kNotConverged, FitStatus::kDegenerateReference,
-                      FitStatus::kNanResiduals, FitStatus::kGlContextLost}) {
+                      FitStatus::kNanResiduals, FitStatus::kNonFiniteRender,
+                      FitStatus::kGlContextLost}) {
     if (name == FitStatusName(s)) return s;
   }
   return std::nullopt;

@@ -13,8 +13,9 @@ void KillPoint(const char* site);
 
 // SHADEFIT_TEST_FAULT=<mode>:<n|*> (tests/studies/fit_failure_test.cpp): true when the n-th (or
 // every) fit job attempt is to meet <mode>: "gl-lost" (the context is reported lost when the job
-// starts) or "nan-residuals" (the solve's cost and parameters come back NaN, as when every
-// start's residuals were NaN). Recording and carrying on are the real code paths; only the
+// starts), "nan-residuals" (the solve's cost and parameters come back NaN, as when every
+// start's residuals were NaN) or "inf-render" (the n-th evaluation's render of a fit gets one
+// infinite pixel, as when a lobe overflows under a lighting it was not trained on). Recording and carrying on are the real code paths; only the
 // fault is simulated.
 bool FaultArmed(const char* mode);
 
