@@ -55,6 +55,54 @@ def style_of(label, labels):
     return {"color": OKABE_ITO[i % n], "linestyle": LINE_STYLES[(i + i // n) % len(LINE_STYLES)]}
 
 
+# --- Measured text ------------------------------------------------------------------------------
+# Layouts are computed in inches from the widths of the texts they hold, so a study with many fits
+# or long labels gets more legend rows or a taller margin instead of text on text.
+
+
+def text_width_in(text, fontsize):
+    """Width in inches of one line (the widest line of a multi-line text) in the figure font."""
+    props = matplotlib.font_manager.FontProperties(family=plt.rcParams["font.family"],
+                                                   size=fontsize)
+    renderer = _measuring_renderer()
+    return max(renderer.get_text_width_height_descent(line, props, ismath=False)[0]
+               for line in str(text).split("\n")) / 72.0
+
+
+def _measuring_renderer():
+    global _RENDERER
+    if _RENDERER is None:
+        from matplotlib.backends.backend_agg import RendererAgg
+        _RENDERER = RendererAgg(10, 10, 72)  # 72 dpi: one pixel is one point.
+    return _RENDERER
+
+
+_RENDERER = None
+
+
+def legend_layout(names, width_in, fontsize=FONT_PT - 1, handlelength=2.0, handletextpad=0.8,
+                  columnspacing=2.0, max_cols=None):
+    """(columns, rows, height in inches) of a frameless legend of `names` no wider than
+    width_in: as many columns as fit (matplotlib fills them column by column), at most max_cols."""
+    n = len(names)
+    if n == 0:
+        return 1, 0, 0.0
+    em = fontsize / 72.0
+    widths = [text_width_in(x, fontsize) for x in names]
+    cols = 1
+    for c in range(min(n, max_cols or n), 0, -1):
+        rows = -(-n // c)
+        used = sum(max(widths[k:k + rows]) + (handlelength + handletextpad) * em
+                   for k in range(0, n, rows))
+        # Border padding 0.4 em each side (legend.borderpad), and a little slack.
+        if used + (c - 1) * columnspacing * em + 0.8 * em + 0.05 <= width_in:
+            cols = c
+            break
+    rows = -(-n // cols)
+    # A row is a line of text (1.2 em) and 0.5 em between rows (legend.labelspacing).
+    return cols, rows, (rows * 1.2 + (rows - 1) * 0.5 + 0.8) * em
+
+
 # --- Saving and checking ------------------------------------------------------------------------
 
 
@@ -322,11 +370,12 @@ def probe_curve_figure(probe, material, curves, labels):
     rows = (n + cols - 1) // cols
     width = COLUMN_IN if n == 1 else PAGE_IN
     panel_h = 1.9 if rows == 1 else 2.15  # a second row leaves room for the first's x label
-    # One legend row per three entries: every series, and an "extrapolated" entry per series
-    # with flagged points.
-    entries = len({c["series"] for c in curves}) + \
-        len({c["series"] for c in curves if any(c.get("extrapolated") or [])})
-    legend_h = 0.55 + 0.13 * max(0, (entries + 2) // 3 - 2)
+    # The legend holds every series and an "extrapolated" entry per series with flagged points,
+    # at most three to a row, fewer where the names are too long for the width.
+    entries = sorted({c["series"] for c in curves}) + sorted(
+        {c["series"] + ", extrapolated" for c in curves if any(c.get("extrapolated") or [])})
+    legend_cols, _, legend_in = legend_layout(entries, width, max_cols=3)
+    legend_h = max(0.55, legend_in + 0.12)
     height = rows * panel_h + legend_h + 0.25
     label_chars = 40 if cols < 3 else 30
     fig = plt.figure(figsize=(width, height))
@@ -383,20 +432,45 @@ def probe_curve_figure(probe, material, curves, labels):
         base = name.split(", extrapolated")[0]
         return (base not in GROUND_SERIES, series.index(base) if base in series else -1, name)
     names = sorted(handles, key=legend_order)
-    fig.legend([handles[x] for x in names], names, loc="lower center", ncol=min(3, len(names)),
+    fig.legend([handles[x] for x in names], names, loc="lower center", ncol=legend_cols,
                frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=0.99)
     return fig
 
 
-def probe_bar_figure(probe, material, numbers, flatten):
-    series = list(numbers.keys())
+HATCHES = ["", "///", "...", "xx", "\\\\", "++"]
+
+
+def bar_style(i, label):
+    """Fill of the i-th series of a bar chart: the ground truth black, the fits an Okabe-Ito
+    colour and a hatch each (7 x 6 distinct pairs, so more fits than colours still separate)."""
+    if label in GROUND_SERIES:
+        return {"color": "black", "hatch": "", "edgecolor": "white", "linewidth": 0}
+    return {"color": OKABE_ITO[i % len(OKABE_ITO)], "hatch": HATCHES[i % len(HATCHES)],
+            "edgecolor": "white", "linewidth": 0}
+
+
+def probe_bar_figure(probe, material, numbers, flatten, labels=()):
+    """Grouped bars of a probe's numbers: the ground truth first, then the fits in the study's
+    order (`labels`). Laid out in inches from top to bottom: title, legend (as many rows as its
+    names need), axes, the vertical key labels (as deep as the longest)."""
+    series = sorted(numbers.keys(), key=lambda x: (
+        x not in GROUND_SERIES, labels.index(x) if x in labels else len(labels), x))
     keys = []
     for s in series:
         keys += [k for k in flatten(numbers[s]) if k not in keys]
     keys = keys[:12]
-    fig = plt.figure(figsize=(PAGE_IN, 2.6))
-    ax = fig.add_axes([0.08, 0.36, 0.9, 0.5])
+    # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
+    short = [k.replace(material + "-", "") for k in keys]
+    short = [k if len(k) < 30 else k[:27] + "..." for k in short]
+    legend_cols, _, legend_in = legend_layout(series, PAGE_IN - 0.2, handlelength=1.5,
+                                              columnspacing=1.5)
+    title_in, axes_in = 0.25, 1.3
+    ticks_in = max([text_width_in(k, FONT_PT - 2) for k in short], default=0.0) + 0.12
+    height = title_in + legend_in + 0.08 + axes_in + ticks_in + 0.05
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    ax = fig.add_axes([0.6 / PAGE_IN, (ticks_in + 0.05) / height, (PAGE_IN - 0.75) / PAGE_IN,
+                       axes_in / height])
     if not keys or not series:
         ax.text(0.5, 0.5, "no numbers reported", ha="center", transform=ax.transAxes)
     else:
@@ -404,15 +478,15 @@ def probe_bar_figure(probe, material, numbers, flatten):
         x = np.arange(len(keys))
         for i, s in enumerate(series):
             f = flatten(numbers[s])
-            colour = "black" if s in GROUND_SERIES else OKABE_ITO[i % len(OKABE_ITO)]
-            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s, color=colour)
+            # The fit's place in the study picks its fill, as in the other bar figure.
+            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s,
+                   **bar_style(labels.index(s) if s in labels else i, s))
         ax.set_xticks(x + 0.4 - width / 2)
-        # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
-        short = [k.replace(material + "-", "") for k in keys]
-        ax.set_xticklabels([k if len(k) < 30 else k[:27] + "..." for k in short], rotation=90,
-                           fontsize=FONT_PT - 2)
-        ax.legend(frameon=False, ncol=len(series), loc="upper left", bbox_to_anchor=(0, 1.18))
-    ax.set_title(f"{material}: {probe}", loc="right")
+        ax.set_xticklabels(short, rotation=90, fontsize=FONT_PT - 2)
+        fig.legend(*ax.get_legend_handles_labels(), frameon=False, ncol=legend_cols,
+                   loc="upper center", bbox_to_anchor=(0.5, 1 - title_in / height),
+                   handlelength=1.5, columnspacing=1.5)
+    fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=1 - 0.03 / height, va="top")
     return fig
 
 
@@ -425,17 +499,44 @@ def probe_figures(study, probes, fig_dir, manifest, flatten):
             if probe != "portability" and curves:
                 fig = probe_curve_figure(probe, material, curves, labels)
             if fig is None:
-                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten)
+                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten,
+                                       labels)
             save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
                         f"{material}: {probe} probe (reference or measured BRDF dashed black; "
                         "extrapolated points dotted, open markers)")
 
 
+# Bars per panel above which the train and test panels stack (each the page's width) instead of
+# standing side by side: 40 bars in half a page are ~1 mm each.
+SIDE_BY_SIDE_BARS = 40
+
+
 def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"):
+    """Mean metric per material and fit, training lighting and test lightings. Laid out in inches
+    from the measured texts: the legend on top with as many rows as its names need, the material
+    names (vertical) as deep as the longest."""
     materials = [g["material"] for g in study["groups"]]
     labels = [f["label"] for f in study["fits"]]
-    fig = plt.figure(figsize=(PAGE_IN, 2.8))
-    axes = [fig.add_axes([0.07, 0.3, 0.42, 0.55]), fig.add_axes([0.56, 0.3, 0.42, 0.55])]
+    stacked = len(labels) * len(materials) > SIDE_BY_SIDE_BARS
+    legend_cols, _, legend_in = legend_layout(labels, PAGE_IN - 0.2, handlelength=1.5,
+                                              columnspacing=1.5)
+    names_in = max([text_width_in(m, FONT_PT - 1) for m in materials], default=0.0) + 0.1
+    left_in, title_in, axes_in = 0.55, 0.2, 1.3
+    if stacked:
+        # Train above test, the material names under the lower panel only (shared x axis).
+        height = legend_in + 2 * (title_in + axes_in) + 0.1 + names_in + 0.05
+        boxes = [(left_in, names_in + 0.05 + axes_in + title_in + 0.1, PAGE_IN - left_in - 0.1),
+                 (left_in, names_in + 0.05, PAGE_IN - left_in - 0.1)]
+    else:
+        height = legend_in + title_in + axes_in + names_in + 0.05
+        half = PAGE_IN / 2
+        boxes = [(left_in, names_in + 0.05, half - left_in - 0.1),
+                 (half + left_in, names_in + 0.05, half - left_in - 0.1)]
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    axes = []
+    for (x0, y0, w) in boxes:
+        axes.append(fig.add_axes([x0 / PAGE_IN, y0 / height, w / PAGE_IN, axes_in / height],
+                                 sharex=axes[0] if axes and stacked else None))
     for ax, split in zip(axes, ["train", "test"]):
         width = 0.8 / max(1, len(labels))
         x = np.arange(len(materials))
@@ -446,15 +547,18 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
                      if r["material"] == m and r["label"] == l and r["split"] == split]
                 v = [a for a in v if a is not None]
                 vals.append(np.mean(v) if v else np.nan)
-            ax.bar(x + i * width, vals, width, label=l, color=OKABE_ITO[i % len(OKABE_ITO)],
-                   hatch=["", "///", "...", "xx", "\\\\", "++"][i % 6], edgecolor="white",
-                   linewidth=0)
+            ax.bar(x + i * width, vals, width, label=l, **bar_style(i, l))
         ax.set_xticks(x + 0.4 - width / 2)
-        ax.set_xticklabels(materials, rotation=90)
-        ax.set_title(f"{split} lightings", fontsize=FONT_PT)
-        ax.set_ylabel(f"{metric} (lower is better)" if split == "train" else "")
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=len(labels),
-               frameon=False, bbox_to_anchor=(0.5, 1.0))
+        ax.set_xlim(-0.3, len(materials) - 0.1)
+        if stacked and split == "train":
+            ax.tick_params(labelbottom=False)
+        else:
+            ax.set_xticklabels(materials, rotation=90)
+        ax.set_title(f"{split} lightings", fontsize=FONT_PT, pad=3)
+        ax.set_ylabel(f"{metric} (lower is better)" if split == "train" or stacked else "")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=legend_cols,
+               frameon=False, bbox_to_anchor=(0.5, 1.0), handlelength=1.5, columnspacing=1.5)
     save_figure(fig, fig_dir, f"metric-{metric}", manifest,
-                f"Mean {metric} per material and fit: training lighting (left) and test "
-                "lightings (right)")
+                f"Mean {metric} per material and fit: training lighting "
+                f"({'top' if stacked else 'left'}) and test lightings "
+                f"({'bottom' if stacked else 'right'})")
