@@ -149,7 +149,9 @@ def text_problems(fig):
     return overlaps, outside
 
 
-def save_figure(fig, fig_dir, name, manifest, caption):
+def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
+    """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
+    fields for the record (a split grid's kind, material and part)."""
     os.makedirs(fig_dir, exist_ok=True)
     # Whole pixels at DPI: Agg truncates width x dpi, so a hair above the pixel count gives
     # exactly the size figures.json records (the PDF moves by a thousandth of a point).
@@ -168,7 +170,8 @@ def save_figure(fig, fig_dir, name, manifest, caption):
     manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
                      "width_in": round(w_px / DPI, 3), "height_in": round(h_px / DPI, 3),
                      "width": w_px, "height": h_px,
-                     "caption": caption, "text_overlaps": overlaps, "text_outside": outside})
+                     "caption": caption, "text_overlaps": overlaps, "text_outside": outside,
+                     **(extra or {})})
 
 
 # --- Image grids --------------------------------------------------------------------------------
@@ -208,9 +211,10 @@ def exposed(rgb, stops):
 
 
 def wrap_at_hyphens(text, width):
-    """Lines of at most `width` characters, broken after hyphens and at spaces, so a long model
-    name fits over a narrow column ("blinn-phong-" / "normalized")."""
-    tokens = re.findall(r"[^\s-]+-?|\s+", text)
+    """Lines of at most `width` characters, broken after hyphens and plus signs, before an "@"
+    and at spaces, so a fit label fits over a narrow column ("blinn-phong-" / "normalized" /
+    "@key+" / "mirror60")."""
+    tokens = re.findall(r"@?[^\s@+-]+[-+]?|[@+-]|\s+", text)
     lines, line = [], ""
     for t in tokens:
         if t.isspace():
@@ -226,12 +230,70 @@ def wrap_at_hyphens(text, width):
     return "\n".join(lines)
 
 
+def wrap_to_width(text, width_in, fontsize):
+    """wrap_at_hyphens with the most characters a line whose every line is at most width_in wide
+    (measured); a single token wider than that stays whole."""
+    for chars in range(max(len(text), 1), 0, -1):
+        wrapped = wrap_at_hyphens(text, chars)
+        if text_width_in(wrapped, fontsize) <= width_in:
+            return wrapped
+    return wrap_at_hyphens(text, 1)
+
+
+# Fits in one grid figure: reference, fits and error maps make 1 + 2 n columns, and at 5 fits a
+# 7 in page gives each image ~0.5 in. More fits split the grid into parts, one per training set
+# (chunks of at most this many where a training set holds more).
+GRID_MAX_FITS = 5
+
+
+def grid_parts(study, labels):
+    """[(suffix, labels)]: one part, suffix "", when the labels fit one figure; else one part per
+    training set in study order, suffix "-<training set>" ("-key+mirror60"), and "-<k>" after it
+    when a training set is chunked."""
+    if len(labels) <= GRID_MAX_FITS:
+        return [("", labels)]
+    train = {f["label"]: "+".join(f.get("train") or []) for f in study["fits"]}
+    groups = {}
+    for l in labels:
+        groups.setdefault(train.get(l, ""), []).append(l)
+    parts = []
+    for t, ls in groups.items():
+        chunks = [ls[i:i + GRID_MAX_FITS] for i in range(0, len(ls), GRID_MAX_FITS)]
+        for k, chunk in enumerate(chunks):
+            suffix = (f"-{t}" if t else "") + (f"-{k + 1}" if len(chunks) > 1 or not t else "")
+            parts.append((suffix, chunk))
+    return parts
+
+
+def common_at_suffix(labels):
+    """The "@..." ending every label shares ("@key+mirror60"), or "" (then titles keep it)."""
+    ends = {l[l.rfind("@"):] if "@" in l else "" for l in labels}
+    return ends.pop() if len(ends) == 1 and len(labels) > 1 else ""
+
+
 def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     """Rows = lightings; columns = reference, each fit, each fit's error map; one colour bar per
-    row (the error maps of a reference share their range) with its ticks in radiance units."""
+    row (the error maps of a reference share their range) with its ticks in radiance units.
+    More fits than GRID_MAX_FITS: one figure per training set (grid_parts), each named in
+    figures.json with its material and part, so the page and report.tex show every part."""
     labels = [f["label"] for f in study["fits"] if (material, f["label"]) in fits]
     if not labels:
         return
+    parts = grid_parts(study, labels)
+    for k, (suffix, part) in enumerate(parts):
+        heading = ""
+        if len(parts) > 1:
+            train = next((f.get("train") for f in study["fits"] if f["label"] == part[0]), None)
+            heading = (f"part {k + 1} of {len(parts)}: fits "
+                       + (f"trained on {', '.join(train)}" if train else "") )
+        fig, caption = grid_figure(study_dir, study, fits, material, part, heading)
+        save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
+                    {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts)})
+
+
+def grid_figure(study_dir, study, fits, material, labels, heading):
+    """One grid figure over `labels`, and its caption; `heading` (a split grid's part) goes above
+    the column titles and into the caption."""
     evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
     lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
                  for r in g["references"]]
@@ -239,17 +301,25 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     left_in, bar_in, right_in = 0.42, 0.08, 0.52  # Row labels; colour bar; its ticks and label.
     gap_in = 0.03
     cell = (PAGE_IN - left_in - bar_in - right_in - gap_in * (ncols + 1)) / ncols
-    # Column titles wrapped to the column: ~0.55 em per character of DejaVu Sans.
-    title_chars = max(6, int(cell * 72 / (0.6 * (FONT_PT - 1))))
-    titles = ["reference"] + [wrap_at_hyphens(l, title_chars) for l in labels] + \
-        [wrap_at_hyphens(f"|error| {l}", title_chars) for l in labels]
+    # A training set every fit of the figure shares is said once, in the heading.
+    common = common_at_suffix(labels) if heading else ""
+    short = [l[:len(l) - len(common)] if common else l for l in labels]
+    if common:
+        heading += f" (labels end in {common})"
+    # Column titles wrapped to the column, measured.
+    titles = ["reference"] + [wrap_to_width(l, cell, FONT_PT - 1) for l in short] + \
+        [wrap_to_width(f"|error| {l}", cell, FONT_PT - 1) for l in short]
     title_lines = max(t.count("\n") + 1 for t in titles)
-    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08
+    heading_in = (FONT_PT * 1.3 + 4) / 72 if heading else 0.0
+    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08 + heading_in
     bottom_in = 0.02
     height = top_in + bottom_in + len(lightings) * (cell + gap_in)
     fig = plt.figure(figsize=(PAGE_IN, height))
     fx = lambda inch: inch / PAGE_IN  # noqa: E731
     fy = lambda inch: inch / height  # noqa: E731
+    if heading:
+        fig.text(fx(left_in + gap_in), fy(height - 0.03), f"{material}, {heading}", ha="left",
+                 va="top", fontsize=FONT_PT)
     exposures = []
     for i, light in enumerate(lightings):
         y0 = height - top_in - (i + 1) * (cell + gap_in) + gap_in
@@ -268,8 +338,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             ax = fig.add_axes([fx(x0), fy(y0), fx(cell), fy(cell)])
             ax.set_xticks([])
             ax.set_yticks([])
-            for s in ax.spines.values():
-                s.set_visible(False)
+            for sp in ax.spines.values():
+                sp.set_visible(False)
             if i == 0:
                 ax.set_title(titles[j], fontsize=FONT_PT - 1, pad=2)
             if not rel or not os.path.exists(os.path.join(study_dir, rel)):
@@ -291,7 +361,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
         fig.text(fx(left_in - 0.02), fy(y0 + cell / 2), row_label, ha="right", va="center",
                  fontsize=FONT_PT - 1)
         if error_scale:
-            cax = fig.add_axes([fx(PAGE_IN - right_in - bar_in), fy(y0), fx(bar_in), fy(cell)])
+            bar_x = PAGE_IN - right_in - bar_in
+            cax = fig.add_axes([fx(bar_x), fy(y0), fx(bar_in), fy(cell)])
             sm = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, error_scale),
                                               cmap="viridis")
             cb = fig.colorbar(sm, cax=cax)
@@ -304,14 +375,17 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             tl[-1].set_verticalalignment("top")
             cb.outline.set_linewidth(0.4)
             if i == 0:
-                fig.text(fx(PAGE_IN - 0.04), fy(y0 + cell + 0.03), UNITS_RADIANCE, ha="right",
+                # Over the bars' column, which no column title reaches (titles are wrapped to
+                # their image's width).
+                fig.text(fx(bar_x), fy(y0 + cell + 0.03), UNITS_RADIANCE, ha="left",
                          va="bottom", fontsize=FONT_PT - 2)
     dim = [f"{l} +{s} EV" for l, s in exposures if s]
-    caption = (f"{material}: reference, fits and |fit - reference| (mean RGB, linear radiance, "
+    caption = (f"{material}" + (f", {heading}" if heading else "")
+               + ": reference, fits and |fit - reference| (mean RGB, linear radiance, "
                f"colour bar in {UNITS_RADIANCE} shared by the fits of a row) per lighting; "
                "images at the study's display exposure"
                + (f", dim lightings brightened: {', '.join(dim)}" if dim else "") + ".")
-    save_figure(fig, fig_dir, f"grid-{material}", manifest, caption)
+    return fig, caption
 
 
 # --- Probe curves and bars ----------------------------------------------------------------------
