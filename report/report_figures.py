@@ -288,7 +288,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
                        + (f"trained on {', '.join(train)}" if train else "") )
         fig, caption = grid_figure(study_dir, study, fits, material, part, heading)
         save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
-                    {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts)})
+                    {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
+                     "fits": part})
 
 
 def grid_figure(study_dir, study, fits, material, labels, heading):
