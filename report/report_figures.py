@@ -284,8 +284,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
         heading = ""
         if len(parts) > 1:
             train = next((f.get("train") for f in study["fits"] if f["label"] == part[0]), None)
-            heading = (f"part {k + 1} of {len(parts)}: fits "
-                       + (f"trained on {', '.join(train)}" if train else "") )
+            heading = f"part {k + 1} of {len(parts)}" + (
+                f": fits trained on {', '.join(train)}" if train else "")
         fig, caption = grid_figure(study_dir, study, fits, material, part, heading)
         save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
                     {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
