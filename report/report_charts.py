@@ -119,7 +119,7 @@ def mark_style(k, fill):
 
 def chart_marks(chart, fits, materials, fit_labels):
     """Every fit of the chart's model as a mark: {"k" (material index), "material", "label",
-    "gx", "gy" (grid coordinates), "outside"}, and the caption's note on each."""
+    "gx", "gy" (grid coordinates), "outside"}, and the caption's (label, note) on each."""
     marks, notes = [], []
     xp, yp = chart["x"]["parameter"], chart["y"]["parameter"]
     for k, m in enumerate(materials):
@@ -130,16 +130,26 @@ def chart_marks(chart, fits, materials, fit_labels):
             x, y = fitted_point(chart, job)
             if x is None or y is None:
                 # Said in the caption, never dropped silently.
-                notes.append(f"{m}" + (f" ({label})" if len(fit_labels) > 1 else "")
-                             + f": not placed (no {xp if x is None else yp} to place it by)")
+                notes.append((label, f"{m} not placed (no {xp if x is None else yp})"))
                 continue
             (gx, ox), (gy, oy) = grid_coordinate(chart["x"], x), grid_coordinate(chart["y"], y)
             marks.append({"k": k, "material": m, "label": label, "gx": gx, "gy": gy,
                           "outside": ox or oy})
-            notes.append(f"{m}" + (f" ({label})" if len(fit_labels) > 1 else "")
-                         + f": {xp} {x:.3g}, {yp} {y:.3g}"
-                         + (" (outside the chart: marked at its edge)" if ox or oy else ""))
+            notes.append((label, f"{m} ({x:.3g}, {y:.3g})" + ("*" if ox or oy else "")))
     return marks, notes
+
+
+def fitted_sentence(chart, notes):
+    """The caption's list of fitted values, grouped by fit: short enough for LaTeX's one-line
+    caption trial (\\@makecaption sets it in one box; 40 long notes passed \\maxdimen)."""
+    if not notes:
+        return "Fitted: none."
+    by_label = {}
+    for label, text in notes:
+        by_label.setdefault(label, []).append(text)
+    return (f"Fitted ({chart['x']['parameter']}, {chart['y']['parameter']}; * outside the chart, "
+            "marked at its edge): " + "; ".join(f"{label}: {', '.join(t)}"
+                                               for label, t in by_label.items()) + ".")
 
 
 def material_key(marks, materials):
@@ -229,7 +239,7 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes)
         caption = (f"{model}: spheres over {c['x']['parameter']} x {c['y']['parameter']} under the "
                    f"{manifest.get('lighting', '')} light, one exposure "
                    f"({manifest.get('exposure_stops', 0):g} EV) for every sphere; "
-                   f"{c.get('held', '')}. Fitted: " + ("; ".join(notes) if notes else "none") + "."
+                   f"{c.get('held', '')}. " + fitted_sentence(c, notes)
                    + sweep_sentence(probes, model))
         rf.save_figure(fig, fig_dir, f"chart-{model}", manifest_out, caption)
         figures.append(manifest_out[-1])
