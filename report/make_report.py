@@ -556,6 +556,9 @@ def ngan_comparison(study, fits):
     return {"source": path, "rows": rows, "correlations": correlations}
 
 
+FLOATS_PER_FLUSH = 8  # Figures between two \clearpage in report.tex, under LaTeX's 18 slots.
+
+
 def write_latex_document(report_dir, tables, figures):
     """report.tex: every table (longtable, booktabs) and every figure at its printed size, so
     the text in a figure reads at the size it was laid out for (compiles with pdflatex)."""
@@ -569,7 +572,12 @@ def write_latex_document(report_dir, tables, figures):
             body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",
                      f"\\input{{tables/{key}.long.tex}}", "}"]
     body += ["\\clearpage", "\\section*{Figures}"]
-    for f in figures:
+    for i, f in enumerate(figures):
+        if i and i % FLOATS_PER_FLUSH == 0:
+            # Only floats follow, no text to break pages at: LaTeX holds them all back until its
+            # 18 float slots run out (the measured study's 146 figures end in "Output loop---100
+            # consecutive dead cycles"); a \clearpage now and then places the held ones.
+            body.append("\\clearpage")
         # Natural size: 3.3 in (one column) or 7 in (two); a page here is 6.9 in wide.
         body += ["\\begin{figure}[p]\\centering",
                  f"\\includegraphics[width={f['width_in']:g}in,height=0.85\\textheight,"

@@ -7,6 +7,7 @@ import json
 import math
 import os
 
+import matplotlib.lines
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -99,6 +100,69 @@ def sweep_sentence(probes, model):
     return ""
 
 
+# The keys under a chart: small text, tight spacing (a column holds 20 materials in 3 columns).
+KEY_PT = rf.FONT_PT - 2
+KEY_SPACING = {"handlelength": 1.2, "handletextpad": 0.4, "columnspacing": 0.8}
+# How a mark shows which of a model's fits it is (study order): open, filled, half filled.
+FIT_FILLS = ["none", "full", "left", "bottom"]
+
+
+def mark_style(k, fill):
+    """The k-th material's mark: a shape and a colour each (more materials than the palette has
+    colours), drawn open over the sphere under it unless `fill` says otherwise."""
+    colour = rf.OKABE_ITO[k % len(rf.OKABE_ITO)]
+    return {"marker": MARKERS[k % len(MARKERS)], "markersize": 7 if fill == "none" else 5,
+            "markeredgecolor": colour, "markerfacecolor": "none" if fill == "none" else colour,
+            "markerfacecoloralt": "none", "fillstyle": "full" if fill == "none" else fill,
+            "markeredgewidth": 1.6 if fill == "none" else 1.0}
+
+
+def chart_marks(chart, fits, materials, fit_labels):
+    """Every fit of the chart's model as a mark: {"k" (material index), "material", "label",
+    "gx", "gy" (grid coordinates), "outside"}, and the caption's (label, note) on each."""
+    marks, notes = [], []
+    xp, yp = chart["x"]["parameter"], chart["y"]["parameter"]
+    for k, m in enumerate(materials):
+        for label in fit_labels:
+            job = fits.get((m, label))
+            if job is None:
+                continue
+            x, y = fitted_point(chart, job)
+            if x is None or y is None:
+                # Said in the caption, never dropped silently.
+                notes.append((label, f"{m} not placed (no {xp if x is None else yp})"))
+                continue
+            (gx, ox), (gy, oy) = grid_coordinate(chart["x"], x), grid_coordinate(chart["y"], y)
+            marks.append({"k": k, "material": m, "label": label, "gx": gx, "gy": gy,
+                          "outside": ox or oy})
+            notes.append((label, f"{m} ({x:.3g}, {y:.3g})" + ("*" if ox or oy else "")))
+    return marks, notes
+
+
+def fitted_sentence(chart, notes):
+    """The caption's list of fitted values, grouped by fit: short enough for LaTeX's one-line
+    caption trial (\\@makecaption sets it in one box; 40 long notes passed \\maxdimen)."""
+    if not notes:
+        return "Fitted: none."
+    by_label = {}
+    for label, text in notes:
+        by_label.setdefault(label, []).append(text)
+    return (f"Fitted ({chart['x']['parameter']}, {chart['y']['parameter']}; * outside the chart, "
+            "marked at its edge): " + "; ".join(f"{label}: {', '.join(t)}"
+                                               for label, t in by_label.items()) + ".")
+
+
+def material_key(marks, materials):
+    """(name, material index) per marked material in study order; a name ends in " *" where one
+    of its fits lies outside the chart's range."""
+    key = []
+    for k, m in enumerate(materials):
+        own = [mk for mk in marks if mk["k"] == k]
+        if own:
+            key.append((m + (" *" if any(mk["outside"] for mk in own) else ""), k))
+    return key
+
+
 def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes):
     """`charts`: load_charts' (manifest, path), read before anything is written."""
     manifest, path = charts
@@ -110,9 +174,21 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes)
         model = c["model"]
         fit_labels = [f["label"] for f in study["fits"] if f["model"] == model]
         nx, ny = len(c["x"]["values"]), len(c["y"]["values"])
+        marks, notes = chart_marks(c, fits, materials, fit_labels)
+        key = material_key(marks, materials)
+        fit_key = [(label, FIT_FILLS[j % len(FIT_FILLS)]) for j, label in enumerate(fit_labels)
+                   if any(mk["label"] == label for mk in marks)] if len(fit_labels) > 1 else []
+        any_outside = any(mk["outside"] for mk in marks)
+        # Under the axes, top to bottom: tick labels and axis label, the fits' fill key (when a
+        # model has several fits), the materials' key, the note on marks outside the chart.
+        width_in = rf.COLUMN_IN - 0.1
+        key_cols, _, key_in = rf.legend_layout([k[0] for k in key], width_in, KEY_PT, **KEY_SPACING)
+        fit_cols, _, fit_in = rf.legend_layout([k[0] for k in fit_key], width_in, KEY_PT,
+                                               **KEY_SPACING)
+        note_in = 0.12 if any_outside else 0.0
         left, right, top = 0.42, 0.06, 0.22
-        legend_rows = math.ceil(len(materials) / 3)
-        bottom = 0.42 + 0.13 * legend_rows
+        axis_in = 0.36
+        bottom = axis_in + fit_in + key_in + note_in + 0.04
         cell = (rf.COLUMN_IN - left - right) / nx
         height = top + bottom + cell * ny
         fig = plt.figure(figsize=(rf.COLUMN_IN, height))
@@ -138,38 +214,32 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes)
         ax.set_ylabel(c["y"]["parameter"] + (" (log)" if c["y"]["scale"] == "log" else ""))
         ax.tick_params(length=2, pad=1)
         ax.set_title(model, fontsize=rf.FONT_PT + 1, pad=3)
-        notes = []
-        for k, m in enumerate(materials):
-            for label in fit_labels:
-                job = fits.get((m, label))
-                if job is None:
-                    continue
-                x, y = fitted_point(c, job)
-                if x is None or y is None:
-                    continue
-                (gx, ox), (gy, oy) = grid_coordinate(c["x"], x), grid_coordinate(c["y"], y)
-                colour = rf.OKABE_ITO[k % len(rf.OKABE_ITO)]
-                outside = ox or oy
-                # Open marks, so the sphere under one stays visible; a shape per material as
-                # well as a colour (more materials than the palette has colours). A fit outside
-                # the chart's range sits at its edge and says so in the legend.
-                ax.plot([gx], [gy], marker=MARKERS[k % len(MARKERS)], markersize=7,
-                        linestyle="none", markerfacecolor="none", markeredgecolor=colour,
-                        markeredgewidth=1.6,
-                        label=f"{m}" + (f" ({label})" if len(fit_labels) > 1 else "")
-                        + (" (outside)" if outside else ""))
-                notes.append(f"{m}: {c['x']['parameter']} {x:.3g}, {c['y']['parameter']} {y:.3g}"
-                             + (" (outside the chart: marked at its edge)" if outside else ""))
+        for mk in marks:
+            ax.plot([mk["gx"]], [mk["gy"]], linestyle="none", **mark_style(
+                mk["k"], FIT_FILLS[fit_labels.index(mk["label"]) % len(FIT_FILLS)]))
         ax.set_xlim(-0.5, nx - 0.5)
         ax.set_ylim(-0.5, ny - 0.5)
-        if notes:
-            fig.legend(loc="lower center", ncol=3, frameon=False, handletextpad=0.4,
-                       handlelength=1.2, columnspacing=0.8, fontsize=rf.FONT_PT - 2,
-                       bbox_to_anchor=(0.5, 0.0))
+        y_in = note_in + 0.02
+        if key:
+            handles = [matplotlib.lines.Line2D([], [], linestyle="none", **mark_style(k, "none"))
+                       for _, k in key]
+            fig.legend(handles, [name for name, _ in key], loc="lower center", ncol=key_cols,
+                       frameon=False, fontsize=KEY_PT, bbox_to_anchor=(0.5, y_in / height),
+                       markerscale=0.6, **KEY_SPACING)
+        if fit_key:
+            handles = [matplotlib.lines.Line2D([], [], linestyle="none", marker="o",
+                                               markersize=4.5, color="0.3", fillstyle=fill,
+                                               markeredgewidth=1.2) for _, fill in fit_key]
+            fig.legend(handles, [label for label, _ in fit_key], loc="lower center",
+                       ncol=fit_cols, frameon=False, fontsize=KEY_PT,
+                       bbox_to_anchor=(0.5, (y_in + key_in) / height), **KEY_SPACING)
+        if any_outside:
+            fig.text(0.5, 0.02 / height, "* a fit outside the chart's range, marked at its edge",
+                     ha="center", va="bottom", fontsize=KEY_PT)
         caption = (f"{model}: spheres over {c['x']['parameter']} x {c['y']['parameter']} under the "
                    f"{manifest.get('lighting', '')} light, one exposure "
                    f"({manifest.get('exposure_stops', 0):g} EV) for every sphere; "
-                   f"{c.get('held', '')}. Fitted: " + ("; ".join(notes) if notes else "none") + "."
+                   f"{c.get('held', '')}. " + fitted_sentence(c, notes)
                    + sweep_sentence(probes, model))
         rf.save_figure(fig, fig_dir, f"chart-{model}", manifest_out, caption)
         figures.append(manifest_out[-1])

@@ -55,6 +55,54 @@ def style_of(label, labels):
     return {"color": OKABE_ITO[i % n], "linestyle": LINE_STYLES[(i + i // n) % len(LINE_STYLES)]}
 
 
+# --- Measured text ------------------------------------------------------------------------------
+# Layouts are computed in inches from the widths of the texts they hold, so a study with many fits
+# or long labels gets more legend rows or a taller margin instead of text on text.
+
+
+def text_width_in(text, fontsize):
+    """Width in inches of one line (the widest line of a multi-line text) in the figure font."""
+    props = matplotlib.font_manager.FontProperties(family=plt.rcParams["font.family"],
+                                                   size=fontsize)
+    renderer = _measuring_renderer()
+    return max(renderer.get_text_width_height_descent(line, props, ismath=False)[0]
+               for line in str(text).split("\n")) / 72.0
+
+
+def _measuring_renderer():
+    global _RENDERER
+    if _RENDERER is None:
+        from matplotlib.backends.backend_agg import RendererAgg
+        _RENDERER = RendererAgg(10, 10, 72)  # 72 dpi: one pixel is one point.
+    return _RENDERER
+
+
+_RENDERER = None
+
+
+def legend_layout(names, width_in, fontsize=FONT_PT - 1, handlelength=2.0, handletextpad=0.8,
+                  columnspacing=2.0, max_cols=None):
+    """(columns, rows, height in inches) of a frameless legend of `names` no wider than
+    width_in: as many columns as fit (matplotlib fills them column by column), at most max_cols."""
+    n = len(names)
+    if n == 0:
+        return 1, 0, 0.0
+    em = fontsize / 72.0
+    widths = [text_width_in(x, fontsize) for x in names]
+    cols = 1
+    for c in range(min(n, max_cols or n), 0, -1):
+        rows = -(-n // c)
+        used = sum(max(widths[k:k + rows]) + (handlelength + handletextpad) * em
+                   for k in range(0, n, rows))
+        # Border padding 0.4 em each side (legend.borderpad), and a little slack.
+        if used + (c - 1) * columnspacing * em + 0.8 * em + 0.05 <= width_in:
+            cols = c
+            break
+    rows = -(-n // cols)
+    # A row is a line of text (1.2 em) and 0.5 em between rows (legend.labelspacing).
+    return cols, rows, (rows * 1.2 + (rows - 1) * 0.5 + 0.8) * em
+
+
 # --- Saving and checking ------------------------------------------------------------------------
 
 
@@ -101,7 +149,9 @@ def text_problems(fig):
     return overlaps, outside
 
 
-def save_figure(fig, fig_dir, name, manifest, caption):
+def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
+    """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
+    fields for the record (a split grid's kind, material and part)."""
     os.makedirs(fig_dir, exist_ok=True)
     # Whole pixels at DPI: Agg truncates width x dpi, so a hair above the pixel count gives
     # exactly the size figures.json records (the PDF moves by a thousandth of a point).
@@ -120,7 +170,8 @@ def save_figure(fig, fig_dir, name, manifest, caption):
     manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
                      "width_in": round(w_px / DPI, 3), "height_in": round(h_px / DPI, 3),
                      "width": w_px, "height": h_px,
-                     "caption": caption, "text_overlaps": overlaps, "text_outside": outside})
+                     "caption": caption, "text_overlaps": overlaps, "text_outside": outside,
+                     **(extra or {})})
 
 
 # --- Image grids --------------------------------------------------------------------------------
@@ -160,9 +211,10 @@ def exposed(rgb, stops):
 
 
 def wrap_at_hyphens(text, width):
-    """Lines of at most `width` characters, broken after hyphens and at spaces, so a long model
-    name fits over a narrow column ("blinn-phong-" / "normalized")."""
-    tokens = re.findall(r"[^\s-]+-?|\s+", text)
+    """Lines of at most `width` characters, broken after hyphens and plus signs, before an "@"
+    and at spaces, so a fit label fits over a narrow column ("blinn-phong-" / "normalized" /
+    "@key+" / "mirror60")."""
+    tokens = re.findall(r"@?[^\s@+-]+[-+]?|[@+-]|\s+", text)
     lines, line = [], ""
     for t in tokens:
         if t.isspace():
@@ -178,12 +230,71 @@ def wrap_at_hyphens(text, width):
     return "\n".join(lines)
 
 
+def wrap_to_width(text, width_in, fontsize):
+    """wrap_at_hyphens with the most characters a line whose every line is at most width_in wide
+    (measured); a single token wider than that stays whole."""
+    for chars in range(max(len(text), 1), 0, -1):
+        wrapped = wrap_at_hyphens(text, chars)
+        if text_width_in(wrapped, fontsize) <= width_in:
+            return wrapped
+    return wrap_at_hyphens(text, 1)
+
+
+# Fits in one grid figure: reference, fits and error maps make 1 + 2 n columns, and at 5 fits a
+# 7 in page gives each image ~0.5 in. More fits split the grid into parts, one per training set
+# (chunks of at most this many where a training set holds more).
+GRID_MAX_FITS = 5
+
+
+def grid_parts(study, labels):
+    """[(suffix, labels)]: one part, suffix "", when the labels fit one figure; else one part per
+    training set in study order, suffix "-<training set>" ("-key+mirror60"), and "-<k>" after it
+    when a training set is chunked."""
+    if len(labels) <= GRID_MAX_FITS:
+        return [("", labels)]
+    train = {f["label"]: "+".join(f.get("train") or []) for f in study["fits"]}
+    groups = {}
+    for l in labels:
+        groups.setdefault(train.get(l, ""), []).append(l)
+    parts = []
+    for t, ls in groups.items():
+        chunks = [ls[i:i + GRID_MAX_FITS] for i in range(0, len(ls), GRID_MAX_FITS)]
+        for k, chunk in enumerate(chunks):
+            suffix = (f"-{t}" if t else "") + (f"-{k + 1}" if len(chunks) > 1 or not t else "")
+            parts.append((suffix, chunk))
+    return parts
+
+
+def common_at_suffix(labels):
+    """The "@..." ending every label shares ("@key+mirror60"), or "" (then titles keep it)."""
+    ends = {l[l.rfind("@"):] if "@" in l else "" for l in labels}
+    return ends.pop() if len(ends) == 1 and len(labels) > 1 else ""
+
+
 def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     """Rows = lightings; columns = reference, each fit, each fit's error map; one colour bar per
-    row (the error maps of a reference share their range) with its ticks in radiance units."""
+    row (the error maps of a reference share their range) with its ticks in radiance units.
+    More fits than GRID_MAX_FITS: one figure per training set (grid_parts), each named in
+    figures.json with its material and part, so the page and report.tex show every part."""
     labels = [f["label"] for f in study["fits"] if (material, f["label"]) in fits]
     if not labels:
         return
+    parts = grid_parts(study, labels)
+    for k, (suffix, part) in enumerate(parts):
+        heading = ""
+        if len(parts) > 1:
+            train = next((f.get("train") for f in study["fits"] if f["label"] == part[0]), None)
+            heading = f"part {k + 1} of {len(parts)}" + (
+                f": fits trained on {', '.join(train)}" if train else "")
+        fig, caption = grid_figure(study_dir, study, fits, material, part, heading)
+        save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
+                    {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
+                     "fits": part})
+
+
+def grid_figure(study_dir, study, fits, material, labels, heading):
+    """One grid figure over `labels`, and its caption; `heading` (a split grid's part) goes above
+    the column titles and into the caption."""
     evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
     lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
                  for r in g["references"]]
@@ -191,17 +302,25 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     left_in, bar_in, right_in = 0.42, 0.08, 0.52  # Row labels; colour bar; its ticks and label.
     gap_in = 0.03
     cell = (PAGE_IN - left_in - bar_in - right_in - gap_in * (ncols + 1)) / ncols
-    # Column titles wrapped to the column: ~0.55 em per character of DejaVu Sans.
-    title_chars = max(6, int(cell * 72 / (0.6 * (FONT_PT - 1))))
-    titles = ["reference"] + [wrap_at_hyphens(l, title_chars) for l in labels] + \
-        [wrap_at_hyphens(f"|error| {l}", title_chars) for l in labels]
+    # A training set every fit of the figure shares is said once, in the heading.
+    common = common_at_suffix(labels) if heading else ""
+    short = [l[:len(l) - len(common)] if common else l for l in labels]
+    if common:
+        heading += f" (labels end in {common})"
+    # Column titles wrapped to the column, measured.
+    titles = ["reference"] + [wrap_to_width(l, cell, FONT_PT - 1) for l in short] + \
+        [wrap_to_width(f"|error| {l}", cell, FONT_PT - 1) for l in short]
     title_lines = max(t.count("\n") + 1 for t in titles)
-    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08
+    heading_in = (FONT_PT * 1.3 + 4) / 72 if heading else 0.0
+    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08 + heading_in
     bottom_in = 0.02
     height = top_in + bottom_in + len(lightings) * (cell + gap_in)
     fig = plt.figure(figsize=(PAGE_IN, height))
     fx = lambda inch: inch / PAGE_IN  # noqa: E731
     fy = lambda inch: inch / height  # noqa: E731
+    if heading:
+        fig.text(fx(left_in + gap_in), fy(height - 0.03), f"{material}, {heading}", ha="left",
+                 va="top", fontsize=FONT_PT)
     exposures = []
     for i, light in enumerate(lightings):
         y0 = height - top_in - (i + 1) * (cell + gap_in) + gap_in
@@ -220,8 +339,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             ax = fig.add_axes([fx(x0), fy(y0), fx(cell), fy(cell)])
             ax.set_xticks([])
             ax.set_yticks([])
-            for s in ax.spines.values():
-                s.set_visible(False)
+            for sp in ax.spines.values():
+                sp.set_visible(False)
             if i == 0:
                 ax.set_title(titles[j], fontsize=FONT_PT - 1, pad=2)
             if not rel or not os.path.exists(os.path.join(study_dir, rel)):
@@ -243,7 +362,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
         fig.text(fx(left_in - 0.02), fy(y0 + cell / 2), row_label, ha="right", va="center",
                  fontsize=FONT_PT - 1)
         if error_scale:
-            cax = fig.add_axes([fx(PAGE_IN - right_in - bar_in), fy(y0), fx(bar_in), fy(cell)])
+            bar_x = PAGE_IN - right_in - bar_in
+            cax = fig.add_axes([fx(bar_x), fy(y0), fx(bar_in), fy(cell)])
             sm = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, error_scale),
                                               cmap="viridis")
             cb = fig.colorbar(sm, cax=cax)
@@ -256,14 +376,17 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             tl[-1].set_verticalalignment("top")
             cb.outline.set_linewidth(0.4)
             if i == 0:
-                fig.text(fx(PAGE_IN - 0.04), fy(y0 + cell + 0.03), UNITS_RADIANCE, ha="right",
+                # Over the bars' column, which no column title reaches (titles are wrapped to
+                # their image's width).
+                fig.text(fx(bar_x), fy(y0 + cell + 0.03), UNITS_RADIANCE, ha="left",
                          va="bottom", fontsize=FONT_PT - 2)
     dim = [f"{l} +{s} EV" for l, s in exposures if s]
-    caption = (f"{material}: reference, fits and |fit - reference| (mean RGB, linear radiance, "
+    caption = (f"{material}" + (f", {heading}" if heading else "")
+               + ": reference, fits and |fit - reference| (mean RGB, linear radiance, "
                f"colour bar in {UNITS_RADIANCE} shared by the fits of a row) per lighting; "
                "images at the study's display exposure"
                + (f", dim lightings brightened: {', '.join(dim)}" if dim else "") + ".")
-    save_figure(fig, fig_dir, f"grid-{material}", manifest, caption)
+    return fig, caption
 
 
 # --- Probe curves and bars ----------------------------------------------------------------------
@@ -322,11 +445,12 @@ def probe_curve_figure(probe, material, curves, labels):
     rows = (n + cols - 1) // cols
     width = COLUMN_IN if n == 1 else PAGE_IN
     panel_h = 1.9 if rows == 1 else 2.15  # a second row leaves room for the first's x label
-    # One legend row per three entries: every series, and an "extrapolated" entry per series
-    # with flagged points.
-    entries = len({c["series"] for c in curves}) + \
-        len({c["series"] for c in curves if any(c.get("extrapolated") or [])})
-    legend_h = 0.55 + 0.13 * max(0, (entries + 2) // 3 - 2)
+    # The legend holds every series and an "extrapolated" entry per series with flagged points,
+    # at most three to a row, fewer where the names are too long for the width.
+    entries = sorted({c["series"] for c in curves}) + sorted(
+        {c["series"] + ", extrapolated" for c in curves if any(c.get("extrapolated") or [])})
+    legend_cols, _, legend_in = legend_layout(entries, width, max_cols=3)
+    legend_h = max(0.55, legend_in + 0.12)
     height = rows * panel_h + legend_h + 0.25
     label_chars = 40 if cols < 3 else 30
     fig = plt.figure(figsize=(width, height))
@@ -383,20 +507,45 @@ def probe_curve_figure(probe, material, curves, labels):
         base = name.split(", extrapolated")[0]
         return (base not in GROUND_SERIES, series.index(base) if base in series else -1, name)
     names = sorted(handles, key=legend_order)
-    fig.legend([handles[x] for x in names], names, loc="lower center", ncol=min(3, len(names)),
+    fig.legend([handles[x] for x in names], names, loc="lower center", ncol=legend_cols,
                frameon=False, bbox_to_anchor=(0.5, 0.0))
     fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=0.99)
     return fig
 
 
-def probe_bar_figure(probe, material, numbers, flatten):
-    series = list(numbers.keys())
+HATCHES = ["", "///", "...", "xx", "\\\\", "++"]
+
+
+def bar_style(i, label):
+    """Fill of the i-th series of a bar chart: the ground truth black, the fits an Okabe-Ito
+    colour and a hatch each (7 x 6 distinct pairs, so more fits than colours still separate)."""
+    if label in GROUND_SERIES:
+        return {"color": "black", "hatch": "", "edgecolor": "white", "linewidth": 0}
+    return {"color": OKABE_ITO[i % len(OKABE_ITO)], "hatch": HATCHES[i % len(HATCHES)],
+            "edgecolor": "white", "linewidth": 0}
+
+
+def probe_bar_figure(probe, material, numbers, flatten, labels=()):
+    """Grouped bars of a probe's numbers: the ground truth first, then the fits in the study's
+    order (`labels`). Laid out in inches from top to bottom: title, legend (as many rows as its
+    names need), axes, the vertical key labels (as deep as the longest)."""
+    series = sorted(numbers.keys(), key=lambda x: (
+        x not in GROUND_SERIES, labels.index(x) if x in labels else len(labels), x))
     keys = []
     for s in series:
         keys += [k for k in flatten(numbers[s]) if k not in keys]
     keys = keys[:12]
-    fig = plt.figure(figsize=(PAGE_IN, 2.6))
-    ax = fig.add_axes([0.08, 0.36, 0.9, 0.5])
+    # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
+    short = [k.replace(material + "-", "") for k in keys]
+    short = [k if len(k) < 30 else k[:27] + "..." for k in short]
+    legend_cols, _, legend_in = legend_layout(series, PAGE_IN - 0.2, handlelength=1.5,
+                                              columnspacing=1.5)
+    title_in, axes_in = 0.25, 1.3
+    ticks_in = max([text_width_in(k, FONT_PT - 2) for k in short], default=0.0) + 0.12
+    height = title_in + legend_in + 0.08 + axes_in + ticks_in + 0.05
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    ax = fig.add_axes([0.6 / PAGE_IN, (ticks_in + 0.05) / height, (PAGE_IN - 0.75) / PAGE_IN,
+                       axes_in / height])
     if not keys or not series:
         ax.text(0.5, 0.5, "no numbers reported", ha="center", transform=ax.transAxes)
     else:
@@ -404,15 +553,15 @@ def probe_bar_figure(probe, material, numbers, flatten):
         x = np.arange(len(keys))
         for i, s in enumerate(series):
             f = flatten(numbers[s])
-            colour = "black" if s in GROUND_SERIES else OKABE_ITO[i % len(OKABE_ITO)]
-            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s, color=colour)
+            # The fit's place in the study picks its fill, as in the other bar figure.
+            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s,
+                   **bar_style(labels.index(s) if s in labels else i, s))
         ax.set_xticks(x + 0.4 - width / 2)
-        # Upright-box labels: vertical text, the material's name dropped from per-reference keys.
-        short = [k.replace(material + "-", "") for k in keys]
-        ax.set_xticklabels([k if len(k) < 30 else k[:27] + "..." for k in short], rotation=90,
-                           fontsize=FONT_PT - 2)
-        ax.legend(frameon=False, ncol=len(series), loc="upper left", bbox_to_anchor=(0, 1.18))
-    ax.set_title(f"{material}: {probe}", loc="right")
+        ax.set_xticklabels(short, rotation=90, fontsize=FONT_PT - 2)
+        fig.legend(*ax.get_legend_handles_labels(), frameon=False, ncol=legend_cols,
+                   loc="upper center", bbox_to_anchor=(0.5, 1 - title_in / height),
+                   handlelength=1.5, columnspacing=1.5)
+    fig.suptitle(f"{material}: {probe}", fontsize=FONT_PT + 1, y=1 - 0.03 / height, va="top")
     return fig
 
 
@@ -425,17 +574,44 @@ def probe_figures(study, probes, fig_dir, manifest, flatten):
             if probe != "portability" and curves:
                 fig = probe_curve_figure(probe, material, curves, labels)
             if fig is None:
-                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten)
+                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten,
+                                       labels)
             save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
                         f"{material}: {probe} probe (reference or measured BRDF dashed black; "
                         "extrapolated points dotted, open markers)")
 
 
+# Bars per panel above which the train and test panels stack (each the page's width) instead of
+# standing side by side: 40 bars in half a page are ~1 mm each.
+SIDE_BY_SIDE_BARS = 40
+
+
 def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"):
+    """Mean metric per material and fit, training lighting and test lightings. Laid out in inches
+    from the measured texts: the legend on top with as many rows as its names need, the material
+    names (vertical) as deep as the longest."""
     materials = [g["material"] for g in study["groups"]]
     labels = [f["label"] for f in study["fits"]]
-    fig = plt.figure(figsize=(PAGE_IN, 2.8))
-    axes = [fig.add_axes([0.07, 0.3, 0.42, 0.55]), fig.add_axes([0.56, 0.3, 0.42, 0.55])]
+    stacked = len(labels) * len(materials) > SIDE_BY_SIDE_BARS
+    legend_cols, _, legend_in = legend_layout(labels, PAGE_IN - 0.2, handlelength=1.5,
+                                              columnspacing=1.5)
+    names_in = max([text_width_in(m, FONT_PT - 1) for m in materials], default=0.0) + 0.1
+    left_in, title_in, axes_in = 0.55, 0.2, 1.3
+    if stacked:
+        # Train above test, the material names under the lower panel only (shared x axis).
+        height = legend_in + 2 * (title_in + axes_in) + 0.1 + names_in + 0.05
+        boxes = [(left_in, names_in + 0.05 + axes_in + title_in + 0.1, PAGE_IN - left_in - 0.1),
+                 (left_in, names_in + 0.05, PAGE_IN - left_in - 0.1)]
+    else:
+        height = legend_in + title_in + axes_in + names_in + 0.05
+        half = PAGE_IN / 2
+        boxes = [(left_in, names_in + 0.05, half - left_in - 0.1),
+                 (half + left_in, names_in + 0.05, half - left_in - 0.1)]
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    axes = []
+    for (x0, y0, w) in boxes:
+        axes.append(fig.add_axes([x0 / PAGE_IN, y0 / height, w / PAGE_IN, axes_in / height],
+                                 sharex=axes[0] if axes and stacked else None))
     for ax, split in zip(axes, ["train", "test"]):
         width = 0.8 / max(1, len(labels))
         x = np.arange(len(materials))
@@ -446,15 +622,18 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
                      if r["material"] == m and r["label"] == l and r["split"] == split]
                 v = [a for a in v if a is not None]
                 vals.append(np.mean(v) if v else np.nan)
-            ax.bar(x + i * width, vals, width, label=l, color=OKABE_ITO[i % len(OKABE_ITO)],
-                   hatch=["", "///", "...", "xx", "\\\\", "++"][i % 6], edgecolor="white",
-                   linewidth=0)
+            ax.bar(x + i * width, vals, width, label=l, **bar_style(i, l))
         ax.set_xticks(x + 0.4 - width / 2)
-        ax.set_xticklabels(materials, rotation=90)
-        ax.set_title(f"{split} lightings", fontsize=FONT_PT)
-        ax.set_ylabel(f"{metric} (lower is better)" if split == "train" else "")
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=len(labels),
-               frameon=False, bbox_to_anchor=(0.5, 1.0))
+        ax.set_xlim(-0.3, len(materials) - 0.1)
+        if stacked and split == "train":
+            ax.tick_params(labelbottom=False)
+        else:
+            ax.set_xticklabels(materials, rotation=90)
+        ax.set_title(f"{split} lightings", fontsize=FONT_PT, pad=3)
+        ax.set_ylabel(f"{metric} (lower is better)" if split == "train" or stacked else "")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper center", ncol=legend_cols,
+               frameon=False, bbox_to_anchor=(0.5, 1.0), handlelength=1.5, columnspacing=1.5)
     save_figure(fig, fig_dir, f"metric-{metric}", manifest,
-                f"Mean {metric} per material and fit: training lighting (left) and test "
-                "lightings (right)")
+                f"Mean {metric} per material and fit: training lighting "
+                f"({'top' if stacked else 'left'}) and test lightings "
+                f"({'bottom' if stacked else 'right'})")

@@ -298,14 +298,19 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
         parts += [figure_html(f) for f in charts]
         parts.append("</section>")
 
-    grids = {f["name"]: f for f in figures}
     for m in materials:
         parts.append(f"<section id='{anchor('m', m)}'><h2>{esc(m)}</h2>")
         parts.append(viewer_html(m, study, fits, rows, labels))
-        if f"grid-{m}" in grids:
-            g = grids[f"grid-{m}"]
+        # A study with many fits splits a material's grid into parts (one per training set).
+        grids = [f for f in figures if f.get("kind") == "grid" and f.get("material") == m]
+        if len(grids) == 1:
+            g = grids[0]
             parts.append(f"<p>All lightings at once: <a href='{esc(g['png'])}'>grid figure</a> "
                          f"(<a href='{esc(g['pdf'])}'>PDF</a>).</p>")
+        elif grids:
+            parts.append("<p>All lightings at once, in " + str(len(grids)) + " parts: " + "; ".join(
+                f"<a href='{esc(g['png'])}'>{esc(g['name'])}</a> "
+                f"(<a href='{esc(g['pdf'])}'>PDF</a>)" for g in grids) + ".</p>")
         parts.append("</section>")
 
     parts.append("<h2 id='details'>Tables</h2><p>Click a heading to open a table, a column "
