@@ -105,6 +105,7 @@ function(shadefit_render_library target)
       ${src}/image.cpp
       ${src}/models.cpp
       ${src}/scene.cpp
+      ${src}/screen_bounds.cpp
       ${src}/environment.cpp
       ${src}/gl_context.cpp
       ${src}/renderer.cpp
