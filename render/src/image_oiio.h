@@ -51,4 +51,5 @@ struct OiioBackend {
 }  // namespace shadefit::internal
 
 // The module's entry point (looked up with dlsym), its one exported symbol.
-extern "C" __attribute__((visibility("default"))) const shadefit::internal::OiioBackend* ShadefitOiioBackend();
+extern "C" __attribute__((visibility("default")))
+const shadefit::internal::OiioBackend* ShadefitOiioBackend();
