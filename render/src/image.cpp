@@ -232,8 +232,9 @@ Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
 // data window = display window: every reference and render shadefit writes) read with OpenEXR
 // directly, in the calling thread: OpenEXR's thread pool only adds a hand-off for a 256^2 file.
 // False when the file is anything else or fails to read; the caller then takes OpenImageIO's
-// path, which reports errors in its words. A test holds this path equal to OpenImageIO's, pixel
-// for pixel (files_test.cpp, ExrFastPathMatchesOpenImageIO).
+// path, which reports errors in its words. A size beyond the limits throws the error ReadImage
+// gives for any format. Tests hold this path equal to OpenImageIO's, bit for bit
+// (tests/render/image_io_test.cpp, ImageIo.ExrFastPath*).
 bool ReadPlainExr(const std::string& path, Image* out) {
   char magic[4] = {};
   std::ifstream(path, std::ios::binary).read(magic, sizeof magic);

@@ -49,7 +49,8 @@ Image ReadImage(const std::string& path, ImageMetadata* metadata = nullptr);
 
 // ReadImage's OpenEXR path: one part, channels R G B (A) in half or float, data window = display
 // window. False for any other file or on any read error (ReadImage then asks OpenImageIO, which
-// reports it). Exposed for the test that holds it equal to OpenImageIO's reader.
+// reports it); throws ReadImage's error for a size beyond its limits. Exposed for the test that
+// holds it equal to OpenImageIO's reader.
 bool ReadPlainExr(const std::string& path, Image* out);
 
 // What a file's header says, as OpenImageIO reads it (the import's provenance).
