@@ -12,9 +12,19 @@
 namespace shadefit {
 namespace {
 
-Renderer& SharedRenderer() {
+GlContext& SharedContext() {
   static GlContext* context = new GlContext();
-  static Renderer* renderer = new Renderer(*context);
+  return *context;
+}
+
+Renderer& SharedRenderer() {
+  static Renderer* renderer = new Renderer(SharedContext());
+  return *renderer;
+}
+
+// Every pixel ray cast (RendererOptions::bound_objects = false): the frame before the bounds.
+Renderer& FullScreenRenderer() {
+  static Renderer* renderer = new Renderer(SharedContext(), RendererOptions{false});
   return *renderer;
 }
 
@@ -28,17 +38,24 @@ Scene SphereScene(int size) {
       "bench.toml");
 }
 
-void BM_RenderFrame(benchmark::State& state, const char* model_name) {
+void RenderFrame(benchmark::State& state, const char* model_name, Renderer& renderer) {
   const ModelInfo& model = FindModel(model_name);
   const Scene scene = SphereScene(static_cast<int>(state.range(0)));
   const std::vector<double> params = DefaultParams(model);
-  Renderer& renderer = SharedRenderer();
   renderer.Render(scene, model.id, params);  // Compile the program outside the timing.
   for (auto _ : state) {
     Image image = renderer.Render(scene, model.id, params);
     benchmark::DoNotOptimize(image.data.data());
   }
   state.counters["px"] = static_cast<double>(state.range(0) * state.range(0));
+}
+
+void BM_RenderFrame(benchmark::State& state, const char* model_name) {
+  RenderFrame(state, model_name, SharedRenderer());
+}
+
+void BM_RenderFrameFullScreen(benchmark::State& state, const char* model_name) {
+  RenderFrame(state, model_name, FullScreenRenderer());
 }
 
 void BM_GBuffer(benchmark::State& state) {
@@ -60,6 +77,10 @@ SHADEFIT_RENDER_BENCH(blinn_phong, "blinn-phong");
 SHADEFIT_RENDER_BENCH(blinn_phong_normalized, "blinn-phong-normalized");
 SHADEFIT_RENDER_BENCH(ggx, "ggx");
 SHADEFIT_RENDER_BENCH(cycles_principled, "cycles-principled");
+BENCHMARK_CAPTURE(BM_RenderFrameFullScreen, ggx, "ggx")->Arg(512)->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RenderFrameFullScreen, lambert, "lambert")->Arg(512)
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_GBuffer)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

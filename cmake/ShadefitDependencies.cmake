@@ -3,6 +3,7 @@ find_package(Threads REQUIRED)
 find_package(PkgConfig REQUIRED)
 find_package(Ceres 2.1 REQUIRED)
 find_package(OpenImageIO REQUIRED)
+find_package(OpenEXR REQUIRED)  # image.cpp reads plain EXR files directly
 find_package(glm REQUIRED)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs)
 find_package(tomlplusplus REQUIRED)

@@ -105,6 +105,7 @@ function(shadefit_render_library target)
       ${src}/image.cpp
       ${src}/models.cpp
       ${src}/scene.cpp
+      ${src}/screen_bounds.cpp
       ${src}/environment.cpp
       ${src}/gl_context.cpp
       ${src}/renderer.cpp
@@ -114,8 +115,26 @@ function(shadefit_render_library target)
       ${src}/albedo.cpp
       ${shader_cpp})
   target_include_directories(${target} PUBLIC ${render_dir}/include ${gen}/include)
+  # OpenImageIO is not linked: image.cpp loads it as a module on first use (render/src/image_oiio.h
+  # says why); plain EXR files are read with OpenEXR directly.
+  shadefit_oiio_module()
+  target_compile_definitions(${target} PRIVATE
+      SHADEFIT_OIIO_MODULE="$<TARGET_FILE:shadefit_oiio>")
+  add_dependencies(${target} shadefit_oiio)
   target_link_libraries(${target}
       PUBLIC fmt::fmt
-      PRIVATE OpenImageIO::OpenImageIO tomlplusplus::tomlplusplus PkgConfig::EPOXY PkgConfig::EGL
-              Threads::Threads shadefit::warnings)
+      PRIVATE OpenEXR::OpenEXR tomlplusplus::tomlplusplus PkgConfig::EPOXY PkgConfig::EGL
+              Threads::Threads ${CMAKE_DL_LIBS} shadefit::warnings)
+endfunction()
+
+# The OpenImageIO side of image I/O, one module for every render library.
+function(shadefit_oiio_module)
+  if(TARGET shadefit_oiio)
+    return()
+  endif()
+  add_library(shadefit_oiio MODULE ${PROJECT_SOURCE_DIR}/render/src/image_oiio.cpp)
+  target_link_libraries(shadefit_oiio PRIVATE OpenImageIO::OpenImageIO shadefit::warnings)
+  # Only the entry point is exported; OpenImageIO's symbols stay inside.
+  set_target_properties(shadefit_oiio PROPERTIES CXX_VISIBILITY_PRESET hidden
+                                                 VISIBILITY_INLINES_HIDDEN ON)
 endfunction()

@@ -1,6 +1,5 @@
 #include "shadefit/refs/import.h"
 
-#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -49,16 +48,15 @@ LoadedImage LoadImageForImport(const std::string& path) {
   CheckImageHeader(path);
   {
     StderrCapture quiet;  // libpng's own error lines: the Error says it in one line
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
+    ImageFileInfo info;
+    std::string error;
+    if (!ReadImageInfo(path, &info, &error)) {
       quiet.Discard();
-      throw Error(path, "image", "cannot read image: " + OneLine(OIIO::geterror()));
+      throw Error(path, "image", "cannot read image: " + OneLine(error));
     }
-    const OIIO::ImageSpec& spec = in->spec();
-    out.is_float = spec.format.is_floating_point();
-    out.format = std::string(in->format_name()) + " " + spec.format.c_str();
-    out.file_channels = spec.nchannels;
-    in->close();
+    out.is_float = info.is_float;
+    out.format = info.format;
+    out.file_channels = info.channels;
   }
   if (out.file_channels != 1 && out.file_channels != 3 && out.file_channels != 4) {
     throw Error(path, "channels",

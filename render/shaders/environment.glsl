@@ -31,7 +31,9 @@ float RadicalInverse(uint bits) {
 // staying deterministic (a function of the pixel only). Note that technique 3 below follows the
 // model's lobe width, so the sample directions do move with roughness (docs/environment.md).
 vec2 PixelOffset() {
-  uvec2 p = uvec2(gl_FragCoord.xy);
+  // Pixel (x, y) counted from the bottom row, as before frames were drawn upside down
+  // (fullscreen.vert), so that every pixel keeps its offset.
+  uvec2 p = uvec2(gl_FragCoord.x, u_resolution.y - 1.0 - floor(gl_FragCoord.y));
   uint h = p.x * 1973u + p.y * 9277u + 26699u;
   h = (h ^ (h >> 16u)) * 0x45d9f3bu;
   h = (h ^ (h >> 16u)) * 0x45d9f3bu;

@@ -50,8 +50,8 @@ vec3 ShadeDirect(vec3 p, vec3 n, vec3 v) {
 }
 
 void main() {
-  // gl_FragCoord has its origin at the bottom left; our pixel rows count from the top.
-  vec2 pixel_corner = vec2(floor(gl_FragCoord.x), u_resolution.y - 1.0 - floor(gl_FragCoord.y));
+  // fullscreen.vert draws upside down: framebuffer row k is image row k, counted from the top.
+  vec2 pixel_corner = floor(gl_FragCoord.xy);
 #if SHADEFIT_GBUFFER
   vec3 origin, dir;
   CameraRay(pixel_corner + 0.5, origin, dir);

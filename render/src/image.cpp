@@ -1,9 +1,12 @@
 #include "shadefit/render/image.h"
 
+#include <dlfcn.h>
 #include <fmt/format.h>
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imageio.h>
-
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfVersion.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "image_oiio.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 
@@ -127,13 +131,34 @@ void CheckImageHeader(const std::string& path) {
 
 namespace {
 
-void WriteWithOiio(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc type,
-                   const void* pixels) {
-  WriteAtomic(path, [&](const std::string& tmp) {
-    auto out = OIIO::ImageOutput::create(path);  // Format from the final name, not the temp one.
-    if (!out) throw Error(path, "", "no writer for this file type: " + OIIO::geterror());
-    if (!out->open(tmp, spec) || !out->write_image(type, pixels) || !out->close()) {
-      throw Error(path, "", "write failed: " + OneLine(out->geterror()));
+// The OpenImageIO module (image_oiio.h), loaded on first use and kept for the process: a process
+// that reads only plain EXR files never loads OpenImageIO's 261 libraries.
+const internal::OiioBackend& Oiio() {
+  static const internal::OiioBackend* backend = [] {
+    void* module = dlopen(SHADEFIT_OIIO_MODULE, RTLD_NOW | RTLD_LOCAL);
+    if (!module) {
+      throw Error(SHADEFIT_OIIO_MODULE, "", fmt::format("cannot load the OpenImageIO module: {}",
+                                                        OneLine(dlerror())));
+    }
+    using Entry = const internal::OiioBackend* (*)();
+    auto entry = reinterpret_cast<Entry>(dlsym(module, "ShadefitOiioBackend"));
+    if (!entry) throw Error(SHADEFIT_OIIO_MODULE, "", "no ShadefitOiioBackend in the module");
+    return entry();
+  }();
+  return *backend;
+}
+
+void WriteWithOiio(internal::OiioWrite request) {
+  WriteAtomic(request.final_path, [&](const std::string& tmp) {
+    request.tmp_path = tmp;
+    std::string error;
+    switch (Oiio().write(request, &error)) {
+      case internal::OiioWriteStatus::kOk:
+        return;
+      case internal::OiioWriteStatus::kNoWriter:
+        throw Error(request.final_path, "", "no writer for this file type: " + error);
+      case internal::OiioWriteStatus::kFailed:
+        throw Error(request.final_path, "", "write failed: " + OneLine(error));
     }
   });
 }
@@ -160,50 +185,109 @@ float SrgbToLinear(float v) {
 
 namespace {
 
-Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
-  auto in = OIIO::ImageInput::open(path);
-  // The header is what OpenImageIO could not make sense of: the format, the size, the channels.
-  if (!in) throw Error(path, "header", "cannot read image: " + OneLine(OIIO::geterror()));
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+// A header may claim any size; allocate only what a reference can be. Scenes render at most
+// 8192 x 8192 RGBA (docs/scenes.md): 16384 per side, 64 channels (the G-buffer AOVs have 10)
+// and 2^28 values in all (1 GiB of floats, an 8192^2 RGBA image) leave room while keeping a
+// forged header from asking for terabytes.
+void CheckImageSize(const std::string& path, int width, int height, int channels) {
+  if (width <= 0 || height <= 0 || channels <= 0) {
     throw Error(path, "resolution", "image has no pixels");
   }
-  // A header may claim any size; allocate only what a reference can be. Scenes render at most
-  // 8192 x 8192 RGBA (docs/scenes.md): 16384 per side, 64 channels (the G-buffer AOVs have 10)
-  // and 2^28 values in all (1 GiB of floats, an 8192^2 RGBA image) leave room while keeping a
-  // forged header from asking for terabytes.
-  const auto values = static_cast<std::uint64_t>(spec.width) * spec.height * spec.nchannels;
-  if (spec.width > kMaxImageSide || spec.height > kMaxImageSide || spec.nchannels > 64 ||
+  const auto values = static_cast<std::uint64_t>(width) * height * channels;
+  if (width > kMaxImageSide || height > kMaxImageSide || channels > 64 ||
       values > kMaxImageValues) {
     throw Error(
         path, "resolution",
         fmt::format("{}x{} with {} channel(s) is beyond what shadefit reads ({} per side, "
                     "64 channels, {} values)",
-                    spec.width, spec.height, spec.nchannels, kMaxImageSide, kMaxImageValues));
+                    width, height, channels, kMaxImageSide, kMaxImageValues));
   }
+}
+
+Image ReadImageQuietly(const std::string& path, ImageMetadata* metadata) {
+  const internal::OiioBackend& oiio = Oiio();
+  internal::OiioSpec spec;
+  std::string error;
+  void* in = oiio.open(path, &spec, &error);
+  // The header is what OpenImageIO could not make sense of: the format, the size, the channels.
+  if (!in) throw Error(path, "header", "cannot read image: " + OneLine(error));
+  struct Closer {
+    const internal::OiioBackend& oiio;
+    void* in;
+    ~Closer() { oiio.close(in); }
+  } closer{oiio, in};
+  CheckImageSize(path, spec.width, spec.height, spec.channels);
   CheckComplete(path);
-  Image image(spec.width, spec.height, spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.data.data())) {
-    throw Error(path, "pixels", "truncated or corrupt image: " + OneLine(in->geterror()));
+  Image image(spec.width, spec.height, spec.channels);
+  if (!oiio.read(in, image.data.data(), &error)) {
+    throw Error(path, "pixels", "truncated or corrupt image: " + OneLine(error));
   }
-  if (metadata) {
-    metadata->clear();
-    for (const auto& attr : spec.extra_attribs) {
-      if (attr.type() == OIIO::TypeDesc::STRING) {
-        (*metadata)[attr.name().string()] = attr.get_string();
-      }
-    }
-  }
-  in->close();
+  if (metadata) oiio.string_attributes(in, metadata);
   return image;
 }
 
 }  // namespace
 
+// Plain EXR files (one part, scanline or tiled, channels R G B or R G B A in half or float,
+// data window = display window: every reference and render shadefit writes) read with OpenEXR
+// directly, in the calling thread: OpenEXR's thread pool only adds a hand-off for a 256^2 file.
+// False when the file is anything else or fails to read; the caller then takes OpenImageIO's
+// path, which reports errors in its words. A size beyond the limits throws the error ReadImage
+// gives for any format. Tests hold this path equal to OpenImageIO's, bit for bit
+// (tests/render/image_io_test.cpp, ImageIo.ExrFastPath*).
+bool ReadPlainExr(const std::string& path, Image* out) {
+  char magic[4] = {};
+  std::ifstream(path, std::ios::binary).read(magic, sizeof magic);
+  if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) != 0) return false;
+  try {
+    Imf::InputFile file(path.c_str(), /*numThreads=*/0);
+    if (Imf::isMultiPart(file.version()) || Imf::isNonImage(file.version())) return false;
+    const Imf::Header& header = file.header();
+    const Imath::Box2i window = header.dataWindow();
+    if (window != header.displayWindow()) return false;
+    static const char* kNames[] = {"R", "G", "B", "A"};
+    int channels = 0;
+    for (auto it = header.channels().begin(); it != header.channels().end(); ++it, ++channels) {
+      const Imf::Channel& c = it.channel();
+      if ((c.type != Imf::HALF && c.type != Imf::FLOAT) || c.xSampling != 1 || c.ySampling != 1) {
+        return false;
+      }
+    }
+    if (channels != 3 && channels != 4) return false;
+    for (int c = 0; c < channels; ++c) {
+      if (!header.channels().findChannel(kNames[c])) return false;
+    }
+    const int width = window.max.x - window.min.x + 1, height = window.max.y - window.min.y + 1;
+    CheckImageSize(path, width, height, channels);
+    Image image(width, height, channels);
+    Imf::FrameBuffer frame;
+    const std::size_t x_stride = sizeof(float) * channels, y_stride = x_stride * width;
+    // OpenEXR addresses a slice by absolute pixel coordinates: shift the base by the window.
+    char* origin = reinterpret_cast<char*>(image.data.data()) -
+                   static_cast<std::ptrdiff_t>(window.min.x) * x_stride -
+                   static_cast<std::ptrdiff_t>(window.min.y) * y_stride;
+    for (int c = 0; c < channels; ++c) {
+      frame.insert(kNames[c],
+                   Imf::Slice(Imf::FLOAT, origin + sizeof(float) * c, x_stride, y_stride));
+    }
+    file.setFrameBuffer(frame);
+    file.readPixels(window.min.y, window.max.y);
+    *out = std::move(image);
+    return true;
+  } catch (const Error&) {
+    throw;  // A size beyond the limits: the same error either way.
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 Image ReadImage(const std::string& path, ImageMetadata* metadata) {
   if (!fs::exists(path)) throw Error(path, "", "file not found");
   if (fs::is_directory(path)) throw Error(path, "", "is a directory, not an image");
   CheckImageHeader(path);
+  // Metadata callers get OpenImageIO's attribute names (it renames some EXR attributes).
+  Image image;
+  if (!metadata && ReadPlainExr(path, &image)) return image;
   StderrCapture quiet;  // libpng prints its errors itself; the Error below says it in one line
   try {
     return ReadImageQuietly(path, metadata);
@@ -213,22 +297,39 @@ Image ReadImage(const std::string& path, ImageMetadata* metadata) {
   }
 }
 
+bool ReadImageInfo(const std::string& path, ImageFileInfo* info, std::string* error) {
+  const internal::OiioBackend& oiio = Oiio();
+  internal::OiioSpec spec;
+  void* in = oiio.open(path, &spec, error);
+  if (!in) return false;
+  oiio.close(in);
+  info->format = spec.format_name + " " + spec.pixel_type;
+  info->is_float = spec.is_float;
+  info->channels = spec.channels;
+  return true;
+}
+
 void WriteExr(const std::string& path, const Image& image, const ImageMetadata& metadata,
               const std::vector<std::string>& channel_names) {
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::FLOAT);
+  internal::OiioWrite w;
+  w.final_path = path;
+  w.width = image.width;
+  w.height = image.height;
+  w.channels = image.channels;
+  w.pixels = image.data.data();
   if (!channel_names.empty()) {
-    spec.channelnames = channel_names;
+    w.channel_names = channel_names;
   } else if (image.channels == 4) {
-    spec.alpha_channel = 3;
+    w.alpha_channel = 3;
   }
-  spec.attribute("compression", "zip");
+  w.attributes.emplace_back("compression", "zip");
   // OpenImageIO's EXR writer stores "DateTime" as capDate and fills in the wall-clock time when
   // it is absent, which made every render differ from the last in its header. A render is a
   // function of its inputs, so it gets the reproducible-builds timestamp: $SOURCE_DATE_EPOCH
   // when set, else the epoch (not a capture date; the sidecar holds the provenance).
-  spec.attribute("DateTime", ReproducibleDateTime());
-  for (const auto& [key, value] : metadata) spec.attribute(key, value);
-  WriteWithOiio(path, spec, OIIO::TypeDesc::FLOAT, image.data.data());
+  w.attributes.emplace_back("DateTime", ReproducibleDateTime());
+  for (const auto& [key, value] : metadata) w.attributes.emplace_back(key, value);
+  WriteWithOiio(std::move(w));
 }
 
 void WritePngPreview(const std::string& path, const Image& image, float exposure_stops) {
@@ -251,9 +352,15 @@ void WritePng8(const std::string& path, const Image& image) {
     const float v = std::clamp(image.data[i], 0.0f, 1.0f);
     bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
   }
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::UINT8);
-  if (image.channels == 4) spec.alpha_channel = 3;
-  WriteWithOiio(path, spec, OIIO::TypeDesc::UINT8, bytes.data());
+  internal::OiioWrite w;
+  w.final_path = path;
+  w.width = image.width;
+  w.height = image.height;
+  w.channels = image.channels;
+  w.uint8 = true;
+  w.pixels = bytes.data();
+  if (image.channels == 4) w.alpha_channel = 3;
+  WriteWithOiio(std::move(w));
 }
 
 }  // namespace shadefit

@@ -86,6 +86,7 @@ constexpr int kScratchTextureUnit = 15;
 
 struct Renderer::Impl {
   GlContext& context;
+  RendererOptions options;
   GLuint vao = 0;
   GLuint fbo = 0;
   int fbo_width = 0, fbo_height = 0;
@@ -98,7 +99,7 @@ struct Renderer::Impl {
   int env_samples = 0;
   GLuint env_tex = 0, env_pdf_tex = 0, env_samples_tex = 0;
 
-  explicit Impl(GlContext& c) : context(c) {
+  Impl(GlContext& c, const RendererOptions& o) : context(c), options(o) {
     glGenVertexArrays(1, &vao);
     glGenFramebuffers(1, &fbo);
   }
@@ -278,32 +279,40 @@ struct Renderer::Impl {
     set3("u_background", scene.background.color);
   }
 
-  void Draw(int w, int h, int attachments) {
+  // Shades the pixels of `rect` (the scissor clips the full-screen triangle to them, so
+  // llvmpipe bins and runs no fragment outside). Framebuffer rows are image rows
+  // (fullscreen.vert), so `rect` needs no flip.
+  void Draw(int w, int h, int attachments, const PixelRect& rect) {
     EnsureTargets(w, h);
+    if (rect.empty()) return;
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
     glDrawBuffers(attachments, bufs);
     glViewport(0, 0, w, h);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(rect.x0, rect.y0, rect.width(), rect.height());
     glBindVertexArray(vao);
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_SCISSOR_TEST);
   }
 
-  Image Read(int attachment, int w, int h) {
+  // Reads `rect` of an attachment straight into a w x h image (rows in our order already);
+  // the pixels outside it stay 0.
+  Image Read(int attachment, int w, int h, const PixelRect& rect) {
     Image img(w, h, 4);
+    if (rect.empty()) return img;
     glReadBuffer(GL_COLOR_ATTACHMENT0 + attachment);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    std::vector<float> raw(static_cast<std::size_t>(w) * h * 4);
-    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, raw.data());
-    // GL rows start at the bottom; ours at the top.
-    const std::size_t row = static_cast<std::size_t>(w) * 4;
-    for (int y = 0; y < h; ++y) {
-      std::copy_n(&raw[(h - 1 - y) * row], row, &img.data[y * row]);
-    }
+    glPixelStorei(GL_PACK_ROW_LENGTH, w);
+    glReadPixels(rect.x0, rect.y0, rect.width(), rect.height(), GL_RGBA, GL_FLOAT,
+                 &img.data[(static_cast<std::size_t>(rect.y0) * w + rect.x0) * 4]);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
     return img;
   }
 };
 
-Renderer::Renderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
+Renderer::Renderer(GlContext& context, const RendererOptions& options)
+    : impl_(std::make_unique<Impl>(context, options)) {}
 Renderer::~Renderer() = default;
 
 Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<double>& params,
@@ -323,8 +332,14 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   for (std::size_t i = 0; i < params.size(); ++i) p[i] = static_cast<float>(params[i]);
   glUniform1fv(glGetUniformLocation(program, "u_params"), kMaxParams, p);
   const int w = scene.camera.width, h = scene.camera.height_px;
-  impl_->Draw(w, h, 1);
-  return impl_->Read(0, w, h);
+  // Where no sample hits, a transparent background's pixel is 0 in all four channels (the
+  // shader's sums start at 0 and the background adds nothing), which is what Read leaves
+  // outside the rectangle. An opaque background (a colour or the environment) is shaded.
+  const PixelRect rect = impl_->options.bound_objects && scene.background.transparent
+                             ? ObjectPixelBounds(scene)
+                             : PixelRect{0, 0, w, h};
+  impl_->Draw(w, h, 1, rect);
+  return impl_->Read(0, w, h, rect);
 }
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
@@ -333,13 +348,15 @@ GBuffer Renderer::RenderGBuffer(const Scene& scene) {
   glUseProgram(program);
   impl_->BindScene(program, scene);
   const int w = scene.camera.width, h = scene.camera.height_px;
-  impl_->Draw(w, h, 3);
+  // Every pixel: the view direction is defined on the background too.
+  const PixelRect frame{0, 0, w, h};
+  impl_->Draw(w, h, 3, frame);
   GBuffer g;
   g.width = w;
   g.height = h;
-  g.position = impl_->Read(0, w, h);
-  g.normal = impl_->Read(1, w, h);
-  g.view = impl_->Read(2, w, h);
+  g.position = impl_->Read(0, w, h, frame);
+  g.normal = impl_->Read(1, w, h, frame);
+  g.view = impl_->Read(2, w, h, frame);
   return g;
 }
 

@@ -43,7 +43,25 @@ using ImageMetadata = std::map<std::string, std::string>;
 // naming the file and the field (header, resolution, pixels) on a missing, unreadable, truncated
 // or corrupt file (JPEG and PNG files cut short included, which decoders fill silently) and on a
 // size beyond 16384 per side or 64 channels.
+// Plain RGB(A) EXR files without a metadata request are read with OpenEXR directly
+// (ReadPlainExr); everything else goes through OpenImageIO, loaded on first use.
 Image ReadImage(const std::string& path, ImageMetadata* metadata = nullptr);
+
+// ReadImage's OpenEXR path: one part, channels R G B (A) in half or float, data window = display
+// window. False for any other file or on any read error (ReadImage then asks OpenImageIO, which
+// reports it); throws ReadImage's error for a size beyond its limits. Exposed for the test that
+// holds it equal to OpenImageIO's reader.
+bool ReadPlainExr(const std::string& path, Image* out);
+
+// What a file's header says, as OpenImageIO reads it (the import's provenance).
+struct ImageFileInfo {
+  std::string format;   // Format and pixel type, e.g. "openexr half", "png uint8".
+  bool is_float = false;
+  int channels = 0;
+};
+
+// False with *error = OpenImageIO's message when the file cannot be opened as an image.
+bool ReadImageInfo(const std::string& path, ImageFileInfo* info, std::string* error);
 
 // Checks what a decoder would trust before reading a file: an EXR header attribute may not claim
 // more bytes than the file holds (OpenEXR 3.1 allocates the claimed size first). ReadImage and the

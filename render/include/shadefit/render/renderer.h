@@ -12,11 +12,18 @@
 
 namespace shadefit {
 
+struct RendererOptions {
+  // On a transparent background, shade and read back only ObjectPixelBounds (scene.h); every
+  // other pixel is what the shader would write there, 0 in all four channels. false: ray cast
+  // every pixel (the reference tests/render/screen_bounds_test.cpp holds the bounded frame to).
+  bool bound_objects = true;
+};
+
 class Renderer {
  public:
   // Every call makes `context` current on the calling thread first, so other contexts created
   // on the same thread in between do no harm; one renderer is used by one thread at a time.
-  explicit Renderer(GlContext& context);
+  explicit Renderer(GlContext& context, const RendererOptions& options = {});
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;

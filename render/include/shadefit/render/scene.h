@@ -89,4 +89,18 @@ struct Hit {
 // Nearest hit with t in (t_min, t_max); false when none.
 bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, Hit* hit);
 
+// Pixels [x0, x1) x [y0, y1), row 0 on top.
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool empty() const { return x0 >= x1 || y0 >= y1; }
+  int width() const { return x1 - x0; }
+  int height() const { return y1 - y0; }
+};
+
+// The pixels of the frame whose square meets the projection of an object, grown by the GL ray
+// cast's float rounding: no camera ray outside them, of any supersample, hits an object. Exact
+// projected bounds of spheres (render/src/screen_bounds.cpp), corner hulls of bounded planes;
+// the whole frame for an unbounded plane or an object reaching the camera plane.
+PixelRect ObjectPixelBounds(const Scene& scene);
+
 }  // namespace shadefit
