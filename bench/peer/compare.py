@@ -25,6 +25,11 @@ repeats:
   wall               whole-process wall time of each command, measured here; the peer's includes
                      Python start, imports, its `shadefit render` for the G-buffer and EXR reading
   wall ratio         peer wall / shadefit wall
+  sf solve s         `solver.solve_seconds`: shadefit's solves alone, timed inside Fit() (every
+                     start, coarse and polish; no G-buffer, covariance or hashes); absent ("-")
+                     from binaries before it existed
+  peer / sf solve    peer solve s / sf solve s (> 1: shadefit faster)
+  --sf-args "..."    extra `shadefit fit` arguments for every shadefit run (e.g. "--starts 1")
 
 Usage: /usr/bin/python3 bench/peer/compare.py [--model ggx] [--repeat 3] [--json out.json]
        [REF.exr ...]   (default: the point-lit list below)
@@ -78,6 +83,7 @@ def run_shadefit(shadefit, ref, model, tmp, extra=()):
         "rmse": j["rmse"]["per_reference"][0]["rmse"],
         "pixels": j["rmse"]["per_reference"][0]["pixels"],
         "values": j["values"],
+        "solve_seconds": j["solver"].get("solve_seconds"),
         "version": j.get("shadefit_version", "?"),
     }
 
@@ -97,6 +103,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--shadefit", default="build/studies/shadefit")
     ap.add_argument("--json", help="also write every run's numbers here")
+    ap.add_argument("--sf-args", default="", help="extra shadefit fit arguments")
     args = ap.parse_args()
 
     refs = [r for r in args.refs if os.path.exists(r)]
@@ -108,16 +115,17 @@ def main():
     print("| reference | shadefit Fit() s | at 1 iteration s | iterations (resid./Jac. evals) | "
           "shadefit rel. RMSE | peer solve s | peer evals (f/J) | peer rel. RMSE | "
           "cost peer/sf | peer solve / sf Fit() | peer solve / sf solve est. | "
-          "wall sf s | wall peer s | wall ratio |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "wall sf s | wall peer s | wall ratio | sf solve s | peer / sf solve |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    sf_args = args.sf_args.split()
     everything = []
     with tempfile.TemporaryDirectory(prefix="peer-compare-") as tmp:
         for ref in refs:
             sf_runs, fixed_runs, peer_runs = [], [], []
             for _ in range(args.repeat):
-                sf_runs.append(run_shadefit(args.shadefit, ref, args.model, tmp))
+                sf_runs.append(run_shadefit(args.shadefit, ref, args.model, tmp, sf_args))
                 fixed_runs.append(run_shadefit(args.shadefit, ref, args.model, tmp,
-                                               ["--max-iterations", "1"]))
+                                               [*sf_args, "--max-iterations", "1"]))
                 peer_runs.append(run_peer(args.shadefit, ref, args.model))
             sf, pe = sf_runs[-1], peer_runs[-1]
             if sf["pixels"] != pe["pixels"]:
@@ -130,6 +138,10 @@ def main():
             pe_s = med(r["solver"]["seconds"] for r in peer_runs)
             pe_wall = med(r["wall"] for r in peer_runs)
             rms_ref = pe["rms_reference"]
+            solves = [r["solve_seconds"] for r in sf_runs if r["solve_seconds"] is not None]
+            sf_pure = med(solves) if solves else None
+            pure = (f"{sf_pure:.4f} | {pe_s / max(sf_pure, 1e-6):.1f}" if sf_pure is not None
+                    else "- | -")
             name = os.path.splitext(os.path.basename(ref))[0]
             term = "" if sf["termination"] == "CONVERGENCE" else f" {sf['termination']}"
             print(f"| {name} | {sf_s:.3f} | {sf_fixed:.3f} | {sf['iterations']} "
@@ -138,7 +150,8 @@ def main():
                   f"{pe['solver']['nfev']}/{pe['solver']['njev']} | {pe['relative_rmse']:.4g} | "
                   f"{pe['cost']['final'] / sf['cost']:.4g} | {pe_s / sf_s:.2f} | "
                   f"{pe_s / sf_solve:.2f} | "
-                  f"{sf_wall:.2f} | {pe_wall:.2f} | {pe_wall / sf_wall:.2f} |", flush=True)
+                  f"{sf_wall:.2f} | {pe_wall:.2f} | {pe_wall / sf_wall:.2f} | {pure} |",
+                  flush=True)
             everything.append({"reference": ref, "model": args.model, "shadefit": sf_runs,
                                "shadefit_max_iterations_1": fixed_runs, "peer": peer_runs})
     versions = sorted({r["version"] for e in everything for r in e["shadefit"]})

@@ -69,7 +69,8 @@ nlohmann::json FitResultToJson(const FitResult& r) {
                  {"termination", r.termination},
                  {"converged", r.converged},
                  {"message", r.solver_message},
-                 {"seconds", r.seconds}};
+                 {"seconds", r.seconds},
+                 {"solve_seconds", r.solve_seconds}};
   j["converged"] = r.converged;
   json starts = json::array();
   for (const auto& s : r.start_results) {

@@ -122,9 +122,12 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   CeresProblems problems;
   internal::BuildProblems(model, param, options, gl, renderer, refs, &problems);
   result.loss_scale = problems.loss_scale;
-  internal::RecordStarts(
-      param, problems, internal::RunMultiStart(model, param, options, environment, refs, &problems),
-      &result);
+  const auto solve_start = std::chrono::steady_clock::now();
+  internal::MultiStartResult solved =
+      internal::RunMultiStart(model, param, options, environment, refs, &problems);
+  result.solve_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+  internal::RecordStarts(param, problems, std::move(solved), &result);
 
   // Uncertainty: ceres::Covariance at the best start, scaled by the residual variance.
   result.covariance_status = "skipped";

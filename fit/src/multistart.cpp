@@ -66,6 +66,23 @@ constexpr int kStageRounds = 12;
 constexpr double kSnap = 1e-3;
 constexpr double kSnapWide = 2e-2;  // 1% of the box.
 
+// One solve's record, from the bounded LM or from Ceres.
+struct Outcome {
+  double initial_cost = 0, final_cost = 0;
+  ceres::TerminationType termination = ceres::FAILURE;
+  std::string message;
+  int iterations = 0;
+};
+
+BoundedLmOptions LmOptions(const FitOptions& options) {
+  BoundedLmOptions o;
+  o.max_iterations = options.max_iterations;
+  o.function_tolerance = options.function_tolerance;
+  o.gradient_tolerance = options.gradient_tolerance;
+  o.parameter_tolerance = options.parameter_tolerance;
+  return o;
+}
+
 // The solves of one fit. Every start's end point is kept (end_u_, end_e_) so that the winner
 // can be continued from and the others re-evaluated.
 class MultiStart {
@@ -92,6 +109,11 @@ class MultiStart {
 
  private:
   void EvaluateCost(ceres::Problem& problem, double* cost) const;
+  // Cost of the full problem at the current u, e (bounded LM's evaluation when it solves).
+  double FullCost();
+  // A solve of the full or the coarse problem from the current u, e: the bounded LM where it
+  // applies (problem.h), else Ceres in stages.
+  Outcome SolveFrom(bool coarse);
   void Solve(ceres::Problem& problem, ceres::Solver::Summary* summary);
   ceres::Solver::Summary StagedSolve(ceres::Problem& problem, int* iterations);
   bool ReleaseHeld(ceres::Problem& problem, std::vector<int>* held);
@@ -108,7 +130,7 @@ class MultiStart {
   ceres::Solver::Options solver_options_;
   MultiStartResult out_;
   int best_ = -1;  // -1 until a start ends usable.
-  ceres::Solver::Summary best_summary_;
+  std::string best_message_;
   std::vector<std::vector<double>> end_u_;  // Internal end point of each start.
   std::vector<double> end_e_;               // Log-exposure end point of each start.
   std::vector<int> coarse_iterations_;
@@ -119,6 +141,47 @@ void MultiStart::EvaluateCost(ceres::Problem& problem, double* cost) const {
   ceres::Problem::EvaluateOptions eval;
   eval.num_threads = p_.threads;
   problem.Evaluate(eval, cost, nullptr, nullptr, nullptr);
+}
+
+double MultiStart::FullCost() {
+  if (p_.native) {
+    return BoundedLmCost(p_.native_full, BoxOfInternal(param_, p_.u), p_.log_exposure[0]);
+  }
+  double cost = 0;
+  EvaluateCost(p_.full, &cost);
+  return cost;
+}
+
+Outcome MultiStart::SolveFrom(bool coarse) {
+  Outcome o;
+  if (p_.native) {
+    std::vector<double> y = BoxOfInternal(param_, p_.u);
+    double e = p_.log_exposure[0];
+    const BoundedLmSummary s =
+        SolveBoundedLm(coarse ? p_.native_coarse : p_.native_full, LmOptions(options_), &y, &e);
+    out_.residual_evaluations += s.residual_evaluations;
+    out_.jacobian_evaluations += s.jacobian_evaluations;
+    const std::vector<double> u = InternalOfBox(param_, y);
+    for (int i = 0; i < p_.n; ++i) {
+      if (!param_.entry(i).fixed) p_.u[i] = u[i];
+    }
+    p_.log_exposure[0] = e;
+    o.initial_cost = s.initial_cost;
+    o.final_cost = s.final_cost;
+    o.termination = s.failed      ? ceres::FAILURE
+                    : s.converged ? ceres::CONVERGENCE
+                                  : ceres::NO_CONVERGENCE;
+    o.message = s.message;
+    o.iterations = s.iterations;
+    return o;
+  }
+  const ceres::Solver::Summary summary =
+      StagedSolve(coarse ? p_.coarse_problem : p_.full, &o.iterations);
+  o.initial_cost = summary.initial_cost;
+  o.final_cost = summary.final_cost;
+  o.termination = summary.termination_type;
+  o.message = summary.message;
+  return o;
 }
 
 void MultiStart::Solve(ceres::Problem& problem, ceres::Solver::Summary* summary) {
@@ -230,32 +293,30 @@ ceres::Solver::Summary MultiStart::StagedSolve(ceres::Problem& problem, int* ite
 
 // Full-problem solve of start s from the current u, e; the best usable one so far wins.
 void MultiStart::SolveFull(int s) {
-  int used = 0;
-  const ceres::Solver::Summary summary = StagedSolve(p_.full, &used);
+  const Outcome summary = SolveFrom(false);
+  const int used = summary.iterations;
   StartResult& start = out_.starts[s];
   start.params = param_.ToNatural(p_.u);
   start.exposure = std::exp(p_.log_exposure[0]);
   if (!p_.coarse) start.initial_cost = summary.initial_cost;
   start.final_cost = summary.final_cost;
   start.iterations = coarse_iterations_[s] + used;
-  start.termination = ceres::TerminationTypeToString(summary.termination_type);
-  start.converged = summary.termination_type == ceres::CONVERGENCE;
+  start.termination = ceres::TerminationTypeToString(summary.termination);
+  start.converged = summary.termination == ceres::CONVERGENCE;
   end_u_[s] = p_.u;
   end_e_[s] = p_.log_exposure[0];
-  const bool usable =
-      summary.termination_type != ceres::FAILURE && std::isfinite(summary.final_cost);
+  const bool usable = summary.termination != ceres::FAILURE && std::isfinite(summary.final_cost);
   if (usable && (best_ < 0 || summary.final_cost < out_.starts[best_].final_cost)) {
     best_ = s;
-    best_summary_ = summary;
+    best_message_ = summary.message;
   }
 }
 
 // Coarse-problem solve of start s from the current u, e; its final cost waits for the polish.
 void MultiStart::SolveCoarse(int s) {
-  int used = 0;
-  const ceres::Solver::Summary summary = StagedSolve(p_.coarse_problem, &used);
-  coarse_iterations_[s] = used;
-  coarse_cost_[s] = summary.termination_type == ceres::FAILURE
+  const Outcome summary = SolveFrom(true);
+  coarse_iterations_[s] = summary.iterations;
+  coarse_cost_[s] = summary.termination == ceres::FAILURE
                         ? std::numeric_limits<double>::quiet_NaN()
                         : summary.final_cost;
   end_u_[s] = p_.u;
@@ -265,7 +326,7 @@ void MultiStart::SolveCoarse(int s) {
   sr.params = param_.ToNatural(p_.u);
   sr.exposure = std::exp(p_.log_exposure[0]);
   sr.iterations = coarse_iterations_[s];
-  sr.termination = ceres::TerminationTypeToString(summary.termination_type);
+  sr.termination = ceres::TerminationTypeToString(summary.termination);
   sr.final_cost = std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -288,9 +349,7 @@ void MultiStart::PolishCoarse() {
     std::copy(start_u.begin(), start_u.end(), p_.u.begin());
     const double keep_e = p_.log_exposure[0];
     p_.log_exposure[0] = 0.0;
-    double initial = 0;
-    EvaluateCost(p_.full, &initial);
-    sr.initial_cost = initial;
+    sr.initial_cost = FullCost();
     std::copy(keep.begin(), keep.end(), p_.u.begin());
     p_.log_exposure[0] = keep_e;
     SolveFull(s);
@@ -316,7 +375,7 @@ void MultiStart::RunStarts() {
   if (best_ < 0) {
     // Every start failed (NaN residuals, numerical failure): still a result, never a crash.
     best_ = 0;
-    best_summary_ = ceres::Solver::Summary();
+    best_message_.clear();
   }
 }
 
@@ -332,7 +391,7 @@ void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedR
       StartResult& sr = out_.starts[s];
       if (s == best_ || !std::isfinite(sr.final_cost)) continue;
       LoadEnd(s);
-      EvaluateCost(p_.full, &sr.final_cost);
+      sr.final_cost = FullCost();
     }
     const int winner_before = best_;
     LoadEnd(best_);
@@ -357,7 +416,7 @@ void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedR
 MultiStartResult MultiStart::Finish() {
   LoadEnd(best_);
   out_.best = best_;
-  out_.solver_message = best_summary_.message;
+  out_.solver_message = best_message_;
   return std::move(out_);
 }
 

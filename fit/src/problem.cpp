@@ -140,6 +140,28 @@ void BuildProblems(const ModelInfo& model, const Parametrization& param, const F
     AddCoarseResiduals(settings, refs, total_points, p);
     HoldFixed(p, p.coarse_problem);
   }
+
+  // Robust losses act on squared pixel norms (ceres::LossFunction's corrections); the GL path
+  // differences renders: both stay with Ceres.
+  p.native = options.bounded_lm && !gl && !IsRobust(options.loss);
+  if (p.native) {
+    for (BoundedLmProblem* q : {&p.native_full, &p.native_coarse}) {
+      q->model = model.id;
+      q->loss = options.loss;
+      q->param = &param;
+      q->exposure_free = p.exposure_free;
+      q->threads = p.threads;
+    }
+    for (std::size_t ri = 0; ri < refs.size(); ++ri) {
+      const PreparedReference& r = refs[ri];
+      p.native_full.spans.push_back(
+          {r.points.data(), r.targets.data(), static_cast<int>(r.points.size())});
+      if (p.coarse) {
+        p.native_coarse.spans.push_back({p.coarse_points[ri].data(), p.coarse_targets[ri].data(),
+                                         static_cast<int>(p.coarse_points[ri].size())});
+      }
+    }
+  }
 }
 
 }  // namespace shadefit::fit::internal

@@ -9,6 +9,7 @@
 #include <memory>
 #include <vector>
 
+#include "bounded_lm.h"
 #include "prepared_reference.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/fit/residuals.h"
@@ -41,6 +42,10 @@ struct CeresProblems {
   std::vector<std::vector<ShadingPoint>> coarse_points;  // Per reference.
   std::vector<std::vector<double>> coarse_targets;       // 3 compressed values per coarse point.
   ceres::Problem coarse_problem;
+  // G-buffer path, non-robust loss: the same two problems for the bounded LM (bounded_lm.h),
+  // which solves them; the Ceres problems then serve the covariance only.
+  bool native = false;
+  BoundedLmProblem native_full, native_coarse;
 };
 
 // Builds `out` for the prepared references (fills their targets and, on the GL path, their render

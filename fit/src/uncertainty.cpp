@@ -137,6 +137,21 @@ void EstimateUncertainty(const Parametrization& param, CeresProblems& problems, 
     ceres::CRSMatrix jacobian;
     double cost = 0;
     problems.full.Evaluate(eval, &cost, nullptr, nullptr, &jacobian);
+    if (problems.native) {
+      // The bounded LM ends entries on, or within 1e-6 of their box from, a bound, where
+      // cos u ~ 1e-3 shrinks a column of J by 1e3 (J^T J by 1e6) and tilts a null vector onto
+      // that entry alone (grey dielectric, metallic 1e-6 from 0: f0_dielectric no longer
+      // showed). In s = sin u, the fraction of the box, columns keep their size up to the
+      // bound; one exactly on it (cos u = 0) stays a zero column, reported as at_bound.
+      for (int r = 0; r < jacobian.num_rows; ++r) {
+        for (int a = jacobian.rows[r]; a < jacobian.rows[r + 1]; ++a) {
+          const int entry = free.entry[jacobian.cols[a]];
+          if (entry >= problems.n) continue;
+          const double c = std::cos(problems.u[entry]);
+          if (std::abs(c) > 1e-12) jacobian.values[a] /= c;
+        }
+      }
+    }
     const std::vector<bool> undetermined = UndeterminedColumns(jacobian);
     const bool any_undetermined = MarkUndetermined(free, undetermined, problems.n, result);
     StandardErrors(param, problems, free, undetermined, any_undetermined, result);

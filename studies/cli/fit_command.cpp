@@ -24,7 +24,9 @@ void RegisterFitCommand(CLI::App& app) {
   struct Options {
     std::vector<std::string> refs, masks, fixed;
     std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
-    int starts = 1, max_iterations = 100, threads = 2, env_samples = 0;
+    int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
+    int threads = fit::FitOptions{}.num_threads, env_samples = 0;
+    std::string solver = "bounded-lm";
     int env_pixels = fit::FitOptions{}.environment_pixels;
     int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
     int env_rounds = fit::FitOptions{}.environment_rounds;
@@ -70,6 +72,10 @@ void RegisterFitCommand(CLI::App& app) {
   cmd->add_option("--env-rounds", opt->env_rounds,
                   "G-buffer path, environment light: re-solves with the proposal on the fit")
       ->capture_default_str();
+  cmd->add_option("--solver", opt->solver,
+                  "bounded-lm (G-buffer path, l2/log/cuberoot) | ceres (the staged Ceres solve, "
+                  "for comparison)")
+      ->capture_default_str();
   cmd->add_flag("--central-differences", opt->central,
                 "GL path: central instead of forward differences (2x renders)");
   cmd->add_flag("--no-images", opt->no_images, "Write only the JSON (no fit/error images)");
@@ -99,6 +105,11 @@ void RegisterFitCommand(CLI::App& app) {
     options.environment_twin_samples = opt->env_twin_samples;
     options.environment_rounds = opt->env_rounds;
     options.central_differences = opt->central;
+    if (opt->solver != "bounded-lm" && opt->solver != "ceres") {
+      throw Error("", "--solver",
+                  fmt::format("unknown solver '{}' (known: bounded-lm, ceres)", opt->solver));
+    }
+    options.bounded_lm = opt->solver == "bounded-lm";
     options.render_outputs = !opt->no_images;
     if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
     if (opt->max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");

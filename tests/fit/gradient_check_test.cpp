@@ -8,6 +8,7 @@
 
 #include "fit_test_util.h"
 #include "shadefit/fit/residuals.h"
+#include "../../fit/src/bounded_lm.h"  // The bounded LM (internal to fit/).
 
 namespace shadefit {
 namespace {
@@ -177,6 +178,67 @@ TEST(GradientCheckGlTest, GlResidualMatchesNumericDerivatives) {
   ASSERT_TRUE(results.return_value);
   ExpectJacobiansMatch(results, 2e-2, 1e-3, "ggx GL path");
 }
+
+// The bounded LM's one-pass normal equations (fit/src/bounded_lm.h) against central differences
+// of its own cost, for every model, with the exposure free and a compressing loss: its
+// gradient J^T r entry by entry (relative 1e-5 of the largest, step 1e-6 of the box), and J^T J
+// against the outer products of differenced residual rows is implied by the gradient check at
+// two targets (the gradient is J^T r for any r). Interior box points, so no entry is at a bound.
+class BoundedLmGradientTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BoundedLmGradientTest, GradientMatchesCentralDifferences) {
+  const ModelInfo& model = FindModel(GetParam());
+  const Geometry& g = SmallGeometry();
+  const fit::Parametrization param(model, {});
+  for (fit::Loss loss : {fit::Loss::kL2, fit::Loss::kCubeRoot}) {
+    for (double target : {0.0, 0.05}) {
+      std::vector<double> targets(3 * g.points.size(), fit::CompressRadiance(loss, target));
+      fit::internal::BoundedLmProblem problem;
+      problem.model = model.id;
+      problem.loss = loss;
+      problem.param = &param;
+      problem.exposure_free = true;
+      problem.threads = 2;
+      problem.spans.push_back({g.points.data(), targets.data(), static_cast<int>(g.points.size())});
+      const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 3));
+      const double e = 0.1;
+      std::vector<double> grad, h;
+      const double cost = fit::internal::BoundedLmNormalEquations(problem, y, e, &grad, &h);
+      ASSERT_TRUE(std::isfinite(cost));
+      EXPECT_NEAR(cost, fit::internal::BoundedLmCost(problem, y, e), 1e-12 * std::abs(cost));
+      const int n = param.size();
+      std::vector<double> numeric(n + 1);
+      double largest = 0;
+      for (int i = 0; i <= n; ++i) {
+        const double width = i < n ? param.entry(i).upper - param.entry(i).lower : 1.0;
+        const double step = 1e-6 * std::max(1.0, width);
+        std::vector<double> yp = y, ym = y;
+        double ep = e, em = e;
+        (i < n ? yp[i] : ep) += step;
+        (i < n ? ym[i] : em) -= step;
+        numeric[i] = (fit::internal::BoundedLmCost(problem, yp, ep) -
+                      fit::internal::BoundedLmCost(problem, ym, em)) /
+                     (2 * step);
+        largest = std::max(largest, std::abs(numeric[i]));
+      }
+      for (int i = 0; i <= n; ++i) {
+        EXPECT_NEAR(grad[i], numeric[i], 1e-5 * largest + 1e-9)
+            << GetParam() << " entry " << (i < n ? param.entry(i).name : "exposure") << " loss "
+            << static_cast<int>(loss) << " target " << target;
+        // J^T J is symmetric with a non-negative diagonal.
+        EXPECT_GE(h[i * (n + 1) + i], 0.0);
+        for (int j = 0; j <= n; ++j) EXPECT_EQ(h[i * (n + 1) + j], h[j * (n + 1) + i]);
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, BoundedLmGradientTest, ::testing::ValuesIn(AllModelNames()),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           for (char& ch : n) ch = std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
+                           return n;
+                         });
 
 }  // namespace
 }  // namespace shadefit

@@ -292,6 +292,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
   // is the same bytes on every run.
   j["fit"]["solver"].erase("seconds");
+  j["fit"]["solver"].erase("solve_seconds");
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(),
               result.seconds);
   WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");

@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shadefit/fit/defaults.h"
 #include "shadefit/refs/reference.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
@@ -83,11 +84,11 @@ struct FitOptions {
   Loss loss = Loss::kL2;
   double loss_scale = 0.0;           // Huber/Cauchy scale a (radiance units); 0 = automatic
                                      // (kRobustScaleFraction of the references' p99).
-  int starts = 1;                    // Start 0 = table defaults; 1.. = scrambled Halton points.
+  int starts = kDefaultStarts;       // Start 0 = table defaults; 1.. = scrambled Halton points.
   std::uint64_t seed = 1;            // Scrambles the Halton starts (Cranley-Patterson shift).
   Exposure exposure = Exposure::kFixed;  // kFree: fit a global scale exp(e).
   DerivativePath path = DerivativePath::kAuto;
-  int max_iterations = 100;          // Per start.
+  int max_iterations = kDefaultMaxIterations;  // Per start.
   int num_threads = 2;               // Ceres threads (G-buffer path; the GL path uses 1).
   int pixels_per_block = 128;        // Pixels per residual block (non-robust losses).
   double function_tolerance = 1e-9;   // Ceres' convergence tests (relative cost change,
@@ -112,6 +113,11 @@ struct FitOptions {
   // G-buffer path with > 16384 valid pixels: run every start on a ~4096-pixel subsample (all
   // highlight pixels + a stride through the rest), then polish the best ones on all pixels.
   bool coarse_to_fine = true;
+  // G-buffer path with a non-robust loss (l2, log, cuberoot): solve with the bounded
+  // Levenberg-Marquardt of fit/src/bounded_lm.h (box bounds held by an active set, one pass over
+  // the pixels per Jacobian). false: Ceres on the sine-transformed entries in stages (the solver
+  // before issue 11; kept for comparison, robust losses and the GL path always use it).
+  bool bounded_lm = true;
   bool render_outputs = true;        // Fill ReferenceResult::prediction/abs_error (GL renders).
   // A renderer whose GL context is current on the calling thread. nullptr: Fit creates a
   // context and renderer of its own for the duration of the call.
@@ -171,6 +177,7 @@ struct FitResult {
   bool converged = false;
   std::string solver_message;
   double seconds = 0;               // Wall time of Fit().
+  double solve_seconds = 0;         // Of which the solves (every start), nothing else.
   int starts = 1;
   std::uint64_t seed = 1;
   int starts_reached_best = 0;

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "shadefit/fit/defaults.h"
 #include "shadefit/probes/probe_kind.h"
 
 namespace shadefit::studies {
@@ -33,11 +34,11 @@ struct ReferenceGroup {
 struct FitSettings {
   std::string loss = "cuberoot";
   double loss_scale = 0.0;
-  int starts = 4;
+  int starts = fit::kDefaultStarts;  // The CLI's default (shadefit/fit/defaults.h).
   std::uint64_t seed = 1;
   std::string exposure = "fixed";
   std::string path = "auto";
-  int max_iterations = 100;
+  int max_iterations = fit::kDefaultMaxIterations;
   // Fit on every stride-th pixel in x and y (1 = all): cost falls as stride^2 while metrics are
   // still computed on every pixel. The subsample is a mask, so the images are never resampled.
   int pixel_stride = 1;

@@ -1,0 +1,79 @@
+// Bounded Levenberg-Marquardt for the G-buffer path (internal to fit/): the model's entries in
+// their boxes directly (y = p or log p, EntryMap::lower..upper; no sine transform), the log
+// exposure unbounded. A tiny dense problem (<= 12 unknowns) with tens of thousands of residuals:
+// J^T J and J^T r are accumulated in one pass over the pixels (the Jacobian is never stored), the
+// step is a Cholesky solve of the reduced normal equations, and nothing is built per iteration.
+//
+// Bounds: the projected Newton method of Bertsekas (1982, "Projected Newton methods for
+// optimization problems with simple constraints", SIAM J. Control Optim. 20(2), 221-246) with a
+// Levenberg-Marquardt damping in place of the line search (Kanzow, Yamashita and Fukushima 2004,
+// "Levenberg-Marquardt methods with strong local convergence properties for solving nonlinear
+// equations with convex constraints", J. Comput. Appl. Math. 172, the projected LM step). At
+// every iterate an entry on (or within eps of) a bound whose gradient points out of the box is in
+// the active set (Nocedal and Wright 2006, sec. 16.7, the binding set) and is held; the step is
+// the exact Gauss-Newton/LM step of the remaining entries (the reduced system, not a clipped
+// full step), then projected onto the box. An entry that belongs on its bound reaches it in one
+// projected step and is held there from the next iterate on; one whose gradient turns inward
+// leaves it at once. The damping follows Ceres' LM (Marquardt's diagonal scaling, Nielsen's
+// radius update) so that iteration counts compare with the Ceres solves.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/residuals.h"
+#include "shadefit/render/gbuffer.h"
+
+namespace shadefit::fit::internal {
+
+// A run of shading points with 3 compressed targets each.
+struct PixelSpan {
+  const ShadingPoint* points = nullptr;
+  const double* targets = nullptr;
+  int count = 0;
+};
+
+struct BoundedLmProblem {
+  ModelId model{};
+  Loss loss = Loss::kL2;  // Non-robust losses only (L2, log, cube root).
+  const Parametrization* param = nullptr;
+  std::vector<PixelSpan> spans;
+  bool exposure_free = false;
+  int threads = 1;  // Any count gives the same bytes: partial sums per fixed chunk, summed in order.
+};
+
+struct BoundedLmOptions {
+  int max_iterations = 100;
+  double function_tolerance = 1e-9;   // |delta cost| <= tol * cost on an accepted step.
+  double gradient_tolerance = 1e-10;  // max |y - P(y - g)|.
+  double parameter_tolerance = 1e-8;  // |step| <= tol * (|y| + tol).
+};
+
+struct BoundedLmSummary {
+  double initial_cost = 0, final_cost = 0;
+  int iterations = 0;  // Steps computed, accepted or not (as Ceres counts them).
+  bool converged = false;
+  bool failed = false;  // Non-finite cost at the start point.
+  std::string message;
+  long residual_evaluations = 0, jacobian_evaluations = 0;
+};
+
+// Box coordinates y of internal u (fixed entries: their u, unused) and back.
+std::vector<double> BoxOfInternal(const Parametrization& param, const std::vector<double>& u);
+std::vector<double> InternalOfBox(const Parametrization& param, const std::vector<double>& y);
+
+// 0.5 * sum r^2 at (y, e); NaN when a residual is not finite.
+double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>& y, double e);
+
+// Cost, gradient g = J^T r and Gauss-Newton matrix h = J^T J (row-major, (n+1)^2) at (y, e),
+// over the unknowns [y_0 .. y_{n-1}, e] (zero rows for fixed entries): one Jacobian pass, as the
+// solver uses it (tests hold it to differences of BoundedLmCost).
+double BoundedLmNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
+                                double e, std::vector<double>* g, std::vector<double>* h);
+
+// Minimises from (y, e); leaves the end point there.
+BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLmOptions& options,
+                                std::vector<double>* y, double* e);
+
+}  // namespace shadefit::fit::internal

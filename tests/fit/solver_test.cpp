@@ -1,0 +1,187 @@
+// The fitter's solver on the shipped Cycles references (issue 11, items 1-2; docs/fitting.md,
+// "Bounds without crawling"):
+//  - StoredCost: no fitted cost gets worse. tests/fit/data/stored_costs.tsv holds, per shipped
+//    point-lit reference and model, the final cost of the default fit before the bounded LM
+//    (the staged Ceres solve at 28afb69); the default fit must end at or below it (relative
+//    kCostTolerance).
+//  - Iterations: one GGX start reaches its optimum in at most kMaxIterations iterations on the
+//    references where the sine transform crawled (entries on a bound: kd = 0 for metals, f0 at
+//    its floor for Lambert).
+//  - DefaultStart: the default options land within 1% of the best cost of 16 starts, on the
+//    references where the default start used to stop in a local minimum (black-glossy-rim; the
+//    MERL materials under the key light, rendered from ../shared/brdf-data, skipped with a
+//    message when that folder is absent).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "fit_test_util.h"
+#include "shadefit/fit/fitter.h"
+#include "shadefit/refs/render_measured.h"
+
+namespace shadefit {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kCostTolerance = 1e-4;  // Relative; summation order moves costs by ~1e-12.
+constexpr int kMaxIterations = 40;       // The issue's maximum for one start.
+
+fs::path CyclesDir() { return fs::path(SHADEFIT_SOURCE_DIR) / "reference_images" / "cycles"; }
+
+fit::FitResult FitReference(const fit::FitReference& ref, const std::string& model,
+                            fit::FitOptions options) {
+  fit::FitProblem problem;
+  problem.model = model;
+  problem.references.push_back(ref);
+  options.renderer = &testing::SharedRenderer();
+  options.render_outputs = false;
+  options.compute_covariance = false;
+  return fit::Fit(problem, options);
+}
+
+fit::FitResult FitCycles(const std::string& name, const std::string& model,
+                         fit::FitOptions options = {}) {
+  return FitReference(fit::LoadReference((CyclesDir() / (name + ".exr")).string()), model,
+                      options);
+}
+
+std::string TestName(std::string n) {
+  for (char& ch : n) ch = std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
+  return n;
+}
+
+// ---- Stored costs ---------------------------------------------------------------------------
+
+struct StoredCost {
+  std::string reference, model;
+  double cost = 0;
+};
+
+void PrintTo(const StoredCost& s, std::ostream* os) { *os << s.reference << " " << s.model; }
+
+std::vector<StoredCost> ReadStoredCosts() {
+  std::vector<StoredCost> out;
+  std::ifstream in(fs::path(SHADEFIT_SOURCE_DIR) / "tests" / "fit" / "data" / "stored_costs.tsv");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream row(line);
+    StoredCost s;
+    row >> s.reference >> s.model >> s.cost;
+    if (row) out.push_back(s);
+  }
+  return out;
+}
+
+class StoredCostTest : public ::testing::TestWithParam<StoredCost> {};
+
+TEST_P(StoredCostTest, DefaultFitIsNoWorse) {
+  const StoredCost& s = GetParam();
+  const fit::FitResult r = FitCycles(s.reference, s.model);
+  EXPECT_TRUE(std::isfinite(r.final_cost));
+  EXPECT_LE(r.final_cost, s.cost * (1 + kCostTolerance))
+      << s.reference << " " << s.model << ": " << r.iterations << " iterations, "
+      << r.termination;
+  std::printf("[ cost ] %s %s: %.9g (stored %.9g, ratio %.4f), %d iterations\n",
+              s.reference.c_str(), s.model.c_str(), r.final_cost, s.cost, r.final_cost / s.cost,
+              r.iterations);
+}
+
+TEST(StoredCosts, EveryShippedPointLitReferenceIsListed) {
+  const std::vector<StoredCost> stored = ReadStoredCosts();
+  int listed = 0;
+  for (const auto& entry : fs::directory_iterator(CyclesDir())) {
+    if (entry.path().extension() != ".exr") continue;
+    const std::string name = entry.path().stem().string();
+    if (name.ends_with("-env")) continue;  // Environment light: the quadrature path.
+    ++listed;
+    EXPECT_TRUE(std::any_of(stored.begin(), stored.end(),
+                            [&](const StoredCost& s) { return s.reference == name; }))
+        << name << " has no stored cost";
+  }
+  EXPECT_GT(listed, 40);
+}
+
+INSTANTIATE_TEST_SUITE_P(Shipped, StoredCostTest, ::testing::ValuesIn(ReadStoredCosts()),
+                         [](const auto& info) {
+                           return TestName(info.param.reference + "_" + info.param.model);
+                         });
+
+// ---- Iterations of one start ----------------------------------------------------------------
+
+class IterationTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(IterationTest, OneGgxStartConvergesQuickly) {
+  fit::FitOptions options;
+  options.starts = 1;
+  const fit::FitResult r = FitCycles(GetParam(), "ggx", options);
+  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message;
+  EXPECT_LE(r.iterations, kMaxIterations) << r.solver_message;
+  std::printf("[ iterations ] %s: %d, cost %.9g\n", GetParam().c_str(), r.iterations,
+              r.final_cost);
+}
+
+// Metals (kd on its bound 0), Lambert (f0 on its floor), the mirror planes and a grazing rim:
+// where the sine transform crawled (copper-side 39, aluminium-key 67, white-lambert-rim 45,
+// gold-mirror60 46 iterations; BENCHMARKS.md). Not black-glossy-rim: its one start follows a
+// curved kd-f0-roughness valley for ~150 iterations (the scipy peer: 357 evaluations), which is
+// not a bound; DefaultStart holds its cost.
+INSTANTIATE_TEST_SUITE_P(Shipped, IterationTest,
+                         ::testing::Values("copper-side", "aluminium-key", "gold-key",
+                                           "silver-mirror-side", "white-lambert-rim",
+                                           "gold-mirror60", "blue-rough-rim"),
+                         [](const auto& info) { return TestName(info.param); });
+
+// ---- The default start does not get stuck ---------------------------------------------------
+
+void ExpectDefaultNearBestOf16(const fit::FitReference& ref, const std::string& label) {
+  const fit::FitResult def = FitReference(ref, "ggx", {});
+  fit::FitOptions many;
+  many.starts = 16;
+  const fit::FitResult best = FitReference(ref, "ggx", many);
+  // Plus 1e-6 absolute: below it (RMSE < 5e-6 on a 256^2 sphere) the fit is exact and the
+  // relative gap is the stopping rule's noise (black-glossy-rim: 1.5e-7 against 1.1e-7).
+  EXPECT_LE(def.final_cost, 1.01 * best.final_cost + 1e-6)
+      << label << ": default cost " << def.final_cost << ", best of 16 " << best.final_cost;
+  std::printf("[ default ] %s: default %.9g, 16 starts %.9g (ratio %.4f)\n", label.c_str(),
+              def.final_cost, best.final_cost, def.final_cost / best.final_cost);
+}
+
+TEST(DefaultStart, BlackGlossyRimNearBestOf16) {
+  ExpectDefaultNearBestOf16(
+      fit::LoadReference((CyclesDir() / "black-glossy-rim.exr").string()), "black-glossy-rim");
+}
+
+fs::path BrdfData() {
+  if (const char* env = std::getenv("SHADEFIT_BRDF_DATA")) return env;
+  return fs::path(SHADEFIT_SOURCE_DIR) / ".." / "shared" / "brdf-data";
+}
+
+class MeasuredDefaultStartTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(MeasuredDefaultStartTest, KeyLightNearBestOf16) {
+  const fs::path h5 = BrdfData() / "merl-nbrdf" / (GetParam() + ".h5");
+  if (!fs::exists(h5)) {
+    GTEST_SKIP() << h5.string() << " absent (../shared/brdf-data, or set SHADEFIT_BRDF_DATA): "
+                 << "the measured default-start check needs the Neural-BRDF networks";
+  }
+  refs::MeasuredReferenceRequest request;
+  request.brdf_path = h5.string();
+  request.scene_path = (CyclesDir() / "scenes" / "sphere-key.toml").string();
+  request.output = testing::TestOutputDir("fit_solver") + "/" + GetParam() + "-key.exr";
+  refs::MakeMeasuredReference(request, testing::SharedRenderer());
+  ExpectDefaultNearBestOf16(fit::LoadReference(request.output), GetParam() + "-key");
+}
+
+INSTANTIATE_TEST_SUITE_P(Merl, MeasuredDefaultStartTest,
+                         ::testing::Values("steel", "brass", "aluminium"),
+                         [](const auto& info) { return TestName(info.param); });
+
+}  // namespace
+}  // namespace shadefit
