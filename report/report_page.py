@@ -315,6 +315,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
     named = [("matrix", "Verdict matrix"), ("verdict_details", "Verdicts per quantity"),
              ("metrics", "Image metrics per reference and fit"),
              ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
+             ("encoding", "Encoding of the photographs (fitted)"),
              ("ngan2005_spearman", "Against Ngan, Durand and Matusik 2005: rank correlation"),
              ("ngan2005", "Against Ngan, Durand and Matusik 2005: per material")]
     for key, title in named:
