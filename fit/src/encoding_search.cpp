@@ -40,8 +40,7 @@ struct Scored {
 };
 
 // Fits `problem` with every reference re-decoded by `e` and scores the fit in stored values.
-Scored FitAndScore(const FitProblem& problem, const FitOptions& options,
-                   const StoredEncoding& e) {
+Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e) {
   FitProblem decoded = problem;
   for (refs::Reference& r : decoded.references) r = Redecode(r, e);
   FitOptions quick = options;
@@ -72,9 +71,12 @@ Scored FitAndScore(const FitProblem& problem, const FitOptions& options,
 double StoredEncoding::Decode(double v) const {
   v = std::clamp(v, 0.0, 1.0);
   switch (kind) {
-    case Kind::kSrgb: return SrgbToLinear(static_cast<float>(v));
-    case Kind::kLinear: return v;
-    case Kind::kGamma: return std::pow(v, gamma);
+    case Kind::kSrgb:
+      return SrgbToLinear(static_cast<float>(v));
+    case Kind::kLinear:
+      return v;
+    case Kind::kGamma:
+      return std::pow(v, gamma);
   }
   return v;
 }
@@ -82,18 +84,24 @@ double StoredEncoding::Decode(double v) const {
 double StoredEncoding::Encode(double v) const {
   v = std::clamp(v, 0.0, 1.0);
   switch (kind) {
-    case Kind::kSrgb: return SrgbOetf(static_cast<float>(v));
-    case Kind::kLinear: return v;
-    case Kind::kGamma: return std::pow(v, 1.0 / gamma);
+    case Kind::kSrgb:
+      return SrgbOetf(static_cast<float>(v));
+    case Kind::kLinear:
+      return v;
+    case Kind::kGamma:
+      return std::pow(v, 1.0 / gamma);
   }
   return v;
 }
 
 std::string StoredEncoding::Name() const {
   switch (kind) {
-    case Kind::kSrgb: return "srgb";
-    case Kind::kLinear: return "linear";
-    case Kind::kGamma: return fmt::format("gamma {:.3f}", gamma);
+    case Kind::kSrgb:
+      return "srgb";
+    case Kind::kLinear:
+      return "linear";
+    case Kind::kGamma:
+      return fmt::format("gamma {:.3f}", gamma);
   }
   return "";
 }
@@ -131,8 +139,8 @@ double StoredRmse(const refs::Reference& ref, const Image& prediction, double ex
     for (int x = 0; x < ref.image.width; ++x) {
       if (!Usable(ref, x, y)) continue;
       for (int c = 0; c < 3; ++c) {
-        const double d = e.Encode(exposure * prediction.at(x, y, c)) -
-                         StoredOf(ref, ref.image.at(x, y, c));
+        const double d =
+            e.Encode(exposure * prediction.at(x, y, c)) - StoredOf(ref, ref.image.at(x, y, c));
         sq += d * d;
         ++n;
       }
@@ -187,9 +195,9 @@ EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitO
   const EncodingCandidate power = fc.stored_rmse < fd.stored_rmse ? fc : fd;
   result.candidates = {srgb.candidate, linear.candidate, power};
 
-  const EncodingCandidate& fixed =
-      srgb.candidate.stored_rmse <= linear.candidate.stored_rmse ? srgb.candidate
-                                                                 : linear.candidate;
+  const EncodingCandidate& fixed = srgb.candidate.stored_rmse <= linear.candidate.stored_rmse
+                                       ? srgb.candidate
+                                       : linear.candidate;
   result.chosen = power.stored_rmse < (1.0 - search.gamma_margin) * fixed.stored_rmse
                       ? power.encoding
                       : fixed.encoding;

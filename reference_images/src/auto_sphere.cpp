@@ -122,7 +122,9 @@ std::vector<cv::Point> ContrastRegion(const cv::Mat& gray, const Image& linear, 
   std::vector<int> border;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      if (x < 2 || y < 2 || x >= w - 2 || y >= h - 2) border.push_back(gray.at<unsigned char>(y, x));
+      if (x < 2 || y < 2 || x >= w - 2 || y >= h - 2) {
+        border.push_back(gray.at<unsigned char>(y, x));
+      }
     }
   }
   auto median = [](std::vector<int> v) {
@@ -247,7 +249,9 @@ SphereEstimate DetectSphere(const Image& linear, double white, const std::string
   if (mask) {
     cv::Mat binary(h, w, CV_8U);
     for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) binary.at<unsigned char>(y, x) = mask->at(x, y, 0) > 0.5f ? 255 : 0;
+      for (int x = 0; x < w; ++x) {
+        binary.at<unsigned char>(y, x) = mask->at(x, y, 0) > 0.5f ? 255 : 0;
+      }
     }
     const std::vector<cv::Point> region = LargestContour(binary);
     if (region.size() < 16 || EnclosingRadius(region) < 4.0) {

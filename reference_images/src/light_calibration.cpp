@@ -88,7 +88,8 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
   if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
     throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
   }
-  if (!fs::exists(o.scene_template)) throw Error(o.scene_template, "scene-template", "file not found");
+  if (!fs::exists(o.scene_template))
+    throw Error(o.scene_template, "scene-template", "file not found");
   const Scene tmpl = LoadScene(o.scene_template);
   if (!tmpl.lights.empty()) {
     throw Error(o.scene_template, "lights",
@@ -116,10 +117,10 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
     const LoadedImage loaded = LoadImageForImport(c.ball_path);
     const Image linear = DecodeToLinear(loaded, o.encoding, nullptr);
     if (linear.width != tmpl.camera.width || linear.height != tmpl.camera.height_px) {
-      throw Error(c.ball_path, "resolution",
-                  fmt::format("image is {}x{}, the camera of {} is {}x{}", linear.width,
-                              linear.height, o.scene_template, tmpl.camera.width,
-                              tmpl.camera.height_px));
+      throw Error(
+          c.ball_path, "resolution",
+          fmt::format("image is {}x{}, the camera of {} is {}x{}", linear.width, linear.height,
+                      o.scene_template, tmpl.camera.width, tmpl.camera.height_px));
     }
     if (!mask.empty() && (mask.width != linear.width || mask.height != linear.height)) {
       throw Error(o.mask_path, "resolution",
@@ -160,18 +161,17 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
         -c.to_light.y, -c.to_light.z, o.irradiance);
     ParseScene(text, c.scene_path);  // Throws on anything the template got wrong.
     texts.push_back(text);
-    summary["lights"].push_back(
-        {{"ball", fs::absolute(c.ball_path).string()},
-         {"ball_sha256", Sha256File(c.ball_path)},
-         {"lighting", c.lighting},
-         {"scene", fs::path(c.scene_path).filename().string()},
-         {"ball_center_px", {b.center_x, b.center_y}},
-         {"ball_radius_px", b.radius},
-         {"found_by", b.found_by},
-         {"highlight_px", {b.highlight_x, b.highlight_y}},
-         {"highlight_peak_code", b.peak_code},
-         {"ball_median_code", b.median_code},
-         {"to_light", {c.to_light.x, c.to_light.y, c.to_light.z}}});
+    summary["lights"].push_back({{"ball", fs::absolute(c.ball_path).string()},
+                                 {"ball_sha256", Sha256File(c.ball_path)},
+                                 {"lighting", c.lighting},
+                                 {"scene", fs::path(c.scene_path).filename().string()},
+                                 {"ball_center_px", {b.center_x, b.center_y}},
+                                 {"ball_radius_px", b.radius},
+                                 {"found_by", b.found_by},
+                                 {"highlight_px", {b.highlight_x, b.highlight_y}},
+                                 {"highlight_peak_code", b.peak_code},
+                                 {"ball_median_code", b.median_code},
+                                 {"to_light", {c.to_light.x, c.to_light.y, c.to_light.z}}});
   }
 
   // --- Write: each file atomically; on a failure remove the ones already written.

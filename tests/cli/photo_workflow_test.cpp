@@ -54,9 +54,9 @@ std::vector<Light> Lights() {
   std::vector<Light> out;
   for (int i = 0; i < 8; ++i) {
     const double theta = (i % 2 == 0 ? 30.0 : 50.0) * kPi / 180.0, phi = 45.0 * i * kPi / 180.0;
-    out.push_back({"L" + std::to_string(i),
-                   {std::sin(theta) * std::cos(phi), -std::cos(theta),
-                    std::sin(theta) * std::sin(phi)}});
+    out.push_back(
+        {"L" + std::to_string(i),
+         {std::sin(theta) * std::cos(phi), -std::cos(theta), std::sin(theta) * std::sin(phi)}});
   }
   return out;
 }
@@ -92,8 +92,8 @@ class PhotoWorkflow : public ::testing::Test {
 
   // Runs `shadefit <args>` in dir_; stdout and stderr go to <dir>/last.{out,err}.
   int Shadefit(const std::string& args) {
-    const std::string cmd = "cd '" + dir_.string() + "' && '" + SHADEFIT_EXE + "' " + args +
-                            " > last.out 2> last.err";
+    const std::string cmd =
+        "cd '" + dir_.string() + "' && '" + SHADEFIT_EXE + "' " + args + " > last.out 2> last.err";
     const int status = std::system(cmd.c_str());
     std::ifstream err(dir_ / "last.err");
     std::ostringstream ss;
@@ -135,8 +135,8 @@ class PhotoWorkflow : public ::testing::Test {
         const float a = r.at(x, y, 3);
         for (int c = 0; c < 3; ++c) {
           const float v = r.at(x, y, c) + (1.0f - a) * 0.02f;
-          out.at(x, y, c) = std::round(255.0f * shadefit::SrgbOetf(std::clamp(v, 0.0f, 1.0f))) /
-                            255.0f;
+          out.at(x, y, c) =
+              std::round(255.0f * shadefit::SrgbOetf(std::clamp(v, 0.0f, 1.0f))) / 255.0f;
         }
       }
     }
@@ -145,12 +145,15 @@ class PhotoWorkflow : public ::testing::Test {
 
   // Whether pixel (x, y) is on the stand: a grey post 28 px wide under the sphere, from 0.7
   // radii below its centre to the bottom of the frame (it hides the sphere's lowest rows).
-  static bool OnStand(int x, int y) { return std::abs(x + 0.5 - 96.0) < 14.0 && y + 0.5 > 64.0 + 0.7 * kPxPerUnit; }
+  static bool OnStand(int x, int y) {
+    return std::abs(x + 0.5 - 96.0) < 14.0 && y + 0.5 > 64.0 + 0.7 * kPxPerUnit;
+  }
 
-  // The set: one 8-bit photograph per light (gamma 2.2, exposure 4, clipped, stand painted in),
+  // The set: one 8-bit photograph per light (gamma 2.2 or sRGB, exposure 4, clipped, stand
+  // painted in),
   // and the mask: the sphere's disc less a 1.5 px rim, less the stand and a 2 px margin.
-  void SpherePhotos() {
-    for (const Light& l : Lights()) {
+  void SpherePhotos(bool srgb = false, const std::vector<Light>& lights = Lights()) {
+    for (const Light& l : lights) {
       const std::string scene =
           std::string(kCamera) +
           "\n[[objects]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\n" +
@@ -166,8 +169,9 @@ class PhotoWorkflow : public ::testing::Test {
           for (int c = 0; c < 3; ++c) {
             double v = r.at(x, y, c) + (1.0f - a) * kBackground;
             if (OnStand(x, y)) v = kStand;
-            out.at(x, y, c) =
-                std::round(255.0 * std::pow(std::clamp(v, 0.0, 1.0), 1.0 / kGamma)) / 255.0;
+            v = std::clamp(v, 0.0, 1.0);
+            v = srgb ? shadefit::SrgbOetf(static_cast<float>(v)) : std::pow(v, 1.0 / kGamma);
+            out.at(x, y, c) = std::round(255.0 * v) / 255.0;
           }
         }
       }
@@ -177,8 +181,8 @@ class PhotoWorkflow : public ::testing::Test {
     for (int y = 0; y < kH; ++y) {
       for (int x = 0; x < kW; ++x) {
         const double d = std::hypot(x + 0.5 - 96.0, y + 0.5 - 64.0);
-        const bool near_stand = OnStand(x, y) || OnStand(x - 2, y) || OnStand(x + 2, y) ||
-                                OnStand(x, y + 2);
+        const bool near_stand =
+            OnStand(x, y) || OnStand(x - 2, y) || OnStand(x + 2, y) || OnStand(x, y + 2);
         mask.at(x, y, 0) = d < kPxPerUnit - 1.5 && !near_stand ? 1.0f : 0.0f;
       }
     }
@@ -221,8 +225,7 @@ TEST_F(PhotoWorkflow, MirrorBallLightsWithinHalfADegree) {
     MirrorBallPhoto(l, dir_ / "balls" / ("ball-" + l.name + ".png"));
     balls += " --ball balls/ball-" + l.name + ".png";
   }
-  ASSERT_EQ(Shadefit("refs lights" + balls + " --scene-template sphere.toml -o scenes"), 0)
-      << err_;
+  ASSERT_EQ(Shadefit("refs lights" + balls + " --scene-template sphere.toml -o scenes"), 0) << err_;
   double worst = 0;
   for (const Light& l : Lights()) {
     const double a = AngleToTruth(dir_ / "scenes" / "sphere-lights.json", l);
@@ -306,8 +309,7 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
     MirrorBallPhoto(l, dir_ / "balls" / ("ball-" + l.name + ".png"));
     balls += " --ball balls/ball-" + l.name + ".png";
   }
-  ASSERT_EQ(Shadefit("refs lights" + balls + " --scene-template sphere.toml -o scenes"), 0)
-      << err_;
+  ASSERT_EQ(Shadefit("refs lights" + balls + " --scene-template sphere.toml -o scenes"), 0) << err_;
   long clipped = 0, masked_out = 0;
   for (const Light& l : Lights()) {
     ASSERT_EQ(Shadefit("refs import photos/sphere-" + l.name + ".png --scene scenes/sphere-" +
@@ -344,8 +346,9 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   EXPECT_NEAR(enc["gamma"].get<double>(), kGamma, 0.05);
   double srgb = 0, linear = 0, power = 0;
   for (const json& c : enc["candidates"]) {
-    (c["encoding"] == "srgb" ? srgb : c["encoding"] == "linear" ? linear : power) =
-        c["stored_rmse"].get<double>();
+    (c["encoding"] == "srgb"     ? srgb
+     : c["encoding"] == "linear" ? linear
+                                 : power) = c["stored_rmse"].get<double>();
   }
   std::printf("stored-value RMSE x255: srgb %.3f, linear %.3f, gamma %.3f (gamma %.4f)\n",
               255 * srgb, 255 * linear, 255 * power, enc["gamma"].get<double>());
@@ -355,9 +358,14 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   for (const json& p : job["parameters"]) {
     const std::string n = p["name"];
     const double v = p["value"];
-    if (n == "roughness") EXPECT_NEAR(v, kRoughness, 0.02 * kRoughness) << n;
+    const char* kd_names[3] = {"kd.r", "kd.g", "kd.b"};
+    if (n == "roughness") {
+      EXPECT_NEAR(v, kRoughness, 0.02 * kRoughness) << n;
+    }
     for (int c = 0; c < 3; ++c) {
-      if (n == std::string("kd.") + "rgb"[c]) EXPECT_NEAR(v, kKd[c], 0.03 * kKd[c]) << n;
+      if (n == kd_names[c]) {
+        EXPECT_NEAR(v, kKd[c], 0.03 * kKd[c]) << n;
+      }
     }
   }
   EXPECT_NEAR(job["exposure"].get<double>(), kIrradiance, 0.03 * kIrradiance);
@@ -368,8 +376,7 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
     if (e["split"] != "test") continue;
     ++tests;
     const double rel = e["metrics"]["relative_rmse"];
-    std::printf("held out %s: relative RMSE %.4f\n", e["lighting"].get<std::string>().c_str(),
-                rel);
+    std::printf("held out %s: relative RMSE %.4f\n", e["lighting"].get<std::string>().c_str(), rel);
     EXPECT_LT(rel, 0.03) << e["lighting"];
   }
   EXPECT_EQ(tests, 4);
@@ -380,6 +387,37 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   mss << md.rdbuf();
   EXPECT_NE(mss.str().find("the fit chose the encoding **gamma 2."), std::string::npos)
       << mss.str();
+}
+
+// The same search on a set stored as sRGB (two lights, the true scenes, `shadefit fit`): sRGB
+// must win over the fitted power, which can only approximate its linear toe.
+TEST_F(PhotoWorkflow, SrgbPairChoosesSrgb) {
+  const std::vector<Light> lights = {Lights()[1], Lights()[4]};
+  SpherePhotos(/*srgb=*/true, lights);
+  std::string refs;
+  for (const Light& l : lights) {
+    WriteText(dir_ / "scenes" / ("sphere-" + l.name + ".toml"),
+              std::string(kCamera) +
+                  "\n[[objects]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\n" +
+                  LightToml(l, 1.0) + "\n[background]\ntransparent = true\n");
+    ASSERT_EQ(Shadefit("refs import photos/sphere-" + l.name + ".png --scene scenes/sphere-" +
+                       l.name + ".toml --mask mask.png -o refs/sphere-" + l.name + ".exr"),
+              0)
+        << err_;
+    refs += " --ref refs/sphere-" + l.name + ".exr";
+  }
+  ASSERT_EQ(Shadefit("fit" + refs +
+                     " --model ggx --exposure free --encoding fit --fix f0=0.04 "
+                     "--no-images -o fit.json"),
+            0)
+      << err_;
+  const json fit = ReadJson(dir_ / "fit.json");
+  EXPECT_EQ(fit["encoding"]["chosen"], "srgb") << fit["encoding"].dump(1);
+  for (const json& c : fit["encoding"]["candidates"]) {
+    std::printf("sRGB set: %s stored-value RMSE x255 %.3f\n", c["name"].get<std::string>().c_str(),
+                255 * c["stored_rmse"].get<double>());
+  }
+  EXPECT_NEAR(fit["exposure"]["value"].get<double>(), kIrradiance, 0.03 * kIrradiance);
 }
 
 }  // namespace

@@ -14,11 +14,10 @@
 // The fitter itself is untouched: every candidate is an ordinary Fit() of re-decoded references.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "shadefit/fit/fitter.h"
 
@@ -40,7 +39,7 @@ EncodingMode ParseEncodingMode(const std::string& name);  // Throws Error("", "e
 std::string EncodingModeName(EncodingMode mode);
 
 struct EncodingSearchOptions {
-  double gamma_min = 1.0;          // Golden-section bracket of the pure power's exponent.
+  double gamma_min = 1.0;  // Golden-section bracket of the pure power's exponent.
   double gamma_max = 3.0;
   double gamma_tolerance = 0.005;  // Bracket width at which the search stops.
   double gamma_margin = 0.02;      // Relative score margin the fitted power must win by.
@@ -58,8 +57,8 @@ struct EncodingSearchResult {
   StoredEncoding chosen;
   std::vector<EncodingCandidate> candidates;  // srgb, linear, the best power: the table reported
   std::vector<std::pair<double, double>> gamma_trail;  // (gamma, score) of every power tried
-  long pixels = 0;     // Pixel-channels scored
-  FitResult fit;       // The chosen encoding's fit, with the caller's options
+  long pixels = 0;                                     // Pixel-channels scored
+  FitResult fit;  // The chosen encoding's fit, with the caller's options
 };
 
 // The reference's stored values (its image undone by decoded_from) decoded with `encoding`;

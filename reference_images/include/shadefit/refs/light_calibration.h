@@ -20,7 +20,7 @@ struct LightCalibrationOptions {
   // The scene of the object's photographs without lights: its camera is the camera of the ball
   // photographs too (the ball may sit anywhere in the frame).
   std::string scene_template;
-  std::string output_dir;  // Writes <dir>/<template stem>-<lighting>.toml and <...>-lights.json.
+  std::string output_dir;   // Writes <dir>/<template stem>-<lighting>.toml and <...>-lights.json.
   double irradiance = 1.0;  // Of each light (photographs: exposure unknown, fit it).
   // A highlight must stand this many 8-bit display codes above the ball's median.
   double min_highlight_contrast = 32.0;
