@@ -387,6 +387,10 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   mss << md.rdbuf();
   EXPECT_NE(mss.str().find("the fit chose the encoding **gamma 2."), std::string::npos)
       << mss.str();
+  std::ifstream html(dir_ / "out" / "photo_set" / "report" / "index.html");
+  std::ostringstream hss;
+  hss << html.rdbuf();
+  EXPECT_NE(hss.str().find("the fit chose the encoding <b>gamma 2."), std::string::npos);
 }
 
 // The same search on a set stored as sRGB (two lights, the true scenes, `shadefit fit`): sRGB
