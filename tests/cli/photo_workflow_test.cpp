@@ -354,6 +354,46 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
               255 * srgb, 255 * linear, 255 * power, enc["gamma"].get<double>());
   EXPECT_LT(power * 255, 1.0);  // Quantisation alone is 1 / sqrt(12) = 0.29 codes.
 
+  // The score means what it says: recomputed here from the fitted values, a render by
+  // `shadefit render`, the chosen power and the photographs' own 8-bit codes, over the pixels the
+  // fit used (alpha 1 in the imports: covered, in the mask, not clipped).
+  {
+    std::ostringstream set;
+    set.precision(17);
+    std::vector<double> values = job["values"].get<std::vector<double>>();
+    set << "--model ggx --set kd=" << values[0] << "," << values[1] << "," << values[2]
+        << " --set f0=" << values[3] << "," << values[4] << "," << values[5]
+        << " --set roughness=" << values[6];
+    const double exposure = job["exposure"], g = enc["gamma"];
+    double sq = 0;
+    long n = 0;
+    for (const char* l : {"L0", "L3", "L4", "L7"}) {
+      const std::string name = std::string("sphere-") + l;
+      ASSERT_EQ(Shadefit("render --scene scenes/" + name + ".toml " + set.str() + " -o truth/" +
+                         name + ".check.exr --no-preview"),
+                0)
+          << err_;
+      const shadefit::Image r =
+          shadefit::ReadImage((dir_ / "truth" / (name + ".check.exr")).string());
+      const shadefit::Image imp = shadefit::ReadImage((dir_ / "refs" / (name + ".exr")).string());
+      const shadefit::Image png = shadefit::ReadImage((dir_ / "photos" / (name + ".png")).string());
+      for (int y = 0; y < kH; ++y) {
+        for (int x = 0; x < kW; ++x) {
+          if (!(imp.at(x, y, 3) >= 1.0f - 1e-5f)) continue;
+          for (int c = 0; c < 3; ++c) {
+            const double e = std::pow(std::clamp(exposure * r.at(x, y, c), 0.0, 1.0), 1.0 / g);
+            sq += std::pow(e - png.at(x, y, c), 2);
+            ++n;
+          }
+        }
+      }
+    }
+    const double rmse = std::sqrt(sq / n);
+    std::printf("stored-value RMSE recomputed: %.4f codes over %ld values\n", 255 * rmse, n);
+    EXPECT_NEAR(enc["stored_rmse"].get<double>(), rmse, 0.02 * rmse);
+    EXPECT_EQ(enc["scored_values"].get<long>(), n);
+  }
+
   // The material and the exposure (f0 held at the truth, 0.04, which fixes the scale).
   for (const json& p : job["parameters"]) {
     const std::string n = p["name"];
