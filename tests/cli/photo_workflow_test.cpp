@@ -417,7 +417,8 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
     ++tests;
     const double rel = e["metrics"]["relative_rmse"];
     std::printf("held out %s: relative RMSE %.4f\n", e["lighting"].get<std::string>().c_str(), rel);
-    EXPECT_LT(rel, 0.03) << e["lighting"];
+    EXPECT_LT(rel, 0.02) << e["lighting"];  // measured 0.0085 - 0.0135; test lightings left in
+                                            // the import's sRGB decoding give 0.029 - 0.036
   }
   EXPECT_EQ(tests, 4);
 
