@@ -452,6 +452,37 @@ def summary_markdown(study, summary, matrix, provenance):
     return "\n".join(lines)
 
 
+# --- Encoding of photographs (fit.encoding = "fit": fit/encoding_search.h) --------------------
+
+def encoding_sentences(fits):
+    """One sentence per fit whose encoding was fitted: which encoding won, on what score."""
+    out = []
+    for (material, label), job in sorted(fits.items()):
+        e = job.get("encoding")
+        if not isinstance(e, dict):
+            continue
+        others = "; ".join(f"{c.get('name')} {255 * c.get('stored_rmse', float('nan')):.3f}"
+                           for c in e.get("candidates", []) if not c.get("chosen"))
+        out.append(f"- {material} / {label}: the fit chose the encoding **{e.get('name')}** "
+                   f"(RMSE in stored 8-bit codes {255 * e.get('stored_rmse', float('nan')):.3f}; "
+                   f"{others})")
+    return out
+
+
+def encoding_table(fits):
+    cols = ["material", "fit", "encoding", "gamma", "stored RMSE x255", "chosen"]
+    rows = []
+    for (material, label), job in sorted(fits.items()):
+        e = job.get("encoding")
+        if not isinstance(e, dict):
+            continue
+        for c in e.get("candidates", []):
+            rows.append([material, label, str(c.get("name")), fmt(c.get("gamma")),
+                         fmt(255 * c.get("stored_rmse", float("nan"))),
+                         "yes" if c.get("chosen") else ""])
+    return cols, rows
+
+
 # --- Ngan, Durand and Matusik 2005 side by side (measured studies) ----------------------------
 
 def ranks(values):
@@ -639,6 +670,14 @@ def make_report(study_dir):
                     "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
         write_text(os.path.join(report_dir, "ngan2005.json"), json.dumps(ngan, indent=1))
     summary_md = summary_markdown(study, summary, matrix, provenance)
+    enc_rows = encoding_table(fits)
+    if enc_rows[1]:
+        tables["encoding"] = enc_rows
+        write_table(table_dir, "encoding", enc_rows[0], enc_rows[1],
+                    "Encoding of the photographs: each candidate's RMSE in stored values", 3)
+        summary_md += ("\n## Encoding of the photographs\n\nScored by the RMSE between the "
+                       "encoded prediction and the stored values of the training "
+                       "photographs.\n\n" + "\n".join(encoding_sentences(fits)) + "\n")
     if ngan is not None:
         summary_md += "\n## Against Ngan, Durand and Matusik 2005\n\n" + "".join(
             f"- {c['fit']}: Spearman rho of our {c['ours']} with Ngan's {c['ngan']} over "

@@ -271,6 +271,16 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              "tolerance, out of those judged, per question and fit. Every number is computed "
              "from the result files (rules: docs/studies.md). A cell links to its evidence.</p>",
              matrix_html(study, summary, labels)]
+    # Photographs whose encoding was fitted (fit.encoding = "fit"): which one won, in words.
+    if "encoding" in tables:
+        chosen = [r for r in tables["encoding"][1] if r[5] == "yes"]
+        parts.append("<h2 id='encoding'>Encoding of the photographs</h2><p>"
+                     + " ".join(f"{esc(r[0])} / {esc(r[1])}: the fit chose the encoding "
+                                f"<b>{esc(r[2])}</b> (RMSE {esc(r[4])} in stored 8-bit codes)."
+                                for r in chosen)
+                     + " Every candidate is in the table 'Encoding of the photographs' below; "
+                     "each is scored by the RMSE between the encoded prediction and the stored "
+                     "values of the training photographs.</p>")
 
     for fam, names in families.items():
         parts.append(f"<section id='{anchor('q', fam)}'><h2>{esc(titles.get(fam, names[0]))}</h2>")
@@ -320,6 +330,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
     named = [("matrix", "Verdict matrix"), ("verdict_details", "Verdicts per quantity"),
              ("metrics", "Image metrics per reference and fit"),
              ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
+             ("encoding", "Encoding of the photographs (fitted)"),
              ("ngan2005_spearman", "Against Ngan, Durand and Matusik 2005: rank correlation"),
              ("ngan2005", "Against Ngan, Durand and Matusik 2005: per material")]
     for key, title in named:

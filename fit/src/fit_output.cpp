@@ -132,13 +132,15 @@ Image ErrorPreview(const Image& abs_error) {
 
 }  // namespace
 
-std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path) {
+std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path,
+                                         const nlohmann::json& extra) {
   std::vector<std::string> written;
   const fs::path json(json_path);
   const fs::path dir = json.has_parent_path() ? json.parent_path() : fs::path(".");
   const std::string stem = json.stem().string();
   fs::create_directories(dir);
   nlohmann::json j = FitResultToJson(result);
+  if (extra.is_object()) j.update(extra);
   j["outputs"] = nlohmann::json::array();
   std::map<std::string, int> seen;
   // Every file is prepared first and written by WriteAllOrNothing, the JSON last: a failure

@@ -40,97 +40,156 @@ bool FitCircle(const std::vector<cv::Point2d>& pts, double* cx, double* cy, doub
   return true;
 }
 
-}  // namespace
 
-SphereEstimate DetectSphere(const Image& linear, double white, const std::string& path) {
-  const int w = linear.width, h = linear.height;
-  // 8-bit display-referred luminance for thresholding: sRGB OETF of luminance / white.
-  cv::Mat gray(h, w, CV_8U);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
+// 8-bit display-referred luminance for thresholding: sRGB OETF of luminance / white.
+cv::Mat DisplayGray(const Image& linear, double white) {
+  cv::Mat gray(linear.height, linear.width, CV_8U);
+  for (int y = 0; y < linear.height; ++y) {
+    for (int x = 0; x < linear.width; ++x) {
       const double v = std::clamp(Luminance(linear, x, y) / white, 0.0, 1.0);
       gray.at<unsigned char>(y, x) =
           static_cast<unsigned char>(std::lround(SrgbOetf(static_cast<float>(v)) * 255.0));
     }
   }
-  // Otsu (1979) separates "dark" from "bright"; on a lit sphere that split can fall between the
-  // shadowed and the lit side, so half of it (at least 4 codes above black) is used, which only
-  // assumes the background is darker than the lit sphere.
-  cv::Mat binary;
-  const double otsu = cv::threshold(gray, binary, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
-  const double level = std::max(4.0, 0.5 * otsu);
-  cv::threshold(gray, binary, level, 255, cv::THRESH_BINARY);
-  // Remove isolated specks (sensor noise, dust) before looking for the largest region.
-  cv::morphologyEx(binary, binary, cv::MORPH_OPEN,
-                   cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
+  return gray;
+}
+
+std::vector<cv::Point> LargestContour(const cv::Mat& binary) {
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(binary, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  if (contours.empty()) {
-    throw Error(path, "auto-sphere", "no region brighter than the background was found");
-  }
-  const auto largest = std::max_element(
+  if (contours.empty()) return {};
+  return *std::max_element(
       contours.begin(), contours.end(),
       [](const auto& a, const auto& b) { return cv::contourArea(a) < cv::contourArea(b); });
-  if (largest->size() < 16 || cv::contourArea(*largest) < 50.0) {
-    throw Error(path, "auto-sphere", "the largest bright region is too small to be a sphere");
-  }
-  // Contour points are pixel indices; our pixel centres are at +0.5.
-  std::vector<cv::Point2d> pts;
-  for (const cv::Point& p : *largest) pts.emplace_back(p.x + 0.5, p.y + 0.5);
+}
+
+double EnclosingRadius(const std::vector<cv::Point>& contour) {
+  if (contour.empty()) return 0;
+  cv::Point2f c;
+  float r;
+  cv::minEnclosingCircle(contour, c, r);
+  return r;
+}
+
+// A circle through a region's outline: minimum enclosing circle, then Kasa fits to the outline
+// points near the current circle that pass `keep`. Anything that is not the silhouette (a
+// terminator, a masked-out stand, a reflection as dark as the background) lies inside the
+// circle, never outside: after two symmetric passes, points more than 0.75 px inside the fit
+// are trimmed, so the fit settles on the outer envelope of the outline, which is the silhouette.
+template <typename Keep>
+void FitOuterCircle(const std::vector<cv::Point>& contour, Keep keep, SphereEstimate* s) {
+  std::vector<cv::Point2d> pts;  // Contour points are pixel indices; our centres are at +0.5.
+  for (const cv::Point& p : contour) pts.emplace_back(p.x + 0.5, p.y + 0.5);
   cv::Point2f c0;
   float r0;
-  cv::minEnclosingCircle(*largest, c0, r0);
+  cv::minEnclosingCircle(contour, c0, r0);
   double cx = c0.x + 0.5, cy = c0.y + 0.5, r = r0;
-  // Refine on the well-lit silhouette only: points within a band of the current circle (the
-  // terminator, inside the disc, falls outside it) whose inside, 3 px inwards, is at least twice
-  // the threshold (where the limb is dim, the threshold crossing creeps inwards and would pull
-  // the circle towards the light).
-  auto strong_edge = [&](const cv::Point2d& p, double ccx, double ccy) {
-    const double d = std::hypot(p.x - ccx, p.y - ccy);
-    if (d < 1e-9) return false;
-    const int x = static_cast<int>(std::floor(p.x - 3.0 * (p.x - ccx) / d));
-    const int y = static_cast<int>(std::floor(p.y - 3.0 * (p.y - ccy) / d));
-    if (x < 0 || y < 0 || x >= w || y >= h) return false;
-    return gray.at<unsigned char>(y, x) >= 2.0 * level;
-  };
-  // Shading can only move the threshold crossing inwards (towards the terminator), never out:
-  // after two symmetric passes, points more than 0.75 px inside the fit are trimmed, so the
-  // fit settles on the outer envelope of the contour, which is the silhouette.
-  SphereEstimate s;
   for (int iter = 0; iter < 8; ++iter) {
     const double band_out = std::max(1.5, 0.03 * r);
     const double band_in = iter < 2 ? band_out : 0.75;
     std::vector<cv::Point2d> near;
     for (const cv::Point2d& p : pts) {
       const double e = std::hypot(p.x - cx, p.y - cy) - r;
-      if (e < band_out && e > -band_in && strong_edge(p, cx, cy)) near.push_back(p);
+      if (e < band_out && e > -band_in && keep(p, cx, cy)) near.push_back(p);
     }
     double ncx, ncy, nr;
     if (!FitCircle(near, &ncx, &ncy, &nr)) break;
     cx = ncx;
     cy = ncy;
     r = nr;
-    s.contour_points_used = static_cast<int>(near.size());
+    s->contour_points_used = static_cast<int>(near.size());
     double sq = 0;
     for (const cv::Point2d& p : near) sq += std::pow(std::hypot(p.x - cx, p.y - cy) - r, 2);
-    s.fit_rms_px = std::sqrt(sq / near.size());
+    s->fit_rms_px = std::sqrt(sq / near.size());
   }
   // Boundary pixel centres lie about half a pixel inside the true edge.
-  r += 0.5;
-  if (r < 4.0) throw Error(path, "auto-sphere", fmt::format("radius {:.2f} px is too small", r));
-  s.center_x = cx;
-  s.center_y = cy;
-  s.radius = r;
+  s->center_x = cx;
+  s->center_y = cy;
+  s->radius = r + 0.5;
+}
 
-  // Highlight: connected pixels within 90% of the peak luminance inside the disc (a clipped
-  // highlight is a plateau; its centroid is its centre).
+// The region that differs from the background: the background level is the median of the
+// picture's 2-px border, its noise 1.4826 x the median absolute deviation there (a robust
+// standard deviation); a pixel differs when it is more than max(3 codes, 4 sigma) away, darker
+// or brighter. This finds a dark mirror ball in a dim room, whose only bright part is its
+// highlight, as well as a bright ball: the ball is the largest region after an opening (specks)
+// and a closing (which joins the highlight to the ball around it). That first region reaches
+// into every edge pixel the ball covers a little; the second pass thresholds linear luminance
+// halfway between the background and the ball's median, where a pixel half covered by the ball
+// lies, so that the outline sits on the silhouette (as FitOuterCircle's half-pixel assumes).
+std::vector<cv::Point> ContrastRegion(const cv::Mat& gray, const Image& linear, double white) {
+  const int w = gray.cols, h = gray.rows;
+  std::vector<int> border;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (x < 2 || y < 2 || x >= w - 2 || y >= h - 2) {
+        border.push_back(gray.at<unsigned char>(y, x));
+      }
+    }
+  }
+  auto median = [](std::vector<int> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return static_cast<double>(v[v.size() / 2]);
+  };
+  const double level = median(border);
+  std::vector<int> dev;
+  for (int v : border) dev.push_back(static_cast<int>(std::lround(std::abs(v - level))));
+  const double sigma = 1.4826 * median(dev);
+  const double t = std::max(3.0, 4.0 * sigma);
+  auto region_of = [&](auto differs) {
+    cv::Mat binary(h, w, CV_8U);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) binary.at<unsigned char>(y, x) = differs(x, y) ? 255 : 0;
+    }
+    cv::morphologyEx(binary, binary, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
+    cv::morphologyEx(binary, binary, cv::MORPH_CLOSE,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+    return LargestContour(binary);
+  };
+  const std::vector<cv::Point> first = region_of(
+      [&](int x, int y) { return std::abs(gray.at<unsigned char>(y, x) - level) > t; });
+  if (first.size() < 16) return first;
+  // The ball's level: median code inside the first region.
+  cv::Mat filled = cv::Mat::zeros(h, w, CV_8U);
+  cv::drawContours(filled, std::vector<std::vector<cv::Point>>{first}, 0, 255, cv::FILLED);
+  std::vector<int> inside;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (filled.at<unsigned char>(y, x)) inside.push_back(gray.at<unsigned char>(y, x));
+    }
+  }
+  const double bg = SrgbToLinear(static_cast<float>(level / 255.0));
+  const double ball = SrgbToLinear(static_cast<float>(median(inside) / 255.0));
+  const double half = 0.5 * std::abs(ball - bg);
+  if (!(half > 0)) return first;
+  return region_of([&](int x, int y) {
+    // Away from the background by half the ball's contrast, on the ball's side or beyond it
+    // (the highlight), within a band of the first region (nothing new far from it).
+    const double l = Luminance(linear, x, y) / white;
+    return filled.at<unsigned char>(y, x) || std::abs(gray.at<unsigned char>(y, x) - level) > t
+               ? std::abs(l - bg) > half
+               : false;
+  });
+}
+
+// The highlight on the disc (and the mask, when given): the connected pixels with at least
+// `fraction` of the peak luminance, their centroid weighted by luminance minus that threshold,
+// and the light as the mirror direction of the view about the normal there.
+void FindHighlight(const Image& linear, const cv::Mat& gray, const Image* mask, double fraction,
+                   SphereEstimate* s) {
+  const int w = linear.width, h = linear.height;
+  const double cx = s->center_x, cy = s->center_y, r = s->radius;
   double peak = 0;
   cv::Point peak_at(-1, -1);
   cv::Mat inside = cv::Mat::zeros(h, w, CV_8U);
+  std::vector<int> codes;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       if (std::hypot(x + 0.5 - cx, y + 0.5 - cy) > 0.97 * r) continue;
+      if (mask && !(mask->at(x, y, 0) > 0.5f)) continue;
       inside.at<unsigned char>(y, x) = 1;
+      codes.push_back(gray.at<unsigned char>(y, x));
       const double l = Luminance(linear, x, y);
       if (l > peak) {
         peak = l;
@@ -138,11 +197,15 @@ SphereEstimate DetectSphere(const Image& linear, double white, const std::string
       }
     }
   }
-  if (peak <= 0 || peak_at.x < 0) return s;
+  if (peak <= 0 || peak_at.x < 0) return;
+  std::nth_element(codes.begin(), codes.begin() + codes.size() / 2, codes.end());
+  s->median_code = codes[codes.size() / 2];
+  s->peak_code = gray.at<unsigned char>(peak_at.y, peak_at.x);
+  const double threshold = fraction * peak;
   cv::Mat bright = cv::Mat::zeros(h, w, CV_8U);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      if (inside.at<unsigned char>(y, x) && Luminance(linear, x, y) >= 0.9 * peak) {
+      if (inside.at<unsigned char>(y, x) && Luminance(linear, x, y) >= threshold) {
         bright.at<unsigned char>(y, x) = 255;
       }
     }
@@ -150,27 +213,103 @@ SphereEstimate DetectSphere(const Image& linear, double white, const std::string
   cv::Mat labels;
   cv::connectedComponents(bright, labels, 8, CV_32S);
   const int label = labels.at<int>(peak_at.y, peak_at.x);
-  double sx = 0, sy = 0, count = 0;
+  double sx = 0, sy = 0, sw = 0;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      if (labels.at<int>(y, x) == label) {
-        sx += x + 0.5;
-        sy += y + 0.5;
-        count += 1;
-      }
+      if (labels.at<int>(y, x) != label) continue;
+      // + 1e-6 peak: a pixel at the threshold still counts a little (and a flat blob evenly).
+      const double wt = Luminance(linear, x, y) - threshold + 1e-6 * peak;
+      s->highlight_pixels.push_back({x + 0.5, y + 0.5, wt});
+      sx += wt * (x + 0.5);
+      sy += wt * (y + 0.5);
+      sw += wt;
     }
   }
-  s.highlight_x = sx / count;
-  s.highlight_y = sy / count;
+  s->highlight_x = sx / sw;
+  s->highlight_y = sy / sw;
   // Scene of OrthographicSphereSceneToml: camera on -Y looking at +Y, image right = +X, image up
   // = +Z, unit sphere; the view direction (to the eye) is -Y everywhere.
-  const double nx = (s.highlight_x - cx) / r, nz = (cy - s.highlight_y) / r;
+  const double nx = (s->highlight_x - cx) / r, nz = (cy - s->highlight_y) / r;
   const double ny = -std::sqrt(std::max(0.0, 1.0 - nx * nx - nz * nz));
-  s.normal_at_highlight = Normalize(Vec3d{nx, ny, nz});
+  s->normal_at_highlight = Normalize(Vec3d{nx, ny, nz});
   const Vec3d v{0, -1, 0};
-  const Vec3d& n = s.normal_at_highlight;
-  s.light_direction = Normalize(n * (2.0 * Dot(n, v)) - v);  // mirror of v about n
-  s.light_found = true;
+  const Vec3d& n = s->normal_at_highlight;
+  s->light_direction = Normalize(n * (2.0 * Dot(n, v)) - v);  // mirror of v about n
+  s->light_found = true;
+}
+
+}  // namespace
+
+SphereEstimate DetectSphere(const Image& linear, double white, const std::string& path,
+                            const Image* mask, double highlight_fraction) {
+  const int w = linear.width, h = linear.height;
+  const cv::Mat gray = DisplayGray(linear, white);
+  const double min_radius = kMinSphereRadiusFraction * std::min(w, h);
+  SphereEstimate s;
+  if (mask) {
+    cv::Mat binary(h, w, CV_8U);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        binary.at<unsigned char>(y, x) = mask->at(x, y, 0) > 0.5f ? 255 : 0;
+      }
+    }
+    const std::vector<cv::Point> region = LargestContour(binary);
+    if (region.size() < 16 || EnclosingRadius(region) < 4.0) {
+      throw Error(path, "auto-sphere", "the mask has no region large enough to be a sphere");
+    }
+    s.found_by = "mask";
+    FitOuterCircle(region, [](const cv::Point2d&, double, double) { return true; }, &s);
+  } else {
+    // Otsu (1979) separates "dark" from "bright"; on a lit sphere that split can fall between
+    // the shadowed and the lit side, so half of it (at least 4 codes above black) is used, which
+    // only assumes the background is darker than the lit sphere.
+    cv::Mat binary;
+    const double otsu = cv::threshold(gray, binary, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+    const double level = std::max(4.0, 0.5 * otsu);
+    cv::threshold(gray, binary, level, 255, cv::THRESH_BINARY);
+    // Remove isolated specks (sensor noise, dust) before looking for the largest region.
+    cv::morphologyEx(binary, binary, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
+    const std::vector<cv::Point> bright = LargestContour(binary);
+    // A bright region that reaches two sides of the frame is a lit background (a dark ball in
+    // a brighter room), not a sphere: the sphere must be inside the picture.
+    auto reaches_two_sides = [&](const std::vector<cv::Point>& c) {
+      if (c.empty()) return false;
+      const cv::Rect b = cv::boundingRect(c);
+      return (b.x <= 0) + (b.y <= 0) + (b.x + b.width >= w) + (b.y + b.height >= h) >= 2;
+    };
+    if (bright.size() >= 16 && EnclosingRadius(bright) >= min_radius &&
+        !reaches_two_sides(bright)) {
+      // Refine on the well-lit silhouette only: points whose inside, 3 px inwards, is at least
+      // twice the threshold (where the limb is dim, the threshold crossing creeps inwards and
+      // would pull the circle towards the light).
+      auto strong_edge = [&](const cv::Point2d& p, double ccx, double ccy) {
+        const double d = std::hypot(p.x - ccx, p.y - ccy);
+        if (d < 1e-9) return false;
+        const int x = static_cast<int>(std::floor(p.x - 3.0 * (p.x - ccx) / d));
+        const int y = static_cast<int>(std::floor(p.y - 3.0 * (p.y - ccy) / d));
+        if (x < 0 || y < 0 || x >= w || y >= h) return false;
+        return gray.at<unsigned char>(y, x) >= 2.0 * level;
+      };
+      s.found_by = "bright region";
+      FitOuterCircle(bright, strong_edge, &s);
+    } else {
+      // The brightest region is too small for a sphere, or is the background: a dark ball.
+      const std::vector<cv::Point> region = ContrastRegion(gray, linear, white);
+      if (region.size() < 16 || EnclosingRadius(region) < min_radius) {
+        throw Error(path, "auto-sphere",
+                    fmt::format("no region brighter than, or differing from, the background "
+                                "has a radius of at least {:.1f} px ({} of the shorter side)",
+                                min_radius, kMinSphereRadiusFraction));
+      }
+      s.found_by = "contrast with the background";
+      FitOuterCircle(region, [](const cv::Point2d&, double, double) { return true; }, &s);
+    }
+  }
+  if (s.radius < 4.0) {
+    throw Error(path, "auto-sphere", fmt::format("radius {:.2f} px is too small", s.radius));
+  }
+  FindHighlight(linear, gray, mask, highlight_fraction, &s);
   return s;
 }
 

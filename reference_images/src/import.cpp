@@ -89,6 +89,31 @@ LoadedImage LoadImageForImport(const std::string& path) {
   return out;
 }
 
+Image DecodeToLinear(const LoadedImage& loaded, Encoding encoding, Encoding* applied) {
+  const Encoding e = encoding != Encoding::kAuto
+                         ? encoding
+                         : (loaded.is_float ? Encoding::kLinear : Encoding::kSrgb);
+  if (applied) *applied = e;
+  Image linear = loaded.rgb;
+  if (e == Encoding::kSrgb) {
+    for (float& v : linear.data) v = SrgbToLinear(v);
+  }
+  return linear;
+}
+
+double DisplayWhite(const LoadedImage& loaded, const Image& linear) {
+  // Integer files are already display-referred: full scale is 1.
+  if (!loaded.is_float) return 1.0;
+  std::vector<float> lum(linear.PixelCount());
+  for (std::size_t i = 0; i < lum.size(); ++i) {
+    lum[i] = 0.2126f * linear.data[3 * i] + 0.7152f * linear.data[3 * i + 1] +
+             0.0722f * linear.data[3 * i + 2];
+  }
+  const std::size_t k = lum.size() * 995 / 1000;
+  std::nth_element(lum.begin(), lum.begin() + k, lum.end());
+  return std::max(1e-12, static_cast<double>(lum[k]));
+}
+
 ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   // --- Validate the request before touching any input.
   if (options.output.empty()) throw Error("", "output", "no output file given");
@@ -118,13 +143,7 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   const LoadedImage loaded = LoadImageForImport(options.image_path);
   const Image& raw = loaded.rgb;
   ImportResult result;
-  result.encoding = options.encoding != Encoding::kAuto
-                        ? options.encoding
-                        : (loaded.is_float ? Encoding::kLinear : Encoding::kSrgb);
-  Image linear = raw;
-  if (result.encoding == Encoding::kSrgb) {
-    for (float& v : linear.data) v = SrgbToLinear(v);
-  }
+  const Image linear = DecodeToLinear(loaded, options.encoding, &result.encoding);
   Image mask;
   if (!options.mask_path.empty()) {
     try {
@@ -142,20 +161,9 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   Scene scene;
   std::string scene_toml_text;
   if (options.auto_sphere) {
-    // Integer files are already display-referred: full scale is 1. Float files: a high
-    // percentile of luminance stands for white so that a few hot pixels do not darken the rest.
-    double white = 1.0;
-    if (loaded.is_float) {
-      std::vector<float> lum(linear.PixelCount());
-      for (std::size_t i = 0; i < lum.size(); ++i) {
-        lum[i] = 0.2126f * linear.data[3 * i] + 0.7152f * linear.data[3 * i + 1] +
-                 0.0722f * linear.data[3 * i + 2];
-      }
-      const std::size_t k = lum.size() * 995 / 1000;
-      std::nth_element(lum.begin(), lum.begin() + k, lum.end());
-      white = std::max(1e-12, static_cast<double>(lum[k]));
-    }
-    result.sphere = DetectSphere(linear, white, options.image_path);
+    // With --mask the sphere is the mask's disc (DetectSphere): the user has said where it is.
+    result.sphere = DetectSphere(linear, DisplayWhite(loaded, linear), options.image_path,
+                                 mask.empty() ? nullptr : &mask);
     result.has_sphere = true;
     result.scene_path = fs::path(options.output).replace_extension(".toml").string();
     scene_toml_text = OrthographicSphereSceneToml(result.sphere, raw.width, raw.height,
@@ -236,6 +244,7 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
     sidecar["auto_sphere"] = {
         {"center_px", {s.center_x, s.center_y}},
         {"radius_px", s.radius},
+        {"found_by", s.found_by},
         {"contour_points_used", s.contour_points_used},
         {"fit_rms_px", s.fit_rms_px},
         {"light_found", s.light_found},
@@ -243,8 +252,11 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
         {"light_direction_to_light",
          {s.light_direction.x, s.light_direction.y, s.light_direction.z}},
         {"assumptions",
-         "one sphere, dark background, orthographic view; the light is the "
-         "mirror of the view about the normal at the highlight (initial guess)"}};
+         options.mask_path.empty()
+             ? "one sphere, orthographic view, differing from the background; the light is "
+               "the mirror of the view about the normal at the highlight (initial guess)"
+             : "the sphere is the mask's disc, orthographic view; the light is the mirror of "
+               "the view about the normal at the highlight (initial guess)"}};
   }
 
   // --- Write: each file atomically; on a later failure remove the earlier ones.

@@ -54,6 +54,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
       }
     }
     ref.clip_level = SrgbToLinear(kClippedCode) * (1.0f - 1e-6f);
+    ref.decoded_from = Encoding::kSrgb;
   }
 
   // The scene: --scene, else the sidecar's scene_file resolved relative to the sidecar.
@@ -74,6 +75,10 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
       throw Error(sidecar.string(), "json", fmt::format("cannot parse: {}", e.what()));
     }
     ref.sha256["sidecar"] = Sha256File(sidecar.string());
+    // `shadefit refs import` records how it decoded the source (import.cpp).
+    if (meta.is_object() && meta.contains("encoding") && meta["encoding"] == "srgb") {
+      ref.decoded_from = Encoding::kSrgb;
+    }
     const std::string scene_field = internal::SceneFieldOf(meta);
     if (scene_field.empty()) {
       throw Error(sidecar.string(), "scene_file",

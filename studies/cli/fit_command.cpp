@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/gl_context.h"
@@ -27,6 +28,7 @@ void RegisterFitCommand(CLI::App& app) {
     int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
     int threads = fit::FitOptions{}.num_threads, env_samples = 0;
     std::string solver = "bounded-lm";
+    std::string encoding = "as-imported";
     int env_pixels = fit::FitOptions{}.environment_pixels;
     int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
     int env_rounds = fit::FitOptions{}.environment_rounds;
@@ -52,6 +54,10 @@ void RegisterFitCommand(CLI::App& app) {
   cmd->add_option("--seed", opt->seed, "Seed of the Halton scrambling")->capture_default_str();
   cmd->add_option("--exposure", opt->exposure,
                   "fixed | free (fit a global scale, for uncalibrated references)")
+      ->capture_default_str();
+  cmd->add_option("--encoding", opt->encoding,
+                  "as-imported | fit (photographs: choose among sRGB, linear and a fitted gamma "
+                  "by the error in stored values; needs --exposure free)")
       ->capture_default_str();
   cmd->add_option("--fix", opt->fixed, "Hold a parameter: name=value or name=r,g,b (repeatable)");
   cmd->add_option("--path", opt->path,
@@ -94,6 +100,10 @@ void RegisterFitCommand(CLI::App& app) {
     options.starts = opt->starts;
     options.seed = opt->seed;
     options.exposure = fit::ParseExposure(opt->exposure);
+    const fit::EncodingMode encoding = fit::ParseEncodingMode(opt->encoding);
+    if (encoding == fit::EncodingMode::kFit && options.exposure != fit::Exposure::kFree) {
+      throw Error("", "--encoding", "fit needs --exposure free (the exposure is unknown too)");
+    }
     options.path = fit::ParsePath(opt->path);
     options.max_iterations = opt->max_iterations;
     options.num_threads = opt->threads;
@@ -130,8 +140,21 @@ void RegisterFitCommand(CLI::App& app) {
     GlContext context;
     Renderer renderer(context);
     options.renderer = &renderer;
-    const fit::FitResult result = fit::Fit(problem, options);
-    const std::vector<std::string> written = fit::WriteFitOutputs(result, opt->output);
+    fit::FitResult result;
+    nlohmann::json extra;
+    if (encoding == fit::EncodingMode::kFit) {
+      fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, options);
+      result = std::move(search.fit);
+      extra["encoding"] = fit::EncodingSearchToJson(search);
+      for (const fit::EncodingCandidate& c : search.candidates) {
+        fmt::print("encoding {:<12} stored-value RMSE {:.6f} (x255: {:.3f}){}\n", c.encoding.Name(),
+                   c.stored_rmse, 255.0 * c.stored_rmse,
+                   c.encoding.kind == search.chosen.kind ? "  <- chosen" : "");
+      }
+    } else {
+      result = fit::Fit(problem, options);
+    }
+    const std::vector<std::string> written = fit::WriteFitOutputs(result, opt->output, extra);
 
     fmt::print("{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
                "{} iterations, {}; {} of {} starts reached the best\n",

@@ -1,6 +1,7 @@
 // refs: make reference images that are not plain model renders.
 //   refs measured  a measured BRDF (MERL .binary or Neural-BRDF .h5 + .json) over a scene
 //   refs import    a photograph or published image, with validity mask and counts
+//   refs lights    directional lights from mirror-ball photographs, one scene per light
 //   refs cycles    the Cycles references, through Blender (reference_images/cycles/gen.py)
 #include <fmt/format.h>
 #include <spawn.h>
@@ -15,6 +16,7 @@
 
 #include "commands.h"
 #include "shadefit/refs/import.h"
+#include "shadefit/refs/light_calibration.h"
 #include "shadefit/refs/render_measured.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/gl_context.h"
@@ -97,7 +99,9 @@ void AddImport(CLI::App& refs) {
                               "Find one sphere on a dark background (orthographic view), write "
                               "the scene beside the output and estimate the light");
   scene->excludes(autos);
-  cmd->add_option("--mask", opt->mask_path, "Validity mask (non-zero = use the pixel)");
+  cmd->add_option("--mask", opt->mask_path,
+                  "Validity mask (non-zero = use the pixel); with --auto-sphere, the sphere is "
+                  "the mask's disc");
   cmd->add_option("--encoding", *encoding, "auto | srgb | linear (auto: sRGB for 8/16-bit files)")
       ->check(CLI::IsMember({"auto", "srgb", "linear"}));
   cmd->add_option("--clip-threshold", opt->clip_threshold,
@@ -125,6 +129,40 @@ void AddImport(CLI::App& refs) {
             s.light_direction.x, s.light_direction.y, s.light_direction.z, s.highlight_x,
             s.highlight_y);
       }
+    }
+  });
+}
+
+void AddLights(CLI::App& refs) {
+  auto* cmd = refs.add_subcommand(
+      "lights",
+      "Directional lights from photographs of a mirror ball (one per light, same camera): "
+      "writes one scene per light from a template");
+  auto opt = std::make_shared<refs::LightCalibrationOptions>();
+  auto encoding = std::make_shared<std::string>("auto");
+  cmd->add_option("--ball", opt->ball_paths,
+                  "Photograph of the mirror ball under one light (repeat; 'ball-<lighting>.png' "
+                  "names the lighting)")
+      ->required();
+  cmd->add_option("--mask", opt->mask_path, "The ball's disc (non-zero = ball), for every photo");
+  cmd->add_option("--encoding", *encoding, "auto | srgb | linear (of the ball photographs)")
+      ->check(CLI::IsMember({"auto", "srgb", "linear"}));
+  cmd->add_option("--scene-template", opt->scene_template,
+                  "Scene of the object's photographs without lights (camera, objects)")
+      ->required();
+  cmd->add_option("--irradiance", opt->irradiance, "Irradiance of each light (exposure is fitted)");
+  cmd->add_option("-o,--output", opt->output_dir,
+                  "Output folder: <template stem>-<lighting>.toml per light, <stem>-lights.json")
+      ->required();
+  cmd->callback([opt, encoding] {
+    opt->encoding = refs::ParseEncoding(*encoding);
+    const std::vector<refs::CalibratedLight> lights = refs::CalibrateLightsFromMirrorBall(*opt);
+    for (const refs::CalibratedLight& c : lights) {
+      fmt::print("{}: ball ({:.2f}, {:.2f}) r {:.2f} px ({}), highlight ({:.2f}, {:.2f}) px -> "
+                 "towards the light ({:.5f}, {:.5f}, {:.5f}) -> {}\n",
+                 c.ball_path, c.ball.center_x, c.ball.center_y, c.ball.radius, c.ball.found_by,
+                 c.ball.highlight_x, c.ball.highlight_y, c.to_light.x, c.to_light.y, c.to_light.z,
+                 c.scene_path);
     }
   });
 }
@@ -198,10 +236,12 @@ void AddCycles(CLI::App& refs) {
 }  // namespace
 
 void RegisterRefsCommand(CLI::App& app) {
-  auto* refs = app.add_subcommand("refs", "Make reference images: measured, import, cycles");
+  auto* refs =
+      app.add_subcommand("refs", "Make reference images: measured, import, lights, cycles");
   refs->require_subcommand(1);
   AddMeasured(*refs);
   AddImport(*refs);
+  AddLights(*refs);
   AddCycles(*refs);
 }
 

@@ -1033,4 +1033,94 @@ TEST_F(BadInput, ProbeBrdfRefsRejected) {
                      "--ref: not read by the brdf probe");
 }
 
+// --- Photographs: refs lights, fit and study encoding (issue 12 item 4) -------------------------
+
+// A 64 x 64 photograph of a dark ball (code 8, radius 20 px at the centre) in a dim room (code
+// 40), with a 3 x 3 clipped highlight at (36, 28) unless `highlight` is false; and a template
+// scene of that size without lights.
+void BallFixture(const fs::path& in, const std::string& name, bool highlight = true) {
+  shadefit::Image im(64, 64, 3, 40.0f / 255.0f);
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const bool on_ball = std::hypot(x + 0.5 - 32.0, y + 0.5 - 32.0) < 20.0;
+      const bool on_spot = highlight && std::abs(x - 36) <= 1 && std::abs(y - 28) <= 1;
+      for (int c = 0; c < 3; ++c) {
+        if (on_ball) im.at(x, y, c) = on_spot ? 1.0f : 8.0f / 255.0f;
+      }
+    }
+  }
+  shadefit::WritePng8((in / name).string(), im);
+  WriteText(in / "template.toml",
+            "[camera]\ntype = \"orthographic\"\nposition = [0.0, -10.0, 0.0]\n"
+            "look_at = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nheight = 2.4\n"
+            "resolution = [64, 64]\n\n[[objects]]\ntype = \"sphere\"\n"
+            "center = [0.0, 0.0, 0.0]\nradius = 1.0\n");
+}
+
+TEST_F(BadInput, RefsLightsMaskSizeMismatch) {
+  BallFixture(in(), "ball-a.png");
+  shadefit::WritePng8((in() / "mask.png").string(), shadefit::Image(32, 32, 1, 1.0f));
+  ExpectCleanFailure(
+      "refs lights --ball in/ball-a.png --mask in/mask.png --scene-template in/template.toml "
+      "-o out",
+      "in/mask\\.png: resolution: mask is 32x32, the image in/ball-a\\.png is 64x64");
+}
+
+TEST_F(BadInput, RefsLightsNoHighlight) {
+  BallFixture(in(), "ball-a.png");
+  BallFixture(in(), "ball-b.png", false);
+  // The first ball is fine: nothing of it may be written either.
+  ExpectCleanFailure("refs lights --ball in/ball-a.png --ball in/ball-b.png "
+                     "--scene-template in/template.toml -o out",
+                     "in/ball-b\\.png: highlight: no highlight on the ball");
+}
+
+TEST_F(BadInput, RefsLightsTemplateHasLights) {
+  BallFixture(in(), "ball-a.png");
+  ExpectCleanFailure("refs lights --ball in/ball-a.png --scene-template in/scene.toml -o out",
+                     "in/scene\\.toml: lights: the template has 1 light\\(s\\); it must have none");
+}
+
+TEST_F(BadInput, RefsLightsImageSizeDiffersFromTemplate) {
+  BallFixture(in(), "ball-a.png");
+  WriteText(in() / "template.toml",
+            std::regex_replace(ReadText(in() / "template.toml"), std::regex("\\[64, 64\\]"),
+                               "[64, 48]"));
+  ExpectCleanFailure("refs lights --ball in/ball-a.png --scene-template in/template.toml -o out",
+                     "in/ball-a\\.png: resolution: image is 64x64, the camera of "
+                     "in/template\\.toml is 64x48");
+}
+
+TEST_F(BadInput, RefsLightsSameLightingTwice) {
+  BallFixture(in(), "ball-a.png");
+  fs::create_directories(in() / "other");
+  BallFixture(in() / "other", "ball-a.png");
+  ExpectCleanFailure("refs lights --ball in/ball-a.png --ball in/other/ball-a.png "
+                     "--scene-template in/template.toml -o out",
+                     "in/other/ball-a\\.png: ball: a second photograph of lighting 'a'");
+}
+
+TEST_F(BadInput, FitEncodingNeedsFreeExposure) {
+  Reference();
+  ExpectCleanFailure("fit --ref in/ref.exr --model ggx --encoding fit -o out/fit.json",
+                     "--encoding: fit needs --exposure free");
+}
+
+TEST_F(BadInput, FitEncodingUnknown) {
+  Reference();
+  ExpectCleanFailure(
+      "fit --ref in/ref.exr --model ggx --exposure free --encoding gamma -o out/fit.json",
+      "encoding: \"gamma\": expected as-imported or fit");
+}
+
+TEST_F(BadInput, StudyEncodingFitNeedsFreeExposure) {
+  ExpectStudyFails("encoding = \"fit\"\n", "",
+                   "s\\.toml:9: fit\\.encoding: \"fit\" needs exposure = \"free\"");
+}
+
+TEST_F(BadInput, StudyEncodingUnknown) {
+  ExpectStudyFails("exposure = \"free\"\nencoding = \"gamma\"\n", "",
+                   "s\\.toml:10: fit\\.encoding: expected \"as-imported\" or \"fit\"");
+}
+
 }  // namespace

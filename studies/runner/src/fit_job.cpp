@@ -12,6 +12,7 @@
 
 #include "job_kinds.h"
 #include "outputs.h"
+#include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/report.h"
@@ -241,8 +242,19 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const fit::FitOptions fo = FitOptionsOf(s, renderer);
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
   fit::FitResult result;
+  json encoding;  // The encoding search's record (encoding = "fit"), else null.
   try {
-    result = fit::Fit(problem, fo);
+    if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
+      fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
+      result = std::move(search.fit);
+      encoding = fit::EncodingSearchToJson(search);
+      // Every lighting, trained on or not, is evaluated in the chosen decoding.
+      for (refs::Reference& r : references) r = fit::Redecode(r, search.chosen);
+      context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
+                                    search.chosen.Name(), encoding["stored_rmse"].get<double>()));
+    } else {
+      result = fit::Fit(problem, fo);
+    }
   } catch (const fit::DegenerateReferenceError& e) {
     WriteFailedFit(context, job, FitStatus::kDegenerateReference, e.what());
     return;
@@ -293,6 +305,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   // is the same bytes on every run.
   j["fit"]["solver"].erase("seconds");
   j["fit"]["solver"].erase("solve_seconds");
+  if (!encoding.is_null()) j["encoding"] = encoding;
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(),
               result.seconds);
   WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");

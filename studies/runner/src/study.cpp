@@ -114,7 +114,7 @@ class Reader {
 const std::set<std::string> kFitKeys = {"loss",           "loss_scale",   "starts",
                                         "seed",           "exposure",     "path",
                                         "max_iterations", "pixel_stride", "environment_samples",
-                                        "fixed"};
+                                        "fixed",          "encoding"};
 
 void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& prefix,
                      FitSettings* s) {
@@ -133,6 +133,7 @@ void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& p
   s->environment_samples =
       static_cast<int>(r.Integer(t, prefix, "environment_samples", s->environment_samples, 0));
   if (t.contains("fixed")) s->fixed = r.Strings(t, prefix, "fixed");
+  s->encoding = r.String(t, prefix, "encoding", s->encoding);
   const std::set<std::string> losses = {"l2", "log", "cuberoot", "huber", "cauchy"};
   if (!losses.contains(s->loss)) {
     r.Fail(t.get("loss"), prefix + "loss",
@@ -144,6 +145,13 @@ void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& p
   }
   if (s->path != "auto" && s->path != "gbuffer" && s->path != "gl") {
     r.Fail(t.get("path"), prefix + "path", "expected \"auto\", \"gbuffer\" or \"gl\"");
+  }
+  if (s->encoding != "as-imported" && s->encoding != "fit") {
+    r.Fail(t.get("encoding"), prefix + "encoding", "expected \"as-imported\" or \"fit\"");
+  }
+  if (s->encoding == "fit" && s->exposure != "free") {
+    r.Fail(t.get("encoding"), prefix + "encoding",
+           "\"fit\" needs exposure = \"free\" (the exposure of a photograph is unknown too)");
   }
 }
 
@@ -191,7 +199,7 @@ std::string LightingOf(const std::string& stem, const std::string& material,
 }  // namespace
 
 nlohmann::json FitSettings::ToJson() const {
-  return {{"loss", loss},
+  nlohmann::json j = {{"loss", loss},
           {"loss_scale", loss_scale},
           {"starts", starts},
           {"seed", seed},
@@ -201,6 +209,10 @@ nlohmann::json FitSettings::ToJson() const {
           {"pixel_stride", pixel_stride},
           {"environment_samples", environment_samples},
           {"fixed", fixed}};
+  // Only when not the default, so that the settings (and job hashes) of studies that predate
+  // the key are unchanged.
+  if (encoding != "as-imported") j["encoding"] = encoding;
+  return j;
 }
 
 std::string StudySpec::Label(const std::string& model,

@@ -200,8 +200,10 @@ nlohmann::json FitResultToJson(const FitResult& result);
 
 // Writes the JSON (atomically: temporary file + rename) and, per reference, next to it:
 // <stem>.<ref>.fit.exr (fitted render), <stem>.<ref>.error.exr (|error|, alpha = validity) and
-// <stem>.<ref>.error.png (preview). Returns the paths written.
-std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path);
+// <stem>.<ref>.error.png (preview). `extra` (an object, or null) adds top-level fields to the JSON
+// (the encoding search's, fit/encoding_search.h). Returns the paths written.
+std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::string& json_path,
+                                         const nlohmann::json& extra = nullptr);
 
 // Renders `model` with `params` (natural units, flattened) under the reference's scene with GL,
 // times `exposure`, and returns the RMSE (linear radiance) over the reference's valid pixels.

@@ -5,22 +5,15 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include "shadefit/refs/reference.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 #include "shadefit/render/vec.h"
 
 namespace shadefit::refs {
-
-enum class Encoding {
-  kAuto,    // sRGB for integer files (PNG, JPEG, 8/16-bit TIFF), linear for float files (EXR, HDR)
-  kSrgb,    // IEC 61966-2-1 transfer function undone per channel
-  kLinear,  // values taken as they are
-};
-// "auto" | "srgb" | "linear"; throws shadefit::Error("", "encoding", ...) otherwise.
-Encoding ParseEncoding(const std::string& name);
-std::string EncodingName(Encoding encoding);
 
 // An input image with what the import needs to know about its file.
 struct LoadedImage {
@@ -39,24 +32,58 @@ LoadedImage LoadImageForImport(const std::string& path);
 // centre at (i + 0.5, j + 0.5)).
 struct SphereEstimate {
   double center_x = 0, center_y = 0, radius = 0;
+  std::string found_by;         // "mask", "bright region" or "contrast with the background"
   int contour_points_used = 0;  // silhouette points in the final circle fit
   double fit_rms_px = 0;        // RMS distance of those points from the circle
   bool light_found = false;
-  double highlight_x = 0, highlight_y = 0;  // centroid of the brightest blob
+  double highlight_x = 0, highlight_y = 0;  // weighted centroid of the brightest blob
+  // The blob's pixels (centres) and weights, luminance minus the blob's threshold: a mirror
+  // ball's light direction averages the mirror directions of these (light_calibration.h).
+  struct HighlightPixel {
+    double x, y, weight;
+  };
+  std::vector<HighlightPixel> highlight_pixels;
+  // 8-bit display codes (sRGB of luminance / white) of the brightest pixel on the disc and of
+  // the disc's median: a mirror ball's highlight stands far above the rest of the ball.
+  double peak_code = 0, median_code = 0;
   Vec3d normal_at_highlight;                // world, scene of OrthographicSphereSceneToml
   Vec3d light_direction;                    // world, unit, from the surface TOWARDS the light
 };
 
-// Finds one sphere on a dark background (assumptions: the background is darker than every lit
-// part of the sphere, the sphere is the largest bright region, the view is orthographic, the lit
-// part includes at least a half-circle of the silhouette). Threshold + largest contour +
-// minimum enclosing circle, then an algebraic least-squares circle fit (Kasa 1976) to the contour
-// points near that circle, which drops the terminator; the highlight is the centroid of the
-// connected pixels within 90% of the peak luminance; the light is the mirror direction of the
-// view about the sphere normal there. `linear` is linear RGB; `white` is the value that maps to
-// full scale for thresholding (1 for integer files). Throws shadefit::Error(path, "auto-sphere",
-// ...) when no usable disc is found.
-SphereEstimate DetectSphere(const Image& linear, double white, const std::string& path);
+// A sphere smaller than this fraction of the picture's shorter side is not taken for the
+// sphere: a highlight, a speck or a reflection is (a 9-pixel highlight on a 512x340 photograph
+// of a dark mirror ball was, before this rule). 0.05 of 340 px is a 17 px radius.
+inline constexpr double kMinSphereRadiusFraction = 0.05;
+
+// Finds one sphere, orthographic view assumed, in one of three ways:
+//  - `mask` given (channel 0 > 0.5 = the sphere's pixels): the circle of the mask's largest
+//    region, whatever the image shows. A region cut by a straight edge (a stand masked out) is
+//    fine: the fit keeps the outer envelope of the outline, so more than half the circle must
+//    remain.
+//  - else the largest region brighter than the background (a lit sphere on a dark background;
+//    the lit part includes at least a half-circle of the silhouette): threshold + largest
+//    contour + minimum enclosing circle, then an algebraic least-squares circle fit (Kasa 1976)
+//    to the contour points near that circle, which drops the terminator;
+//  - else, when that region is smaller than kMinSphereRadiusFraction (a dark ball whose only
+//    bright part is its highlight) or reaches two sides of the frame (a room brighter than the
+//    ball), the largest region that differs from the background level
+//    (median of the picture's border) by more than the border's noise, with the same circle fit.
+// The highlight is the connected pixels on the disc (and in the mask) with a luminance of at
+// least `highlight_fraction` of the peak's, its centre their centroid weighted by luminance minus
+// that threshold (a clipped highlight is a plateau: its centroid is its centre); the light is the
+// mirror direction of the view about the sphere normal there.
+// `linear` is linear RGB; `white` is the value that maps to full scale for thresholding (1 for
+// integer files). Throws shadefit::Error(path, "auto-sphere", ...) when no usable disc is found.
+SphereEstimate DetectSphere(const Image& linear, double white, const std::string& path,
+                            const Image* mask = nullptr, double highlight_fraction = 0.9);
+
+// The value DetectSphere's thresholds take for full scale: 1 for integer files; for float files a
+// high percentile (99.5%) of luminance, so that a few hot pixels do not darken the rest.
+double DisplayWhite(const LoadedImage& loaded, const Image& linear);
+
+// `loaded` decoded to linear RGB with `encoding` (kAuto: sRGB for integer files, linear for
+// float files); `applied` receives the encoding used (never kAuto).
+Image DecodeToLinear(const LoadedImage& loaded, Encoding encoding, Encoding* applied);
 
 // Scene TOML (docs/scenes.md) for a unit sphere at the origin seen by an orthographic camera on
 // -Y, framed so that the sphere projects to the estimate's circle, with the estimated light as a

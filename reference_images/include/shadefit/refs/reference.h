@@ -12,6 +12,16 @@
 
 namespace shadefit::refs {
 
+// How a file's stored values map to linear radiance (the import's --encoding).
+enum class Encoding {
+  kAuto,    // sRGB for integer files (PNG, JPEG, 8/16-bit TIFF), linear for float files (EXR, HDR)
+  kSrgb,    // IEC 61966-2-1 transfer function undone per channel
+  kLinear,  // values taken as they are
+};
+// "auto" | "srgb" | "linear"; throws shadefit::Error("", "encoding", ...) otherwise.
+Encoding ParseEncoding(const std::string& name);
+std::string EncodingName(Encoding encoding);
+
 // One reference with everything a fit or a probe needs. LoadReference() fills it from files;
 // tests and the study runner may fill it in memory (image_path etc. then only name outputs).
 struct Reference {
@@ -23,6 +33,10 @@ struct Reference {
   Image image;               // RGB or RGBA (alpha = coverage), linear radiance.
   Scene scene;
   Image mask;                // Empty, or same size: channel 0 > 0.5 marks pixels to use.
+  // How `image` was decoded from the values its source file stored: kSrgb for a display image
+  // read here and for an import whose sidecar says "encoding": "srgb"; kLinear otherwise. Applying
+  // it forwards gives back the stored values (fit/encoding_search.h compares decodings there).
+  Encoding decoded_from = Encoding::kLinear;
   // Pixels with any channel >= clip_level (linear) are excluded: saturated LDR pixels.
   float clip_level = std::numeric_limits<float>::infinity();
   // SHA-256 (hex) of the bytes of every input file read, keyed by role: image, sidecar, scene,
@@ -34,7 +48,8 @@ struct Reference {
 // (PNG, JPEG, TIFF: display images) is decoded from sRGB, and pixels with a channel >= 254/255
 // before decoding are excluded as clipped. The scene: `scene_override` if not empty, else the
 // sidecar `<image path without extension>.json` field "scene_file" (or "scene" when it is a
-// string), resolved relative to the sidecar. Mask: optional image, channel 0 > 0.5 = use.
+// string), resolved relative to the sidecar; its "encoding" (imports) sets decoded_from. Mask:
+// optional image, channel 0 > 0.5 = use.
 // Throws shadefit::Error naming the file and field on missing files, bad JSON, a missing scene
 // field, or a size mismatch between image, scene resolution and mask.
 Reference LoadReference(const std::string& image_path, const std::string& scene_override = "",

@@ -44,6 +44,9 @@ struct FitSettings {
   int pixel_stride = 1;
   int environment_samples = 0;  // GL path: override the scenes' environment samples (0 = keep).
   std::vector<std::string> fixed;  // "name=value", held constant.
+  // "as-imported" (the references' own decoding) | "fit": choose sRGB, linear or a fitted gamma
+  // on the training references (fit/encoding_search.h) and decode every reference with it.
+  std::string encoding = "as-imported";
 
   nlohmann::json ToJson() const;
 };

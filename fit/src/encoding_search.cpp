@@ -1,0 +1,248 @@
+// The encoding search of encoding_search.h: every candidate is an ordinary Fit() of the training
+// references re-decoded with it, scored in stored values.
+#include "shadefit/fit/encoding_search.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "shadefit/render/error.h"
+
+namespace shadefit::fit {
+namespace {
+
+// The fitter's rule for a usable pixel (fit/src/prepared_reference.cpp: full coverage).
+constexpr float kFullCoverage = 1.0f - 1e-5f;
+
+// The value the file stored, from the linear value the reference holds.
+double StoredOf(const refs::Reference& ref, double linear) {
+  if (ref.decoded_from == refs::Encoding::kSrgb) {
+    return SrgbOetf(static_cast<float>(std::clamp(linear, 0.0, 1.0)));
+  }
+  return linear;
+}
+
+bool Usable(const refs::Reference& ref, int x, int y) {
+  const Image& im = ref.image;
+  if (im.channels >= 4 && !(im.at(x, y, 3) >= kFullCoverage)) return false;
+  if (!ref.mask.empty() && !(ref.mask.at(x, y, 0) > 0.5f)) return false;
+  for (int c = 0; c < 3; ++c) {
+    if (!(im.at(x, y, c) < ref.clip_level)) return false;
+  }
+  return true;
+}
+
+struct Scored {
+  EncodingCandidate candidate;
+  long pixels = 0;
+};
+
+// Fits `problem` with every reference re-decoded by `e` and scores the fit in stored values.
+Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e) {
+  FitProblem decoded = problem;
+  for (refs::Reference& r : decoded.references) r = Redecode(r, e);
+  FitOptions quick = options;
+  quick.render_outputs = false;
+  quick.compute_covariance = false;
+  const FitResult fit = Fit(decoded, quick);
+  Scored s;
+  s.candidate.encoding = e;
+  s.candidate.linear_rmse = fit.rmse;
+  s.candidate.exposure = fit.exposure;
+  s.candidate.converged = fit.converged;
+  double sq = 0;
+  for (std::size_t i = 0; i < problem.references.size(); ++i) {
+    Image prediction;
+    EvaluateModelOnReference(decoded.references[i], problem.model, fit.values, 1.0,
+                             options.renderer, &prediction);
+    long n = 0;
+    const double rmse = StoredRmse(problem.references[i], prediction, fit.exposure, e, &n);
+    sq += rmse * rmse * n;
+    s.pixels += n;
+  }
+  s.candidate.stored_rmse = s.pixels > 0 ? std::sqrt(sq / s.pixels) : 0.0;
+  return s;
+}
+
+}  // namespace
+
+double StoredEncoding::Decode(double v) const {
+  v = std::clamp(v, 0.0, 1.0);
+  switch (kind) {
+    case Kind::kSrgb:
+      return SrgbToLinear(static_cast<float>(v));
+    case Kind::kLinear:
+      return v;
+    case Kind::kGamma:
+      return std::pow(v, gamma);
+  }
+  return v;
+}
+
+double StoredEncoding::Encode(double v) const {
+  v = std::clamp(v, 0.0, 1.0);
+  switch (kind) {
+    case Kind::kSrgb:
+      return SrgbOetf(static_cast<float>(v));
+    case Kind::kLinear:
+      return v;
+    case Kind::kGamma:
+      return std::pow(v, 1.0 / gamma);
+  }
+  return v;
+}
+
+std::string StoredEncoding::Name() const {
+  switch (kind) {
+    case Kind::kSrgb:
+      return "srgb";
+    case Kind::kLinear:
+      return "linear";
+    case Kind::kGamma:
+      return fmt::format("gamma {:.3f}", gamma);
+  }
+  return "";
+}
+
+EncodingMode ParseEncodingMode(const std::string& name) {
+  if (name == "as-imported") return EncodingMode::kAsImported;
+  if (name == "fit") return EncodingMode::kFit;
+  throw Error("", "encoding", "\"" + name + "\": expected as-imported or fit");
+}
+
+std::string EncodingModeName(EncodingMode mode) {
+  return mode == EncodingMode::kFit ? "fit" : "as-imported";
+}
+
+refs::Reference Redecode(const refs::Reference& ref, const StoredEncoding& e) {
+  refs::Reference out = ref;
+  for (int y = 0; y < ref.image.height; ++y) {
+    for (int x = 0; x < ref.image.width; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        out.image.at(x, y, c) = static_cast<float>(e.Decode(StoredOf(ref, ref.image.at(x, y, c))));
+      }
+    }
+  }
+  if (std::isfinite(ref.clip_level)) {
+    out.clip_level = static_cast<float>(e.Decode(StoredOf(ref, ref.clip_level)));
+  }
+  return out;
+}
+
+double StoredRmse(const refs::Reference& ref, const Image& prediction, double exposure,
+                  const StoredEncoding& e, long* pixels) {
+  double sq = 0;
+  long n = 0;
+  for (int y = 0; y < ref.image.height; ++y) {
+    for (int x = 0; x < ref.image.width; ++x) {
+      if (!Usable(ref, x, y)) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double d =
+            e.Encode(exposure * prediction.at(x, y, c)) - StoredOf(ref, ref.image.at(x, y, c));
+        sq += d * d;
+        ++n;
+      }
+    }
+  }
+  if (pixels) *pixels = n;
+  return n > 0 ? std::sqrt(sq / n) : 0.0;
+}
+
+EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitOptions& options,
+                                           const EncodingSearchOptions& search) {
+  if (options.exposure != Exposure::kFree) {
+    throw Error("", "encoding",
+                "fitting the encoding needs a free exposure (--exposure free / exposure = "
+                "\"free\"): an unknown encoding comes with an unknown exposure");
+  }
+  if (!(search.gamma_min > 0) || !(search.gamma_max > search.gamma_min)) {
+    throw Error("", "encoding", "the gamma bracket must satisfy 0 < gamma_min < gamma_max");
+  }
+  EncodingSearchResult result;
+  using Kind = StoredEncoding::Kind;
+  const Scored srgb = FitAndScore(problem, options, {Kind::kSrgb, 1.0});
+  const Scored linear = FitAndScore(problem, options, {Kind::kLinear, 1.0});
+  result.pixels = srgb.pixels;
+
+  // Golden-section search of the power's exponent (Kiefer 1953): the score is taken as
+  // unimodal in gamma over the bracket; each evaluation is a full fit.
+  auto score = [&](double g) {
+    const Scored s = FitAndScore(problem, options, {Kind::kGamma, g});
+    result.gamma_trail.emplace_back(g, s.candidate.stored_rmse);
+    return s.candidate;
+  };
+  const double inv_phi = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = search.gamma_min, b = search.gamma_max;
+  double c = b - inv_phi * (b - a), d = a + inv_phi * (b - a);
+  EncodingCandidate fc = score(c), fd = score(d);
+  while (b - a > search.gamma_tolerance) {
+    if (fc.stored_rmse < fd.stored_rmse) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - inv_phi * (b - a);
+      fc = score(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + inv_phi * (b - a);
+      fd = score(d);
+    }
+  }
+  const EncodingCandidate power = fc.stored_rmse < fd.stored_rmse ? fc : fd;
+  result.candidates = {srgb.candidate, linear.candidate, power};
+
+  const EncodingCandidate& fixed = srgb.candidate.stored_rmse <= linear.candidate.stored_rmse
+                                       ? srgb.candidate
+                                       : linear.candidate;
+  result.chosen = power.stored_rmse < (1.0 - search.gamma_margin) * fixed.stored_rmse
+                      ? power.encoding
+                      : fixed.encoding;
+
+  // The chosen encoding's fit once more, with the caller's options (outputs, covariance).
+  FitProblem decoded = problem;
+  for (refs::Reference& r : decoded.references) r = Redecode(r, result.chosen);
+  result.fit = Fit(decoded, options);
+  return result;
+}
+
+nlohmann::json EncodingSearchToJson(const EncodingSearchResult& r) {
+  auto kind_name = [](const StoredEncoding& e) {
+    return e.kind == StoredEncoding::Kind::kGamma ? std::string("gamma") : e.Name();
+  };
+  nlohmann::json candidates = nlohmann::json::array();
+  double chosen_score = std::numeric_limits<double>::quiet_NaN();
+  for (const EncodingCandidate& c : r.candidates) {
+    const bool chosen = c.encoding.kind == r.chosen.kind;
+    if (chosen) chosen_score = c.stored_rmse;
+    candidates.push_back({{"encoding", kind_name(c.encoding)},
+                          {"name", c.encoding.Name()},
+                          {"gamma", c.encoding.kind == StoredEncoding::Kind::kGamma
+                                        ? nlohmann::json(c.encoding.gamma)
+                                        : nlohmann::json(nullptr)},
+                          {"stored_rmse", c.stored_rmse},
+                          {"linear_rmse", c.linear_rmse},
+                          {"exposure", c.exposure},
+                          {"converged", c.converged},
+                          {"chosen", chosen}});
+  }
+  nlohmann::json trail = nlohmann::json::array();
+  for (const auto& [g, s] : r.gamma_trail) trail.push_back({g, s});
+  return {{"mode", "fit"},
+          {"chosen", kind_name(r.chosen)},
+          {"name", r.chosen.Name()},
+          {"gamma", r.chosen.kind == StoredEncoding::Kind::kGamma ? nlohmann::json(r.chosen.gamma)
+                                                                  : nlohmann::json(nullptr)},
+          {"stored_rmse", chosen_score},
+          {"scored_values", r.pixels},
+          {"score",
+           "RMSE between encode(exposure x prediction), clamped to [0, 1], and the stored "
+           "values (0..1) over the training references' valid pixels"},
+          {"candidates", candidates},
+          {"gamma_search", trail}};
+}
+
+}  // namespace shadefit::fit
