@@ -54,9 +54,10 @@ std::vector<Light> Lights() {
   std::vector<Light> out;
   for (int i = 0; i < 8; ++i) {
     const double theta = (i % 2 == 0 ? 30.0 : 50.0) * kPi / 180.0, phi = 45.0 * i * kPi / 180.0;
+    std::string name = "L";  // appended, not "L" + ...: GCC 12's -Wrestrict false positive
+    name += std::to_string(i);
     out.push_back(
-        {"L" + std::to_string(i),
-         {std::sin(theta) * std::cos(phi), -std::cos(theta), std::sin(theta) * std::sin(phi)}});
+        {name, {std::sin(theta) * std::cos(phi), -std::cos(theta), std::sin(theta) * std::sin(phi)}});
   }
   return out;
 }
