@@ -174,20 +174,15 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
                                  {"to_light", {c.to_light.x, c.to_light.y, c.to_light.z}}});
   }
 
-  // --- Write: each file atomically; on a failure remove the ones already written.
-  std::vector<std::string> written;
-  try {
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      WriteTextAtomic(out[i].scene_path, texts[i]);
-      written.push_back(out[i].scene_path);
-    }
-    WriteTextAtomic((fs::path(o.output_dir) / (stem + "-lights.json")).string(),
-                    summary.dump(1) + "\n");
-  } catch (...) {
-    std::error_code ec;
-    for (const std::string& p : written) fs::remove(p, ec);
-    throw;
+  // --- Write: every scene, then the summary; all of them or none (render/files.h).
+  std::vector<OutputWrite> writes;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    writes.push_back({out[i].scene_path, [&, i] { WriteTextAtomic(out[i].scene_path, texts[i]); }});
   }
+  const std::string summary_path = (fs::path(o.output_dir) / (stem + "-lights.json")).string();
+  writes.push_back(
+      {summary_path, [&] { WriteTextAtomic(summary_path, summary.dump(1) + "\n"); }});
+  WriteAllOrNothing(writes);
   return out;
 }
 
