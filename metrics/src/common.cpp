@@ -1,7 +1,9 @@
 #include "shadefit/metrics/common.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <thread>
 
 #include "shadefit/render/error.h"
 
@@ -67,6 +69,18 @@ void ValidateInputs(const Image& reference, const Image& test, const Image* mask
   if (CountValidPixels(mask, mask->width, mask->height) == 0) {
     throw Error(names.mask, "pixels", "empty mask (no pixel > 0.5)");
   }
+}
+
+namespace {
+std::atomic<int> metrics_threads{0};
+}  // namespace
+
+void SetMetricsThreads(int threads) { metrics_threads = std::max(0, threads); }
+
+int MetricsThreads() {
+  const int set = metrics_threads.load();
+  if (set > 0) return std::min(set, 16);
+  return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
 }
 
 std::size_t CountValidPixels(const Image* mask, int width, int height) {

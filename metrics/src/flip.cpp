@@ -1,9 +1,14 @@
 #include "shadefit/metrics/flip.h"
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
 #include <cmath>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <numbers>
 
 #include "internal.h"
@@ -334,38 +339,138 @@ Features DetectFeatures(const Plane& y_channel, int w, int h, const FeatureFilte
   return out;
 }
 
-// LDR-FLIP map of two linear RGB images in [0, 1] (Andersson et al. 2020, Sec. 4).
-Plane LdrFlipMap(const Image& reference, const Image& test, double ppd) {
-  const int w = reference.width, h = reference.height;
-  const std::array<Plane, 3> ref = ToYCxCz(reference);
-  const std::array<Plane, 3> tst = ToYCxCz(test);
-  // Colour pipeline (Sec. 4.1).
-  const CsfFilters csf = MakeCsfFilters(ppd);
-  const std::vector<Float3> lab_r = FilteredHuntLab(ref, w, h, csf);
-  const std::vector<Float3> lab_t = FilteredHuntLab(tst, w, h, csf);
-  // Feature pipeline (Sec. 4.2).
-  const FeatureFilters ff = MakeFeatureFilters(ppd);
-  const Features feat_r = DetectFeatures(ref[0], w, h, ff);
-  const Features feat_t = DetectFeatures(tst[0], w, h, ff);
+// One image's half of the LDR-FLIP map: its CSF-filtered Hunt-adjusted colours (Sec. 4.1) and
+// its edge and point features (Sec. 4.2).
+struct FlipSide {
+  std::vector<Float3> lab;
+  Features features;
+  std::size_t Bytes() const {
+    return lab.size() * sizeof(Float3) +
+           (features.edge.size() + features.point.size()) * sizeof(float);
+  }
+};
 
+FlipSide ComputeSide(const Image& rgb, double ppd) {
+  const std::array<Plane, 3> ycxcz = ToYCxCz(rgb);
+  FlipSide side;
+  side.lab = FilteredHuntLab(ycxcz, rgb.width, rgb.height, MakeCsfFilters(ppd));
+  side.features = DetectFeatures(ycxcz[0], rgb.width, rgb.height, MakeFeatureFilters(ppd));
+  return side;
+}
+
+// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
+Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h) {
   const float c_max = MaxColorDifference();
   const float pc_cmax = kPc * c_max;
-  Plane flip(lab_r.size());
+  Plane flip(ref.lab.size());
   ForEachPixel(w, h, [&](std::size_t i) {
     // Eq. 4-5: HyAB^q_c, remapped so the lower p_c of the range covers [0, p_t].
-    float color = std::pow(HyAB(lab_r[i], lab_t[i]), kQc);
+    float color = std::pow(HyAB(ref.lab[i], tst.lab[i]), kQc);
     color = color < pc_cmax ? color * (kPt / pc_cmax)
                             : kPt + (color - pc_cmax) / (c_max - pc_cmax) * (1.0f - kPt);
     // Eq. 6: feature difference, max of edge and point differences, normalised by 1/sqrt(2),
     // raised to q_f = 0.5 (a square root).
     static_assert(kQf == 0.5f);
-    const float feature = std::sqrt(
-        std::max(std::abs(feat_r.edge[i] - feat_t.edge[i]),
-                 std::abs(feat_r.point[i] - feat_t.point[i])) / std::numbers::sqrt2_v<float>);
+    const float feature =
+        std::sqrt(std::max(std::abs(ref.features.edge[i] - tst.features.edge[i]),
+                           std::abs(ref.features.point[i] - tst.features.point[i])) /
+                  std::numbers::sqrt2_v<float>);
     // Eq. 7: feature differences amplify the colour error.
     flip[i] = std::pow(color, 1.0f - feature);
   });
   return flip;
+}
+
+// 64-bit hash of an image's size and pixel bits (splitmix64's finaliser per 32-bit word).
+std::uint64_t HashPixels(const Image& image) {
+  const auto mix = [](std::uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  };
+  std::uint64_t h = mix((static_cast<std::uint64_t>(image.width) << 32) ^
+                        (static_cast<std::uint64_t>(image.height) << 8) ^
+                        static_cast<std::uint64_t>(image.channels));
+  for (const float v : image.data) h = mix(h ^ std::bit_cast<std::uint32_t>(v)) + 0x9E3779B97F4A7C15ull;
+  return h;
+}
+
+}  // namespace
+
+// What identifies a reference's half: its pixels (hash), the observer and the exposure applied
+// and tone mapping applied before its half is computed (tone mapper 0: none, LDR-FLIP).
+struct FlipReferenceCache::Impl {
+  struct Key {
+    std::uint64_t pixels;
+    double ppd;
+    int tone_mapper;
+    float scale;
+    auto operator<=>(const Key&) const = default;
+  };
+  struct Entry {
+    std::shared_ptr<const FlipSide> side;
+    std::list<Key>::iterator lru;  // Position in `order`, most recent first.
+  };
+
+  std::shared_ptr<const FlipSide> Find(const Key& key) {
+    std::lock_guard lock(mutex);
+    const auto it = entries.find(key);
+    if (it == entries.end()) {
+      ++stats.misses;
+      return nullptr;
+    }
+    ++stats.hits;
+    order.splice(order.begin(), order, it->second.lru);
+    return it->second.side;
+  }
+
+  void Insert(const Key& key, std::shared_ptr<const FlipSide> side) {
+    std::lock_guard lock(mutex);
+    if (entries.contains(key)) return;  // Another thread computed it too: the same values.
+    stats.bytes += side->Bytes();
+    order.push_front(key);
+    entries.emplace(key, Entry{std::move(side), order.begin()});
+    while (stats.bytes > budget && order.size() > 1) {
+      const auto last = entries.find(order.back());
+      stats.bytes -= last->second.side->Bytes();
+      entries.erase(last);
+      order.pop_back();
+    }
+  }
+
+  std::size_t budget;
+  std::mutex mutex;
+  std::map<Key, Entry> entries;
+  std::list<Key> order;
+  FlipReferenceCache::Stats stats;
+};
+
+FlipReferenceCache::FlipReferenceCache(std::size_t byte_budget)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->budget = byte_budget;
+}
+
+FlipReferenceCache::~FlipReferenceCache() = default;
+
+FlipReferenceCache::Stats FlipReferenceCache::stats() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->stats;
+}
+
+namespace {
+
+// The reference's half: from `cache` when it holds `key`, else computed from make_reference()
+// (and kept there when there is a cache).
+template <typename MakeReference>
+std::shared_ptr<const FlipSide> ReferenceSide(FlipReferenceCache* cache,
+                                              const FlipReferenceCache::Impl::Key& key,
+                                              double ppd, MakeReference make_reference) {
+  std::shared_ptr<const FlipSide> side = cache ? cache->impl().Find(key) : nullptr;
+  if (!side) {
+    side = std::make_shared<const FlipSide>(ComputeSide(make_reference(), ppd));
+    if (cache) cache->impl().Insert(key, side);
+  }
+  return side;
 }
 
 FlipResult Pool(const Plane& map, const Image* mask) {
@@ -453,7 +558,12 @@ Image FirstThree(const Image& image) {
 FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
                    Image* flip_map) {
   ValidateInputs(reference, test, p.mask, 3);
-  const Plane map = LdrFlipMap(FirstThree(reference), FirstThree(test), p.ppd);
+  const Image ref = FirstThree(reference);
+  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0, p.ppd, 0,
+                                          1.0f};
+  const auto ref_side = ReferenceSide(p.reference_cache, key, p.ppd, [&] { return ref; });
+  const Plane map =
+      CombineSides(*ref_side, ComputeSide(FirstThree(test), p.ppd), ref.width, ref.height);
   FlipResult result = Pool(map, p.mask);
   if (flip_map) *flip_map = ToImage(map, reference.width, reference.height);
   return result;
@@ -469,19 +579,37 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
   // the brightest reference pixel, the stop exposure the median one, to 0.85 after tone mapping.
   double start = p.start_exposure, stop = p.stop_exposure;
   if (std::isnan(start) || std::isnan(stop)) {
-    std::vector<float> luminance(n);
-    float y_max = 0.0f, y_min_positive = std::numeric_limits<float>::infinity();
+    // The luminance of the evaluated pixels: the mask's when one is given (a sphere on black
+    // has more black background than lit surface, and the background's zeros would pull the
+    // median, and so the stop exposure, many stops below anything evaluated).
+    std::vector<float> luminance;
+    luminance.reserve(n);
+    float y_max = 0.0f;
     for (std::size_t i = 0; i < n; ++i) {
+      if (!internal::IsValid(p.mask, i)) continue;
       const float* c = &ref.data[3 * i];
-      luminance[i] = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
-      y_max = std::max(y_max, luminance[i]);
-      if (luminance[i] > 0.0f) y_min_positive = std::min(y_min_positive, luminance[i]);
+      luminance.push_back(0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]);
+      y_max = std::max(y_max, luminance.back());
     }
-    std::nth_element(luminance.begin(), luminance.begin() + n / 2, luminance.end());
-    float y_median = luminance[n / 2];
-    // Degenerate references: more than half black -> the darkest lit pixel stands in for the
-    // median; all black -> exposure 0.
-    if (!(y_median > 0.0f)) y_median = std::isfinite(y_min_positive) ? y_min_positive : 1.0f;
+    float y_median = 0.0f;
+    if (!luminance.empty()) {
+      const std::size_t mid = luminance.size() / 2;
+      std::nth_element(luminance.begin(), luminance.begin() + mid, luminance.end());
+      y_median = luminance[mid];
+    }
+    // Degenerate references: more than half of the evaluated pixels black -> the median of the
+    // lit ones stands in (the darkest lit pixel would stretch the range by many stops of
+    // exposures that show nothing but black); all black -> exposure 0.
+    if (!(y_median > 0.0f)) {
+      std::erase_if(luminance, [](float y) { return !(y > 0.0f); });
+      if (luminance.empty()) {
+        y_median = 1.0f;
+      } else {
+        const std::size_t mid = luminance.size() / 2;
+        std::nth_element(luminance.begin(), luminance.begin() + mid, luminance.end());
+        y_median = luminance[mid];
+      }
+    }
     if (!(y_max > 0.0f)) y_max = 1.0f;
     const double x85 = ToneMapInverse(p.tone_mapper, 0.85);
     if (std::isnan(start)) start = std::log2(x85 / y_max);
@@ -494,14 +622,21 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
   const double step = (stop - start) / (count - 1);
 
   Plane worst(n, 0.0f), worst_index(n, 0.0f);
+  const std::uint64_t ref_hash = p.reference_cache ? HashPixels(ref) : 0;
   for (int e = 0; e < count; ++e) {
     const float scale = static_cast<float>(std::exp2(start + e * step));
-    Image r = ref, t = tst;
-    for (float& v : r.data) v *= scale;
-    for (float& v : t.data) v *= scale;
-    ToneMap(r, p.tone_mapper);
-    ToneMap(t, p.tone_mapper);
-    const Plane map = LdrFlipMap(r, t, p.ppd);
+    const auto exposed = [&](const Image& image) {
+      Image out = image;
+      for (float& v : out.data) v *= scale;
+      ToneMap(out, p.tone_mapper);
+      return out;
+    };
+    const FlipReferenceCache::Impl::Key key{ref_hash, p.ppd,
+                                            1 + static_cast<int>(p.tone_mapper), scale};
+    const auto ref_side =
+        ReferenceSide(p.reference_cache, key, p.ppd, [&] { return exposed(ref); });
+    const Plane map =
+        CombineSides(*ref_side, ComputeSide(exposed(tst), p.ppd), ref.width, ref.height);
     for (std::size_t i = 0; i < n; ++i) {
       if (map[i] > worst[i]) {
         worst[i] = map[i];

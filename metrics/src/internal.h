@@ -9,16 +9,16 @@
 #include <thread>
 #include <vector>
 
+#include "shadefit/metrics/common.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics::internal {
 
-// Runs body(begin_row, end_row) over [0, rows) split into contiguous blocks, one per hardware
-// thread (the rows of a filter pass are independent). Small jobs run inline.
+// Runs body(begin_row, end_row) over [0, rows) split into contiguous blocks, one per thread
+// of MetricsThreads() (the rows of a filter pass are independent). Small jobs run inline.
 template <typename Body>
 void ParallelRows(int rows, Body body) {
-  const int threads =
-      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+  const int threads = MetricsThreads();
   if (threads == 1 || rows < 64) {
     body(0, rows);
     return;

@@ -88,6 +88,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   FlipParameters flip;
   flip.ppd = p.ppd;
   flip.mask = mask;
+  flip.reference_cache = p.flip_reference_cache;
   r.flip_ldr = FlipLdr(ExposeAndClip(ref, p.exposure_stops), ExposeAndClip(tst, p.exposure_stops),
                        flip, maps ? &maps->flip_ldr : nullptr);
   r.flip_hdr = FlipHdr(ref, tst, flip, maps ? &maps->flip_hdr : nullptr);

@@ -3,8 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
+#include <vector>
 
 #include "shadefit/render/error.h"
 #include "test_images.h"
@@ -17,6 +20,12 @@ const std::string kData = std::string(SHADEFIT_SOURCE_DIR) + "/tests/metrics/dat
 // The committed inputs were written from test_images.h: LdrScene(64, 64) and
 // LdrDistorted(scene, 0.04, seed 7) through WritePngPreview (sRGB OETF, 8 bit); HdrScene(64, 64)
 // and HdrDistorted(scene, 0.1, seed 11) through WriteExr (float).
+Image Clamped(const Image& hdr) {
+  Image out = hdr;
+  for (float& v : out.data) v = std::clamp(v, 0.0f, 1.0f);
+  return out;
+}
+
 Image ReadLdr(const std::string& name) {
   Image image = ReadImage(kData + name);
   for (float& v : image.data) v = SrgbToLinear(v);  // What the reference tool does for PNGs.
@@ -132,6 +141,107 @@ TEST(FlipTest, MaskSelectsPooledPixels) {
   p.mask = &mask;
   EXPECT_LT(FlipLdr(ref, test, p).mean, 1e-6);
   EXPECT_GT(FlipLdr(ref, test).mean, 0.05);
+}
+
+// x with ACES(x) = 0.85 by bisection on the tone curve written out here (Narkowicz 2015 applied
+// to 0.6 x), independently of flip.cpp's closed-form inverse.
+double AcesInputFor085() {
+  const auto aces = [](double x) {
+    const double v = 0.6 * x;
+    return v * (2.51 * v + 0.03) / (v * (2.43 * v + 0.59) + 0.14);
+  };
+  double lo = 0.0, hi = 100.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (aces(mid) < 0.85 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// A grey disc-like block on black: HDR-FLIP's exposure range comes from the masked pixels, and
+// when more than half of them are black, from the median of the lit ones.
+TEST(FlipTest, HdrExposureRangeComesFromTheMaskedPixels) {
+  Image ref(32, 32, 3, 0.0f), mask(32, 32, 1, 0.0f);
+  // Masked: a 10 x 10 block; 60 of its pixels at luminance 0.25, 39 at 0.0625, one at 8.
+  int k = 0;
+  for (int y = 10; y < 20; ++y) {
+    for (int x = 10; x < 20; ++x, ++k) {
+      const float v = k == 0 ? 8.0f : k <= 60 ? 0.25f : 0.0625f;
+      for (int c = 0; c < 3; ++c) ref.at(x, y, c) = v;  // Grey: luminance = v.
+      mask.at(x, y, 0) = 1.0f;
+    }
+  }
+  for (int c = 0; c < 3; ++c) ref.at(0, 0, c) = 50.0f;  // Outside the mask: not in the range.
+  const double x85 = AcesInputFor085();
+  FlipParameters p;
+  p.mask = &mask;
+  FlipResult r = FlipHdr(ref, ref, p);
+  EXPECT_NEAR(r.start_exposure, std::log2(x85 / 8.0), 1e-4);
+  EXPECT_NEAR(r.stop_exposure, std::log2(x85 / 0.25), 1e-4);  // The masked median.
+  EXPECT_EQ(r.num_exposures, 5);                              // ceil(5 stops).
+  // More than half of the masked pixels black (51): the lit ones' median (0.25 of 3 x 0.001,
+  // 45 x 0.25, 1 x 8), not the darkest lit pixel (0.001).
+  k = 0;
+  for (int y = 10; y < 20; ++y) {
+    for (int x = 10; x < 20; ++x, ++k) {
+      float v = ref.at(x, y, 0);
+      if (k >= 61 && k <= 63) v = 0.001f;
+      if (k >= 64 || (k >= 1 && k <= 15)) v = 0.0f;
+      for (int c = 0; c < 3; ++c) ref.at(x, y, c) = v;
+    }
+  }
+  r = FlipHdr(ref, ref, p);
+  std::vector<float> lit_values;
+  for (int y = 10; y < 20; ++y) {
+    for (int x = 10; x < 20; ++x) {
+      if (ref.at(x, y, 0) > 0.0f) lit_values.push_back(ref.at(x, y, 0));
+    }
+  }
+  std::sort(lit_values.begin(), lit_values.end());
+  ASSERT_EQ(lit_values.size(), 49u);
+  EXPECT_NEAR(r.stop_exposure, std::log2(x85 / 0.25), 1e-4);
+  // Without the mask, the whole frame: its median is 0, so the lit pixels' median again (0.25
+  // of 50 lit values), and the brightest pixel is the background's.
+  r = FlipHdr(ref, ref);
+  EXPECT_NEAR(r.start_exposure, std::log2(x85 / 50.0), 1e-4);
+  EXPECT_NEAR(r.stop_exposure, std::log2(x85 / 0.25), 1e-4);
+}
+
+// The reference's half kept in a cache gives the same bytes as computing it every time, and is
+// found again for the same reference only.
+TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
+  const Image ref = testing::HdrScene(48, 40);
+  const Image test_a = testing::HdrDistorted(ref, 0.1f, 3);
+  const Image test_b = testing::HdrDistorted(ref, 0.3f, 4);
+  FlipReferenceCache cache(std::size_t{64} << 20);
+  FlipParameters cached;
+  cached.reference_cache = &cache;
+  for (const Image* test : {&test_a, &test_b, &test_a}) {
+    Image plain_map, cached_map;
+    const FlipResult plain = FlipHdr(ref, *test, {}, &plain_map);
+    const FlipResult hit = FlipHdr(ref, *test, cached, &cached_map);
+    EXPECT_EQ(plain.mean, hit.mean);
+    ASSERT_EQ(plain_map.data.size(), cached_map.data.size());
+    EXPECT_EQ(0, std::memcmp(plain_map.data.data(), cached_map.data.data(),
+                             plain_map.data.size() * sizeof(float)));
+    EXPECT_EQ(FlipLdr(Clamped(ref), Clamped(*test)).mean,
+              FlipLdr(Clamped(ref), Clamped(*test), cached).mean);
+  }
+  const int exposures = FlipHdr(ref, test_a).num_exposures;
+  FlipReferenceCache::Stats s = cache.stats();
+  EXPECT_EQ(s.misses, static_cast<std::uint64_t>(exposures + 1));   // First call: HDR + LDR.
+  EXPECT_EQ(s.hits, static_cast<std::uint64_t>(2 * (exposures + 1)));
+  // Another reference (one pixel changed) finds nothing.
+  Image other = ref;
+  other.at(5, 5, 1) += 0.5f;
+  FlipHdr(other, test_a, cached);
+  EXPECT_EQ(cache.stats().hits, s.hits);
+  // A budget below one entry keeps only the newest.
+  FlipReferenceCache tiny(1);
+  cached.reference_cache = &tiny;
+  FlipHdr(ref, test_a, cached);
+  EXPECT_GT(tiny.stats().bytes, 0u);
+  EXPECT_LT(tiny.stats().bytes, std::size_t{48} * 40 * 24);
 }
 
 TEST(FlipTest, PercentilesAreOrdered) {

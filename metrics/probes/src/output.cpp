@@ -162,13 +162,19 @@ nlohmann::json ProbeResultToJson(const ProbeResult& result) {
           {"notes", result.notes}};
 }
 
-void WriteProbeOutputs(const ProbeResult& result, const std::string& dir) {
+void WriteProbeOutputs(const ProbeResult& result, const std::string& dir, bool plot) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir, "", "output directory cannot be created");
   const fs::path base = fs::path(dir) / ProbeName(result.probe);
   const std::string json_path = base.string() + ".json", png_path = base.string() + ".png";
   const std::string text = ProbeResultToJson(result).dump(1) + "\n";
+  if (!plot) {
+    // A plot of an earlier run would no longer match the JSON.
+    fs::remove(png_path, ec);
+    WriteTextAtomic(json_path, text);
+    return;
+  }
   // The plot first: when it fails, neither file is written (WriteAllOrNothing).
   WriteAllOrNothing({{png_path,
                       [&] {

@@ -197,6 +197,7 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
   metrics::MetricsParameters mp;
   mp.exposure_stops = spec.metrics_exposure_stops;
   mp.ppd = spec.metrics_ppd;
+  mp.flip_reference_cache = context.flip_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
   metrics::MetricsMaps maps;
   metrics::MetricsReport m;

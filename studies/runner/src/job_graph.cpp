@@ -97,6 +97,7 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
       // The result schema too: a probe job written in an older format must run again, even by
       // a build whose version string did not change (a stale configure).
       const json context = {{"kind", "probe"}, {"probes", ProbeNamesOf(spec)},
+                            {"plots", spec.probe_plots},
                             {"schema", probes::kProbeResultSchema},
                             {"references", refs}, {"fits", fit_hashes}};
       job.hash = Sha256String(version + "\n" + context.dump());

@@ -117,7 +117,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
       in.measured_brdf = measured.get();
     }
     const probes::ProbeResult r = probes::RunProbe(kind, in);
-    probes::WriteProbeOutputs(r, probe_dir.string());
+    probes::WriteProbeOutputs(r, probe_dir.string(), context.spec.probe_plots);
     results[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
     for (const char* ext : {".json", ".png"}) {
       const fs::path p = probe_dir / (std::string(probes::ProbeName(r.probe)) + ext);

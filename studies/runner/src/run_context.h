@@ -2,6 +2,7 @@
 #pragma once
 
 #include "job_graph.h"
+#include "shadefit/metrics/flip.h"
 #include "progress_log.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
@@ -13,6 +14,8 @@ struct RunContext {
   const RunOptions& options;
   StudyPaths paths;
   Log* log = nullptr;
+  // Shared by the workers; may be null (metrics are the same without it).
+  metrics::FlipReferenceCache* flip_cache = nullptr;
 };
 
 }  // namespace shadefit::studies::internal

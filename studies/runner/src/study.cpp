@@ -651,8 +651,9 @@ void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q,
   const toml::table* qt = q.table;
   std::vector<std::string> names;
   if (const toml::table* p = r.Table(root, "", "probes")) {
-    r.CheckKeys(*p, "probes.", {"run"});
+    r.CheckKeys(*p, "probes.", {"run", "plots"});
     names = r.Strings(*p, "probes.", "run");
+    spec->probe_plots = r.Bool(*p, "probes.", "plots", false);
   }
   const bool from_quick = qt != nullptr && qt->contains("probes");
   if (from_quick) names = r.Strings(*qt, "quick.", "probes");

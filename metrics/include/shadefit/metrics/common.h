@@ -30,6 +30,13 @@ struct InputNames {
 void ValidateInputs(const Image& reference, const Image& test, const Image* mask,
                     int min_channels, const InputNames& names = {});
 
+// Threads each metric call may use for its row loops (0, the default: one per CPU, at most 16).
+// A caller that already runs one metric call per core, like the study runner's workers, sets 1:
+// threads started per filter pass then only wait for the cores. Process-wide; results do not
+// depend on it (rows are split, never reductions).
+void SetMetricsThreads(int threads);
+int MetricsThreads();  // The number in effect, >= 1.
+
 // Number of valid pixels (mask > 0.5); the pixel count when mask is null.
 std::size_t CountValidPixels(const Image* mask, int width, int height);
 

@@ -22,6 +22,9 @@ struct MetricsParameters {
   float relative_epsilon = 0.01f;
   // Names used in error messages (the CLI passes file paths).
   InputNames names;
+  // Optional: keeps the reference's half of LDR- and HDR-FLIP for the next call with the same
+  // reference (FlipReferenceCache); the results are the same without it.
+  FlipReferenceCache* flip_reference_cache = nullptr;
 };
 
 struct MetricsReport {

@@ -200,7 +200,8 @@ nlohmann::json ProbeResultToJson(const ProbeResult& result);
 // drawn by /usr/bin/python3 with matplotlib), then <dir>/<probe>.json, each through the atomic
 // writer (render/files.h); when either fails, neither is left. Throws shadefit::Error naming the
 // path.
-void WriteProbeOutputs(const ProbeResult& result, const std::string& dir);
+// plot = false: only the JSON (a study's report draws its own figures from it).
+void WriteProbeOutputs(const ProbeResult& result, const std::string& dir, bool plot = true);
 
 // Checks one reference: non-empty RGBA image, its size equals the G-buffer's and the scene
 // camera's, finite pixels, at least one pixel with coverage >= min_coverage. Throws

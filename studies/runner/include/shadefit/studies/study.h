@@ -81,6 +81,9 @@ struct StudySpec {
   float metrics_exposure_stops = 0.0f;
   double metrics_ppd = 67.0;
   std::vector<probes::ProbeKind> probes;  // [probes] run, in the file's order.
+  // [probes] plots: also draw probes/<material>/<probe>.png (matplotlib, one Python process per
+  // probe and material). Off by default: the report draws every probe figure from the JSON.
+  bool probe_plots = false;
   nlohmann::json verdicts;          // [verdicts] as JSON, read by the report.
   bool previews = true;             // Reference / fit / error PNGs per reference and fit.
   bool report = true;               // `study run` makes the report at the end.
