@@ -15,6 +15,7 @@ import glob
 import io
 import json
 import math
+import multiprocessing
 import os
 import sys
 
@@ -618,6 +619,56 @@ def write_latex_document(report_dir, tables, figures):
     write_text(os.path.join(report_dir, "report.tex"), "\n".join(body) + "\n")
 
 
+def report_jobs():
+    """Processes that draw the per-material figures: $SHADEFIT_REPORT_JOBS, else one per CPU this
+    process may use (at most 8)."""
+    env = os.environ.get("SHADEFIT_REPORT_JOBS", "").strip()
+    if env:
+        try:
+            jobs = int(env)
+        except ValueError:
+            jobs = 0
+        if jobs < 1:
+            raise ReportInputError(f"SHADEFIT_REPORT_JOBS: expected a whole number >= 1, got '{env}'")
+        return jobs
+    return max(1, min(8, len(os.sched_getaffinity(0))))
+
+
+# What the forked figure workers read (set before the pool starts; fork shares it unpickled).
+_FIGURE_INPUTS = None
+
+
+def material_figures(material):
+    """The image grids and probe figures of one material, drawn and saved; their figures.json
+    records (grids, probes)."""
+    study_dir, study, fits, probes, fig_dir = _FIGURE_INPUTS
+    grids, probe_figs = [], []
+    report_figures.image_grid(study_dir, study, fits, material, fig_dir, grids)
+    if material in probes:
+        report_figures.probe_figures(study, {material: probes[material]}, fig_dir, probe_figs,
+                                     flatten)
+    return grids, probe_figs
+
+
+def per_material_figures(study_dir, study, fits, probes, fig_dir):
+    """Every material's grids (in the study's order), then every probe figure (by material
+    name): the same records, in the same order, with one process or several."""
+    global _FIGURE_INPUTS
+    _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
+    grid_order = list(materials_of(study))
+    materials = grid_order + sorted(m for m in probes if m not in grid_order)
+    jobs = min(report_jobs(), len(materials))
+    if jobs > 1:
+        # Fork: the workers inherit the inputs and matplotlib's state; no figure is open yet.
+        with multiprocessing.get_context("fork").Pool(jobs) as pool:
+            done = dict(zip(materials, pool.map(material_figures, materials, chunksize=1)))
+    else:
+        done = {m: material_figures(m) for m in materials}
+    _FIGURE_INPUTS = None
+    return ([r for m in grid_order for r in done[m][0]] +
+            [r for m in sorted(probes) for r in done[m][1]])
+
+
 def make_report(study_dir):
     # Every input is read and checked before the first file is written.
     study, rows, fits, probes, provenance = load_study(study_dir)
@@ -646,10 +697,7 @@ def make_report(study_dir):
     write_text(os.path.join(report_dir, "verdicts.json"),
                json.dumps({"summary": summary, "detail": detail}, indent=1))
 
-    figures = []
-    for m in materials_of(study):
-        report_figures.image_grid(study_dir, study, fits, m, fig_dir, figures)
-    report_figures.probe_figures(study, probes, fig_dir, figures, flatten)
+    figures = per_material_figures(study_dir, study, fits, probes, fig_dir)
     report_figures.metric_bars(study, rows, fig_dir, figures, to_float)
     charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in,
                                           probes)

@@ -161,7 +161,8 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
     overlaps, outside = text_problems(fig)
     png = os.path.join(fig_dir, name + ".png")
     pdf = os.path.join(fig_dir, name + ".pdf")
-    fig.savefig(png + ".tmp.png", dpi=DPI, format="png")
+    # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing.
+    mpimg.imsave(png + ".tmp.png", np.asarray(fig.canvas.buffer_rgba()), format="png", dpi=DPI)
     os.replace(png + ".tmp.png", png)
     # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
     fig.savefig(pdf + ".tmp.pdf", format="pdf", metadata={"CreationDate": None})
