@@ -48,8 +48,15 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
   std::uniform_real_distribution<double> jitter(0.0, 1.0);
 
   // Each stratum yields one sample per technique; their MIS-weighted sum is one estimate of the
-  // integral, so the spread of the per-stratum sums gives the standard error.
-  double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+  // integral. The standard error comes from pairs of neighbouring strata (j, j + 1), each pair
+  // taken as one stratum of two samples (the collapsed-strata estimator, Cochran 1977, "Sampling
+  // Techniques", sec. 5A.12): sum over pairs of (a - b)^2, over count^2. It keeps the variance
+  // that stratification removes out of the estimate (the spread of all strata around the mean
+  // overstated the actual error 1.1-22x, most for sharp lobes at grazing view; the paired one
+  // 1.0-3.1x, BrdfPhysics.AlbedoStandardErrorMatchesItsActualError), and stays conservative:
+  // the pair's two strata differ in mean too.
+  double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0}, pair_sq[3] = {0, 0, 0}, left[3] = {0, 0, 0};
+  const bool paired = m % 2 == 0;
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j < m; ++j) {
       const double u1 = (i + jitter(rng)) / m, u2 = (j + jitter(rng)) / m;
@@ -66,6 +73,11 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
       for (int c = 0; c < 3; ++c) {
         sum[c] += est[c];
         sum_sq[c] += est[c] * est[c];
+        if (j % 2 == 0) {
+          left[c] = est[c];
+        } else {
+          pair_sq[c] += (est[c] - left[c]) * (est[c] - left[c]);
+        }
       }
     }
   }
@@ -73,9 +85,13 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
   const double count = static_cast<double>(m) * m;
   for (int c = 0; c < 3; ++c) {
     out.value[c] = sum[c] / count;
-    const double var = std::max(0.0, sum_sq[c] / count - out.value[c] * out.value[c]);
-    // Stratification makes the true error smaller than this iid bound; it is kept conservative.
-    out.std_error[c] = std::sqrt(var / count);
+    if (paired) {
+      out.std_error[c] = std::sqrt(pair_sq[c]) / count;
+    } else {
+      // An odd number of strata: the iid bound, which stratification only makes conservative.
+      const double var = std::max(0.0, sum_sq[c] / count - out.value[c] * out.value[c]);
+      out.std_error[c] = std::sqrt(var / count);
+    }
   }
   return out;
 }
