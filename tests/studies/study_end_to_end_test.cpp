@@ -112,7 +112,8 @@ std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& p) {
 }
 
 std::string SmallStudy(const std::string& name, const std::vector<std::string>& materials,
-                       const std::string& dir, const std::string& extra) {
+                       const std::string& dir, const std::string& extra,
+                       const std::string& probes_extra = "") {
   std::string s = "[study]\nname = \"" + name + "\"\n";
   for (const std::string& m : materials) {
     s += "[[group]]\nmaterial = \"" + m + "\"\nimages = [\"" + dir + "/" + m +
@@ -120,7 +121,8 @@ std::string SmallStudy(const std::string& name, const std::vector<std::string>& 
   }
   s += "[fit]\nmodels = [\"blinn-phong\", \"ggx\"]\ntrain = [[\"key\"]]\nstarts = 1\n"
        "max_iterations = 25\npixel_stride = 4\n"
-       "[probes]\nrun = [\"fresnel\", \"highlight\", \"energy\", \"portability\"]\n"
+       "[probes]\nrun = [\"fresnel\", \"highlight\", \"energy\", \"portability\"]\n" +
+       probes_extra +
        "[verdicts.image]\nsource = \"metrics\"\nmetric = \"flip_ldr_mean\"\nsplit = \"train\"\n"
        "kind = \"max\"\ntolerance = " + std::to_string(kImageTolerance) + "\n"
        "[verdicts.fresnel]\nsource = \"fresnel\"\nkind = \"relative\"\ntolerance = " +
@@ -483,6 +485,7 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
     expected.push_back("report/figures/grid-" + m + ".png");
     expected.push_back("report/figures/grid-" + m + ".pdf");
     expected.push_back("jobs/probe." + m + ".json");
+    expected.push_back("probes/" + m + "/fresnel.json");
     for (const auto& model : models) expected.push_back("jobs/fit." + m + "." + model + ".key.json");
     for (const auto& l : lightings) {
       expected.push_back("images/" + m + "-" + l + ".reference.png");
@@ -493,6 +496,8 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
     }
   }
   for (const fs::path& p : expected) EXPECT_TRUE(fs::exists(out / p)) << "missing " << p;
+  // Probe plots are opt-in ([probes] plots): the report draws its own probe figures.
+  EXPECT_FALSE(fs::exists(out / "probes/gold/fresnel.png"));
 
   // results.csv: one row per reference x model, train on key, test on rim.
   const auto rows = ReadCsv(out / "results.csv");
@@ -555,6 +560,18 @@ TEST(StudyEndToEnd, RunReportRerunAndChangedOption) {
   std::set<std::string> want = {"fit.gold.ggx.key", "fit.red-plastic.ggx.key"};
   want.insert({"probe.gold", "probe.red-plastic"});
   EXPECT_EQ(StartedSince(out / "study.log", offset), want);
+
+  // [probes] plots = true reruns the probe jobs only, and they draw their PNGs.
+  std::ofstream(study) << SmallStudy("e2e", {"red-plastic", "gold"}, kRefs,
+                                     "[fit.override.ggx]\nmax_iterations = 24\n",
+                                     "plots = true\n");
+  offset = fs::file_size(out / "study.log");
+  ASSERT_EQ(RunShadefit(run + " --no-report", dir), 0) << ReadText(dir / "command.txt");
+  EXPECT_EQ(StartedSince(out / "study.log", offset),
+            (std::set<std::string>{"probe.gold", "probe.red-plastic"}));
+  for (const char* probe : {"fresnel", "highlight", "energy", "portability"}) {
+    EXPECT_GT(fs::file_size(out / "probes/gold" / (std::string(probe) + ".png")), 1000u) << probe;
+  }
 }
 
 TEST(StudyEndToEnd, LatexTablesCompile) {
