@@ -259,26 +259,22 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
                "the view about the normal at the highlight (initial guess)"}};
   }
 
-  // --- Write: each file atomically; on a later failure remove the earlier ones.
+  // --- Write: each file atomically, all or nothing (render/files.h).
   ImageMetadata meta{{"shadefit:kind", "imported"},
                      {"shadefit:source", fs::path(options.image_path).filename().string()},
                      {"shadefit:encoding", EncodingName(result.encoding)},
                      {"shadefit:exposure", "unknown"},
                      {"shadefit:scene", scene.source_text}};
-  std::vector<std::string> written;
-  try {
-    if (result.has_sphere) {
-      WriteTextAtomic(result.scene_path, scene_toml_text);
-      written.push_back(result.scene_path);
-    }
-    WriteExr(options.output, result.image, meta);
-    written.push_back(options.output);
-    WriteTextAtomic(SidecarPath(options.output), sidecar.dump(1) + "\n");
-  } catch (...) {
-    std::error_code ec;
-    for (const std::string& p : written) fs::remove(p, ec);
-    throw;
+  std::vector<OutputWrite> writes;
+  if (result.has_sphere) {
+    writes.push_back(
+        {result.scene_path, [&] { WriteTextAtomic(result.scene_path, scene_toml_text); }});
   }
+  writes.push_back({options.output, [&] { WriteExr(options.output, result.image, meta); }});
+  const std::string sidecar_path = SidecarPath(options.output);
+  writes.push_back(
+      {sidecar_path, [&] { WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n"); }});
+  WriteAllOrNothing(writes);
   return result;
 }
 
