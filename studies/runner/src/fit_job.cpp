@@ -144,7 +144,9 @@ void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpe
   const std::string fit_png = fmt::format("images/{}.{}.png", rs.name, FileSafe(job.label));
   const std::string err_png = fmt::format("images/{}.{}.error.png", rs.name, FileSafe(job.label));
   const auto& dir = context.paths.dir;
-  WritePngPreview((dir / ref_png).string(), ref.image, spec.metrics_exposure_stops);
+  if (context.reference_previews == nullptr || context.reference_previews->First(ref_png)) {
+    WritePngPreview((dir / ref_png).string(), ref.image, spec.metrics_exposure_stops);
+  }
   WritePngPreview((dir / fit_png).string(), prediction, spec.metrics_exposure_stops);
   metrics::FalseColorParameters fc;
   fc.min = 0.0;
@@ -288,8 +290,10 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
           Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs));
     }
   } catch (const NonFiniteRenderError& e) {
-    // The previews of the references evaluated before it go too: a failed fit leaves no image.
+    // The previews of the references evaluated before it go too: a failed fit leaves no image
+    // of its own (the reference previews are every fit's of the material, and stay).
     for (const json& o : outputs) {
+      if (o.get<std::string>().ends_with(".reference.png")) continue;
       std::error_code ec;
       std::filesystem::remove(context.paths.dir / o.get<std::string>(), ec);
     }

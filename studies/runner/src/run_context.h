@@ -1,6 +1,10 @@
 // What every unit of a run reads: the study, the options, where the files go and the log.
 #pragma once
 
+#include <mutex>
+#include <set>
+#include <string>
+
 #include "job_graph.h"
 #include "shadefit/metrics/flip.h"
 #include "progress_log.h"
@@ -9,6 +13,21 @@
 
 namespace shadefit::studies::internal {
 
+// The reference previews written in this run: every fit of a material writes the same preview of
+// each reference (the reference's image, the study's display exposure), so the first one does.
+class WrittenOnce {
+ public:
+  // True for the first caller with `path` in this run.
+  bool First(const std::string& path) {
+    std::lock_guard lock(mutex_);
+    return paths_.insert(path).second;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::set<std::string> paths_;
+};
+
 struct RunContext {
   const StudySpec& spec;
   const RunOptions& options;
@@ -16,6 +35,8 @@ struct RunContext {
   Log* log = nullptr;
   // Shared by the workers; may be null (metrics are the same without it).
   metrics::FlipReferenceCache* flip_cache = nullptr;
+  // Shared by the workers; null: every fit writes its reference previews.
+  WrittenOnce* reference_previews = nullptr;
 };
 
 }  // namespace shadefit::studies::internal

@@ -67,7 +67,7 @@ class StudyRun {
       : spec_(spec),
         options_(options),
         flip_cache_(kFlipCacheBytes),
-        context_{spec_, options_, {}, nullptr, &flip_cache_} {}
+        context_{spec_, options_, {}, nullptr, &flip_cache_, &reference_previews_} {}
 
   RunSummary Run();
 
@@ -96,6 +96,7 @@ class StudyRun {
   const StudySpec& spec_;
   RunOptions options_;
   metrics::FlipReferenceCache flip_cache_;
+  internal::WrittenOnce reference_previews_;
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;
   std::map<std::string, internal::InputHashes> hashes_;  // By reference image path.
