@@ -650,17 +650,23 @@ def material_figures(material):
     return grids, probe_figs
 
 
-def per_material_figures(study_dir, study, fits, probes, fig_dir):
+def per_material_figures(study_dir, study, fits, probes, fig_dir, jobs):
     """Every material's grids (in the study's order), then every probe figure (by material
     name): the same records, in the same order, with one process or several."""
     global _FIGURE_INPUTS
     _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
     grid_order = list(materials_of(study))
     materials = grid_order + sorted(m for m in probes if m not in grid_order)
-    jobs = min(report_jobs(), len(materials))
+    jobs = min(jobs, len(materials))
+    pool = None
     if jobs > 1:
-        # Fork: the workers inherit the inputs and matplotlib's state; no figure is open yet.
-        with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        try:
+            # Fork: the workers inherit the inputs and matplotlib's state; no figure is open yet.
+            pool = multiprocessing.get_context("fork").Pool(jobs)
+        except OSError:
+            pool = None  # No POSIX semaphores here (a container without /dev/shm): one process.
+    if pool is not None:
+        with pool:
             done = dict(zip(materials, pool.map(material_figures, materials, chunksize=1)))
     else:
         done = {m: material_figures(m) for m in materials}
@@ -671,6 +677,7 @@ def per_material_figures(study_dir, study, fits, probes, fig_dir):
 
 def make_report(study_dir):
     # Every input is read and checked before the first file is written.
+    jobs = report_jobs()
     study, rows, fits, probes, provenance = load_study(study_dir)
     charts_in = report_charts.load_charts(study_dir)
     report_dir = os.path.join(study_dir, "report")
@@ -697,7 +704,7 @@ def make_report(study_dir):
     write_text(os.path.join(report_dir, "verdicts.json"),
                json.dumps({"summary": summary, "detail": detail}, indent=1))
 
-    figures = per_material_figures(study_dir, study, fits, probes, fig_dir)
+    figures = per_material_figures(study_dir, study, fits, probes, fig_dir, jobs)
     report_figures.metric_bars(study, rows, fig_dir, figures, to_float)
     charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in,
                                           probes)
