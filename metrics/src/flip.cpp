@@ -391,14 +391,16 @@ std::uint64_t HashPixels(const Image& image) {
   std::uint64_t h = mix((static_cast<std::uint64_t>(image.width) << 32) ^
                         (static_cast<std::uint64_t>(image.height) << 8) ^
                         static_cast<std::uint64_t>(image.channels));
-  for (const float v : image.data) h = mix(h ^ std::bit_cast<std::uint32_t>(v)) + 0x9E3779B97F4A7C15ull;
+  for (const float v : image.data) {
+    h = mix(h ^ std::bit_cast<std::uint32_t>(v)) + 0x9E3779B97F4A7C15ull;
+  }
   return h;
 }
 
 }  // namespace
 
-// What identifies a reference's half: its pixels (hash), the observer and the exposure applied
-// and tone mapping applied before its half is computed (tone mapper 0: none, LDR-FLIP).
+// What identifies a reference's half: its pixels (hash), the observer, and the exposure scale and
+// tone mapper applied before its half is computed (tone mapper 0: none, LDR-FLIP).
 struct FlipReferenceCache::Impl {
   struct Key {
     std::uint64_t pixels;
@@ -561,7 +563,8 @@ FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParamete
   const Image ref = FirstThree(reference);
   const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0, p.ppd, 0,
                                           1.0f};
-  const auto ref_side = ReferenceSide(p.reference_cache, key, p.ppd, [&] { return ref; });
+  const auto ref_side =
+      ReferenceSide(p.reference_cache, key, p.ppd, [&]() -> const Image& { return ref; });
   const Plane map =
       CombineSides(*ref_side, ComputeSide(FirstThree(test), p.ppd), ref.width, ref.height);
   FlipResult result = Pool(map, p.mask);
@@ -591,24 +594,19 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
       luminance.push_back(0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]);
       y_max = std::max(y_max, luminance.back());
     }
-    float y_median = 0.0f;
-    if (!luminance.empty()) {
-      const std::size_t mid = luminance.size() / 2;
-      std::nth_element(luminance.begin(), luminance.begin() + mid, luminance.end());
-      y_median = luminance[mid];
-    }
+    // The element at index size / 2 once sorted; 0 for no pixel.
+    const auto median = [](std::vector<float>& v) {
+      if (v.empty()) return 0.0f;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    float y_median = median(luminance);
     // Degenerate references: more than half of the evaluated pixels black -> the median of the
     // lit ones stands in (the darkest lit pixel would stretch the range by many stops of
     // exposures that show nothing but black); all black -> exposure 0.
     if (!(y_median > 0.0f)) {
       std::erase_if(luminance, [](float y) { return !(y > 0.0f); });
-      if (luminance.empty()) {
-        y_median = 1.0f;
-      } else {
-        const std::size_t mid = luminance.size() / 2;
-        std::nth_element(luminance.begin(), luminance.begin() + mid, luminance.end());
-        y_median = luminance[mid];
-      }
+      y_median = luminance.empty() ? 1.0f : median(luminance);
     }
     if (!(y_max > 0.0f)) y_max = 1.0f;
     const double x85 = ToneMapInverse(p.tone_mapper, 0.85);

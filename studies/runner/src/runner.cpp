@@ -89,8 +89,9 @@ class StudyRun {
   double Elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
   // The references' halves of FLIP: every fit of a material is compared with the same
-  // references (10 fits x 7 lightings x ~15 HDR-FLIP exposures in the measured study). 768 MiB
-  // holds the halves of two materials' 7 references at 512^2, or of ten at 256^2.
+  // references (10 fits x 7 lightings x ~15 HDR-FLIP exposures in the measured study). A half
+  // is 20 bytes a pixel: ~150 MB for a material's 7 references at 256^2 and 15 exposures, so
+  // 768 MiB holds about five materials at 256^2 (one at 512^2); the workers share one or two.
   static constexpr std::size_t kFlipCacheBytes = std::size_t{768} << 20;
 
   const StudySpec& spec_;
