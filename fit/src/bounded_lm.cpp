@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cstdlib>
 #include <cmath>
 #include <limits>
@@ -98,12 +100,95 @@ void NaturalOfBox(const Parametrization& param, const T* y, T* p) {
   }
 }
 
+// One light sample of a shading point (point.lights, then point.environment, in that order)
+// with l and v above the surface, reduced to the dot products the models read.
+struct LitSample {
+  ShadingDots<double> dots;
+  Vec3d irradiance;
+};
+
+// The lit samples of every point of every span, computed once per solve instead of once per
+// pass: [begin[k], begin[k + 1]) are point k's. Left empty (the passes then compute the dots
+// of each sample as they go, as ShadePoint does) when there are more than kMaxLitSamples, as
+// with an environment quadrature of hundreds of samples per pixel, where they would double
+// the memory the points already hold.
+struct SpanGeometry {
+  std::vector<int> begin;
+  std::vector<LitSample> samples;
+};
+struct Geometry {
+  bool precomputed = false;
+  std::vector<SpanGeometry> spans;
+};
+constexpr long kMaxLitSamples = 1L << 20;  // 88 MiB of LitSample.
+
+bool SampleAboveSurface(const ShadingPoint& point, const PixelLight& light) {
+  return Dot(point.n, light.l) > 0.0 && Dot(point.n, point.v) > 0.0;
+}
+
+Geometry PrepareGeometry(const BoundedLmProblem& problem) {
+  Geometry geo;
+  long total = 0;
+  for (const PixelSpan& s : problem.spans) {
+    for (int k = 0; k < s.count; ++k) {
+      total += static_cast<long>(s.points[k].lights.size() + s.points[k].environment.size());
+    }
+  }
+  if (total > kMaxLitSamples) return geo;
+  geo.precomputed = true;
+  for (const PixelSpan& s : problem.spans) {
+    SpanGeometry& sg = geo.spans.emplace_back();
+    sg.begin.reserve(s.count + 1);
+    for (int k = 0; k < s.count; ++k) {
+      const ShadingPoint& point = s.points[k];
+      sg.begin.push_back(static_cast<int>(sg.samples.size()));
+      for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
+        for (const PixelLight& light : *set) {
+          if (!SampleAboveSurface(point, light)) continue;
+          sg.samples.push_back({ComputeShadingDots(point.n, light.l, point.v), light.irradiance});
+        }
+      }
+    }
+    sg.begin.push_back(static_cast<int>(sg.samples.size()));
+  }
+  return geo;
+}
+
+// Radiance of point k of span `span` for the loaded parameters q of model M (T = double or a
+// Jet), ambient reflectance ka: the arithmetic of ShadePoint and Reflect (models.h) in the same
+// order, so that the cost is the same double the twin gives.
+template <typename M, typename T>
+void ShadeLoaded(const typename M::Params& q, const Rgb<T>& ka, const Geometry& geo, int span,
+                 const ShadingPoint& point, int k, T* out) {
+  for (int c = 0; c < 3; ++c) out[c] = ka[c] * T(point.ambient[c]);
+  auto add = [&](const ShadingDots<double>& d, const Vec3d& irradiance) {
+    const Rgb<T> r = M::Diffuse(q, d) * T(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
+    out[0] += r.r * T(irradiance[0]);
+    out[1] += r.g * T(irradiance[1]);
+    out[2] += r.b * T(irradiance[2]);
+  };
+  if (geo.precomputed) {
+    const SpanGeometry& sg = geo.spans[span];
+    for (int i = sg.begin[k]; i < sg.begin[k + 1]; ++i) add(sg.samples[i].dots, sg.samples[i].irradiance);
+    return;
+  }
+  for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
+    for (const PixelLight& light : *set) {
+      if (SampleAboveSurface(point, light)) {
+        add(ComputeShadingDots(point.n, light.l, point.v), light.irradiance);
+      }
+    }
+  }
+}
+
 // Cost only (no derivatives): doubles through the twin.
-template <int kParams>
-Sums CostPass(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
-              const std::vector<double>& y, double e) {
-  double p[kParams];
+template <typename M>
+Sums CostPass(const BoundedLmProblem& problem, const Geometry& geo,
+              const std::vector<Chunk>& chunks, const std::vector<double>& y, double e) {
+  double p[M::kParamCount];
   NaturalOfBox(*problem.param, y.data(), p);
+  const typename M::Params q = M::Load(p);
+  const Rgb<double> ka = M::Ambient(q);
   const double scale = std::exp(e);
   std::vector<double> partial(chunks.size(), 0.0);
   ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int ci) {
@@ -112,7 +197,7 @@ Sums CostPass(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
     double sum = 0;
     for (int k = c.begin; k < c.begin + c.count; ++k) {
       double rgb[3];
-      ShadePoint(problem.model, p, s.points[k], rgb);
+      ShadeLoaded<M>(q, ka, geo, c.span, s.points[k], k, rgb);
       for (int ch = 0; ch < 3; ++ch) {
         const double r = Compress(problem.loss, scale * rgb[ch]) - s.targets[3 * k + ch];
         sum += r * r;
@@ -127,80 +212,294 @@ Sums CostPass(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
   return out;
 }
 
-// One chunk's sums of the Jacobian pass (N unknowns). At namespace scope: gcc 12 crashes on a
-// local class with Eigen members inside the function template.
-template <int N>
+// Whether each output channel of model M depends on channel c of its colour rows only (kd.r
+// on red alone, ...), as for every model whose colours are not mixed (a luminance tint mixes
+// them: cycles-principled). Then one Jet slot per row carries the derivatives of all three
+// channels, a slot's value in output c being the derivative with respect to the row's channel
+// c: a Jet of rows + 1 slots instead of entries + 1 (ggx: 4 instead of 8). Decided once per
+// model from the full Jet at 24 generic configurations (random geometry above the surface,
+// parameters inside their boxes); coupling that vanished at all of them is not credible.
+template <typename Tag>
+bool ChannelSeparableImpl() {
+  constexpr int P = Tag::template Of<double, double>::kParamCount;
+  using Jet = ceres::Jet<double, P>;
+  using M = typename Tag::template Of<Jet, double>;
+  const std::vector<ParamSpec> table = M::Table();
+  std::vector<int> channel;
+  for (const ParamSpec& row : table) {
+    for (int c = 0; c < row.size; ++c) channel.push_back(row.size == 3 ? c : -1);
+  }
+  std::uint64_t state = 0x9e3779b97f4a7c15ull;
+  auto uniform = [&state] {  // splitmix64: fixed, platform-independent.
+    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  };
+  auto hemisphere = [&] {
+    const double z = 0.2 + 0.8 * uniform(), phi = 2 * kPi * uniform();
+    const double r = std::sqrt(1 - z * z);
+    return Vec3d{r * std::cos(phi), r * std::sin(phi), z};
+  };
+  for (int trial = 0; trial < 24; ++trial) {
+    Jet p[P];
+    int i = 0;
+    for (const ParamSpec& row : table) {
+      for (int c = 0; c < row.size; ++c, ++i) {
+        const double lo = row.log_scale ? std::log(std::max(row.min, 1e-2)) : row.min;
+        const double hi = row.log_scale ? std::log(std::min(row.max, 1e2)) : row.max;
+        const double t = lo + (0.1 + 0.8 * uniform()) * (hi - lo);
+        p[i] = Jet(row.log_scale ? std::exp(t) : t, i);
+      }
+    }
+    const Vec3d n{0, 0, 1}, l = hemisphere(), v = hemisphere();
+    const ShadingDots<double> d = ComputeShadingDots(n, l, v);
+    const typename M::Params q = M::Load(p);
+    const Rgb<Jet> r = M::Diffuse(q, d) * Jet(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
+    const Rgb<Jet> a = M::Ambient(q);
+    for (int c = 0; c < 3; ++c) {
+      for (int e = 0; e < P; ++e) {
+        if (channel[e] < 0 || channel[e] == c) continue;
+        if (r[c].v[e] != 0.0 || a[c].v[e] != 0.0) return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool ChannelSeparable(ModelId model) {
+  static const std::array<bool, kModelCount> separable = [] {
+    std::array<bool, kModelCount> out{};
+    for (int m = 0; m < kModelCount; ++m) {
+      out[m] = VisitModel(static_cast<ModelId>(m),
+                          [](auto tag) { return ChannelSeparableImpl<decltype(tag)>(); });
+    }
+    return out;
+  }();
+  return separable[static_cast<int>(model)];
+}
+
+namespace {
+
+// Which entries the model's radiance is affine in, jointly (variable projection, below): the
+// second difference along each entry and the mixed difference of each pair vanish at 24
+// generic configurations (as ChannelSeparableImpl's), to rounding. Greedy in table order, so of
+// a bilinear pair (ggx-metallic's base_color and metallic) the first row is kept.
+template <typename Tag>
+std::vector<bool> LinearEntriesImpl() {
+  using M = typename Tag::template Of<double, double>;
+  constexpr int P = M::kParamCount;
+  const std::vector<ParamSpec> table = M::Table();
+  std::vector<const ParamSpec*> spec_of;
+  for (const ParamSpec& row : table) {
+    for (int c = 0; c < row.size; ++c) spec_of.push_back(&row);
+  }
+  std::uint64_t state = 0x2545f4914f6cdd1dull;
+  auto uniform = [&state] {  // splitmix64
+    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  };
+  auto hemisphere = [&] {
+    const double z = 0.2 + 0.8 * uniform(), phi = 2 * kPi * uniform();
+    const double r = std::sqrt(1 - z * z);
+    return Vec3d{r * std::cos(phi), r * std::sin(phi), z};
+  };
+  struct Config {
+    ShadingDots<double> d;
+    double p[P];
+    double step[P];
+  };
+  std::vector<Config> configs(24);
+  for (Config& cfg : configs) {
+    for (int i = 0; i < P; ++i) {
+      const ParamSpec& row = *spec_of[i];
+      const double lo = row.min, hi = std::min(row.max, row.min + 100.0);
+      cfg.p[i] = lo + (0.3 + 0.4 * uniform()) * (hi - lo);
+      cfg.step[i] = 0.25 * (hi - lo);
+    }
+    cfg.d = ComputeShadingDots(Vec3d{0, 0, 1}, hemisphere(), hemisphere());
+  }
+  // Radiance of the three terms (ambient light 1) at p with entries i, j moved by a, b steps.
+  auto radiance = [](const Config& cfg, int i, double a, int j, double b, double* out) {
+    double p[P];
+    std::copy(cfg.p, cfg.p + P, p);
+    if (i >= 0) p[i] += a * cfg.step[i];
+    if (j >= 0) p[j] += b * cfg.step[j];
+    const typename M::Params q = M::Load(p);
+    const Rgb<double> r = M::Diffuse(q, cfg.d) * cfg.d.NoL +
+                          M::Fresnel(q, cfg.d) * M::Lobe(q, cfg.d) + M::Ambient(q);
+    for (int c = 0; c < 3; ++c) out[c] = r[c];
+  };
+  // Whether sum_k w_k R(p + a_k e_i + b_k e_j) vanishes to rounding at every configuration.
+  auto vanishes = [&](int i, int j, const double (&terms)[4][3]) {
+    for (const Config& cfg : configs) {
+      double sum[3] = {0, 0, 0}, size[3] = {0, 0, 0};
+      for (const auto& t : terms) {
+        if (t[0] == 0) continue;
+        double r[3];
+        radiance(cfg, i, t[1], j, t[2], r);
+        for (int c = 0; c < 3; ++c) {
+          sum[c] += t[0] * r[c];
+          size[c] += std::abs(t[0] * r[c]);
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite(sum[c]) || std::abs(sum[c]) > 1e-10 * size[c] + 1e-300) return false;
+      }
+    }
+    return true;
+  };
+  std::vector<bool> linear(P, false);
+  for (int i = 0; i < P; ++i) {
+    if (!vanishes(i, -1, {{1, 1, 0}, {-2, 0, 0}, {1, -1, 0}, {0, 0, 0}})) continue;
+    bool joint = true;
+    for (int j = 0; j < i && joint; ++j) {
+      if (linear[j]) joint = vanishes(i, j, {{1, 1, 1}, {-1, 1, 0}, {-1, 0, 1}, {1, 0, 0}});
+    }
+    linear[i] = joint;
+  }
+  return linear;
+}
+
+}  // namespace
+
+std::vector<bool> LinearEntries(ModelId model) {
+  static const std::array<std::vector<bool>, kModelCount> linear = [] {
+    std::array<std::vector<bool>, kModelCount> out;
+    for (int m = 0; m < kModelCount; ++m) {
+      out[m] = VisitModel(static_cast<ModelId>(m),
+                          [](auto tag) { return LinearEntriesImpl<decltype(tag)>(); });
+    }
+    return out;
+  }();
+  return linear[static_cast<int>(model)];
+}
+
+namespace {
+
+// One chunk's sums of the Jacobian pass: per group (the 3 channels when compressed, else one)
+// the upper triangle of sum v v^T and sum r v over the Jet's K slots. At namespace scope: gcc
+// 12 crashes on a local class with Eigen members inside the function template.
+template <int K, int kGroups>
 struct JetPartial {
   double cost = 0;
-  Eigen::Matrix<double, N, 1> g = Eigen::Matrix<double, N, 1>::Zero();
-  Eigen::Matrix<double, N, N> h = Eigen::Matrix<double, N, N>::Zero();
+  double g[kGroups][K] = {};
+  double h[kGroups][K * (K + 1) / 2] = {};
 };
 
 // Cost, gradient and Gauss-Newton matrix in one pass: AutoDiff over the parameters only (the
 // geometry enters as plain numbers), each residual's Jacobian row folded into J^T J at once.
-template <int kParams>
-Sums JacobianPass(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
-                  const std::vector<double>& y, double e) {
-  constexpr int N = kParams + 1;  // The model block and the log exposure.
-  using Jet = ceres::Jet<double, N>;
-  using Vec = Eigen::Matrix<double, N, 1>;
-  using Mat = Eigen::Matrix<double, N, N>;
+// kCompressed: one slot per table row (ChannelSeparable), else one per entry. The last slot is
+// the log exposure.
+template <typename Tag, bool kCompressed>
+Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
+                  const std::vector<Chunk>& chunks, const std::vector<double>& y, double e) {
+  using ModelOfDouble = typename Tag::template Of<double, double>;
+  constexpr int kParams = ModelOfDouble::kParamCount;
+  constexpr int K = (kCompressed ? ModelOfDouble::kRowCount : kParams) + 1;
+  constexpr int kGroups = kCompressed ? 3 : 1;
+  constexpr int N = kParams + 1;  // Unknowns: the model's entries and the log exposure.
+  using Jet = ceres::Jet<double, K>;
+  using Model = typename Tag::template Of<Jet, double>;
+  // Slot of each entry, and the unknown each (group, slot) stands for.
+  int slot_of[kParams];
+  int unknown_of[kGroups][K];
+  int entry = 0, row = 0;
+  for (const ParamSpec& spec : ModelOfDouble::Table()) {
+    for (int c = 0; c < spec.size; ++c, ++entry) {
+      slot_of[entry] = kCompressed ? row : entry;
+      if (!kCompressed) {
+        unknown_of[0][entry] = entry;
+      } else if (spec.size == 1) {
+        for (int g = 0; g < kGroups; ++g) unknown_of[g][row] = entry;
+      } else {
+        unknown_of[c][row] = entry;
+      }
+    }
+    ++row;
+  }
+  for (int g = 0; g < kGroups; ++g) unknown_of[g][K - 1] = kParams;
   Jet yj[kParams], p[kParams];
-  for (int i = 0; i < kParams; ++i) yj[i] = Jet(y[i], i);
+  for (int i = 0; i < kParams; ++i) yj[i] = Jet(y[i], slot_of[i]);
   NaturalOfBox(*problem.param, yj, p);
-  const Jet scale = problem.exposure_free ? exp(Jet(e, kParams)) : Jet(std::exp(e));
-  using Partial = JetPartial<N>;
+  const Jet scale = problem.exposure_free ? exp(Jet(e, K - 1)) : Jet(std::exp(e));
+  const typename Model::Params q = Model::Load(p);
+  const Rgb<Jet> ka = Model::Ambient(q);
+  using Partial = JetPartial<K, kGroups>;
   std::vector<Partial> partial(chunks.size());
   ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int ci) {
     const Chunk& c = chunks[ci];
     const PixelSpan& s = problem.spans[c.span];
-    Partial& out = partial[ci];
+    // Summed in a local (no store through it can alias the inputs, so the sums stay in
+    // registers), then stored once.
+    Partial out;
     for (int k = c.begin; k < c.begin + c.count; ++k) {
       Jet rgb[3];
-      ShadePoint(problem.model, p, s.points[k], rgb);
+      ShadeLoaded<Model>(q, ka, geo, c.span, s.points[k], k, rgb);
       for (int ch = 0; ch < 3; ++ch) {
         const Jet r = Compress(problem.loss, scale * rgb[ch]) - Jet(s.targets[3 * k + ch]);
+        const int g = kCompressed ? ch : 0;
         out.cost += r.a * r.a;
-        out.g.noalias() += r.a * r.v;
-        out.h.template selfadjointView<Eigen::Upper>().rankUpdate(r.v);
+        int t = 0;
+        for (int a = 0; a < K; ++a) {
+          out.g[g][a] += r.a * r.v[a];
+          for (int b = a; b < K; ++b) out.h[g][t++] += r.v[a] * r.v[b];
+        }
       }
     }
+    partial[ci] = out;
   });
-  Vec g = Vec::Zero();
-  Mat h = Mat::Zero();
+  // Partial sums in chunk order (thread-count independent), scattered onto the unknowns.
   double cost = 0;
-  for (const Partial& q : partial) {
-    cost += q.cost;
-    g += q.g;
-    h += q.h;
+  std::vector<double> g(N, 0.0), h(N * N, 0.0);
+  for (const Partial& part : partial) {
+    cost += part.cost;
+    for (int grp = 0; grp < kGroups; ++grp) {
+      int t = 0;
+      for (int a = 0; a < K; ++a) {
+        const int ia = unknown_of[grp][a];
+        g[ia] += part.g[grp][a];
+        for (int b = a; b < K; ++b, ++t) {
+          const int ib = unknown_of[grp][b];
+          h[std::min(ia, ib) * N + std::max(ia, ib)] += part.h[grp][t];
+        }
+      }
+    }
   }
-  const Mat full = h.template selfadjointView<Eigen::Upper>();
+  for (int a = 0; a < N; ++a) {
+    for (int b = 0; b < a; ++b) h[a * N + b] = h[b * N + a];
+  }
   Sums out;
   out.cost = 0.5 * cost;
-  out.g.assign(g.data(), g.data() + N);
-  out.h.assign(full.data(), full.data() + N * N);  // Symmetric: layout does not matter.
-  out.finite = std::isfinite(out.cost) && g.allFinite() && full.allFinite();
+  out.finite = std::isfinite(out.cost);
+  for (int i = 0; i < N * N; ++i) out.finite = out.finite && std::isfinite(h[i]);
+  for (int i = 0; i < N; ++i) out.finite = out.finite && std::isfinite(g[i]);
+  out.g = std::move(g);
+  out.h = std::move(h);
   return out;
 }
 
-template <typename Fn>
-auto Dispatch(ModelId model, const Fn& fn) {
-  return VisitModel(model, [&](auto tag) {
-    constexpr int kParams = decltype(tag)::template Of<double, double>::kParamCount;
-    return fn(std::integral_constant<int, kParams>{});
+Sums Cost(const BoundedLmProblem& problem, const Geometry& geo, const std::vector<Chunk>& chunks,
+          const std::vector<double>& y, double e) {
+  return VisitModel(problem.model, [&](auto tag) {
+    using M = typename decltype(tag)::template Of<double, double>;
+    return CostPass<M>(problem, geo, chunks, y, e);
   });
 }
 
-Sums Cost(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
-          const std::vector<double>& y, double e) {
-  return Dispatch(problem.model,
-                  [&](auto k) { return CostPass<decltype(k)::value>(problem, chunks, y, e); });
-}
-
-Sums Jacobian(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks,
-              const std::vector<double>& y, double e) {
-  return Dispatch(problem.model,
-                  [&](auto k) { return JacobianPass<decltype(k)::value>(problem, chunks, y, e); });
+Sums Jacobian(const BoundedLmProblem& problem, const Geometry& geo,
+              const std::vector<Chunk>& chunks, const std::vector<double>& y, double e) {
+  return VisitModel(problem.model, [&](auto tag) {
+    using Tag = decltype(tag);
+    if (problem.derivatives == JetLayout::kPerEntry || !ChannelSeparable(problem.model)) {
+      return JacobianPass<Tag, false>(problem, geo, chunks, y, e);
+    }
+    return JacobianPass<Tag, true>(problem, geo, chunks, y, e);
+  });
 }
 
 // Trust region (Nocedal and Wright 2006, Algorithm 4.1; Moré 1978): a step is accepted when
@@ -287,18 +586,97 @@ std::vector<double> InternalOfBox(const Parametrization& param, const std::vecto
   return u;
 }
 
+double FractionDerivative(const Parametrization& param, int i, double u) {
+  const EntryMap& e = param.entry(i);
+  if (e.fixed) return 0.0;
+  const double dy = 0.5 * (e.upper - e.lower);
+  if (!e.log || InBoxLog(param, i)) return dy;
+  const double y = std::clamp(e.lower + 0.5 * (e.upper - e.lower) * (std::sin(u) + 1.0),
+                              e.lower, e.upper);
+  return std::exp(y) * dy;  // The LM works on p = exp(y) here.
+}
+
+double BoxDerivative(const Parametrization& param, int i, double u) {
+  return FractionDerivative(param, i, u) * std::cos(u);
+}
+
 double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>& y, double e) {
-  const Sums s = Cost(problem, Chunks(problem), y, e);
+  const Sums s = Cost(problem, PrepareGeometry(problem), Chunks(problem), y, e);
   return s.finite ? s.cost : std::numeric_limits<double>::quiet_NaN();
 }
 
 double BoundedLmNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
                                 double e, std::vector<double>* g, std::vector<double>* h) {
-  Sums s = Jacobian(problem, Chunks(problem), y, e);
+  Sums s = Jacobian(problem, PrepareGeometry(problem), Chunks(problem), y, e);
   *g = std::move(s.g);
   *h = std::move(s.h);
   return s.finite ? s.cost : std::numeric_limits<double>::quiet_NaN();
 }
+
+namespace {
+
+// Pseudo-inverse solve of a small symmetric positive semi-definite system: directions with
+// eigenvalue below 1e-12 of the largest are left out (a linear entry the image does not see).
+Eigen::VectorXd SolvePsd(const Eigen::MatrixXd& a, const Eigen::VectorXd& b) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(a);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  const double max_lambda = lambda.size() > 0 ? lambda.maxCoeff() : 0.0;
+  Eigen::VectorXd coeff = eig.eigenvectors().transpose() * b;
+  for (int i = 0; i < coeff.size(); ++i) {
+    coeff[i] = max_lambda > 0 && lambda[i] > 1e-12 * max_lambda ? coeff[i] / lambda[i] : 0.0;
+  }
+  return eig.eigenvectors() * coeff;
+}
+
+// min over z in [lo, hi] of q(z) = g.(z - z0) + 0.5 (z - z0)' H (z - z0), H positive
+// semi-definite, from z0 inside the box: projected Newton with an Armijo search along the
+// projection arc (Bertsekas 1982; for a quadratic the Newton step on the free entries is exact,
+// so this ends after one step per change of the active set). Returns z.
+Eigen::VectorXd BoxQp(const Eigen::MatrixXd& h, const Eigen::VectorXd& g, const Eigen::VectorXd& z0,
+                      const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+  const int m = static_cast<int>(g.size());
+  auto q = [&](const Eigen::VectorXd& z) {
+    const Eigen::VectorXd d = z - z0;
+    return g.dot(d) + 0.5 * d.dot(h * d);
+  };
+  Eigen::VectorXd z = z0;
+  for (int it = 0; it < 4 * m + 8; ++it) {
+    const Eigen::VectorXd grad = g + h * (z - z0);
+    std::vector<int> free;
+    for (int i = 0; i < m; ++i) {
+      const bool out_low = z[i] <= lo[i] && grad[i] > 0;
+      const bool out_high = z[i] >= hi[i] && grad[i] < 0;
+      if (!out_low && !out_high) free.push_back(i);
+    }
+    if (free.empty()) break;
+    const int f = static_cast<int>(free.size());
+    Eigen::MatrixXd hf(f, f);
+    Eigen::VectorXd gf(f);
+    for (int a = 0; a < f; ++a) {
+      gf[a] = grad[free[a]];
+      for (int b = 0; b < f; ++b) hf(a, b) = h(free[a], free[b]);
+    }
+    const Eigen::VectorXd step = SolvePsd(hf, -gf);
+    const double q0 = q(z);
+    bool moved = false;
+    for (double t = 1.0; t > 1e-10; t *= 0.5) {
+      Eigen::VectorXd trial = z;
+      for (int a = 0; a < f; ++a) {
+        const int i = free[a];
+        trial[i] = std::clamp(z[i] + t * step[a], lo[i], hi[i]);
+      }
+      if (q(trial) <= q0 + 1e-4 * grad.dot(trial - z)) {
+        moved = (trial - z).lpNorm<Eigen::Infinity>() > 0;
+        z = trial;
+        break;
+      }
+    }
+    if (!moved) break;
+  }
+  return z;
+}
+
+}  // namespace
 
 BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLmOptions& options,
                                 std::vector<double>* y_io, double* e_io) {
@@ -306,6 +684,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   const int n = param.size();
   const int N = n + 1;
   const std::vector<Chunk> chunks = Chunks(problem);
+  const Geometry geo = PrepareGeometry(problem);
   BoundedLmSummary summary;
 
   // x = [y, e]; box of every unknown (the exposure is unbounded).
@@ -321,16 +700,77 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   hi[n] = std::numeric_limits<double>::infinity();
   unknown[n] = problem.exposure_free;
 
+  // Variable projection (Golub and Pereyra 1973, "The differentiation of pseudo-inverses and
+  // nonlinear least squares problems whose variables separate", SIAM J. Numer. Anal. 10(2);
+  // with Kaufman's 1975 approximation of the reduced Jacobian, BIT 15). With the L2 loss and a
+  // fixed exposure the image is affine in the linear entries (LinearEntries: kd and f0 of ggx,
+  // kd and ks of the Blinn-Phong models), so for given nonlinear entries (roughness, shininess)
+  // their best values are a box-constrained linear least-squares problem whose normal equations
+  // are the Jacobian pass's own rows of J^T J and J^T r, solved exactly (BoxQp). The trust
+  // region then works on the nonlinear entries alone, with the Schur complement of the linear
+  // block (the Gauss-Newton model of the cost with the linear entries re-optimised), and every
+  // trial point is re-projected before it is judged. The valley that a joint step follows at
+  // ~1% per step when a highlight and the diffuse trade off (black-glossy-rim: kd and f0 falling
+  // together by 10x while roughness moves 10%) is then a one-dimensional problem.
+  std::vector<bool> linear(N, false);
+  bool varpro = false;
+  if (problem.projection && problem.loss == Loss::kL2 && !problem.exposure_free) {
+    const std::vector<bool> model_linear = LinearEntries(problem.model);
+    bool any_linear = false, any_nonlinear = false;
+    for (int i = 0; i < n; ++i) {
+      if (!unknown[i]) continue;
+      linear[i] = model_linear[i] && !InBoxLog(param, i);
+      (linear[i] ? any_linear : any_nonlinear) = true;
+    }
+    varpro = any_linear && any_nonlinear;
+    if (!varpro) std::fill(linear.begin(), linear.end(), false);
+  }
+  std::vector<int> linear_index;
+  for (int i = 0; i < N; ++i) {
+    if (linear[i]) linear_index.push_back(i);
+  }
+  // Moves the linear entries of xv to their exact optimum for the other entries, from the
+  // pass at xv; updates the pass's cost (exact: the cost is quadratic in them) and returns
+  // whether anything moved (the pass's g and h then belong to the old point).
+  auto project = [&](Sums* pass, std::vector<double>* xv) {
+    const int l = static_cast<int>(linear_index.size());
+    Eigen::MatrixXd h(l, l);
+    Eigen::VectorXd g(l), z0(l), zl(l), zh(l);
+    for (int a = 0; a < l; ++a) {
+      const int i = linear_index[a];
+      g[a] = pass->g[i];
+      z0[a] = (*xv)[i];
+      zl[a] = lo[i];
+      zh[a] = hi[i];
+      for (int b = 0; b < l; ++b) h(a, b) = pass->h[i * N + linear_index[b]];
+    }
+    const Eigen::VectorXd z = BoxQp(h, g, z0, zl, zh);
+    const Eigen::VectorXd d = z - z0;
+    const double change = g.dot(d) + 0.5 * d.dot(h * d);
+    if (!(change < 0)) return false;
+    pass->cost += change;
+    for (int a = 0; a < l; ++a) (*xv)[linear_index[a]] = z[a];
+    return true;
+  };
+
   auto split = [&](const std::vector<double>& v) {
     return std::vector<double>(v.begin(), v.begin() + n);
   };
-  Sums at = Jacobian(problem, chunks, split(x), x[n]);
+  Sums at = Jacobian(problem, geo, chunks, split(x), x[n]);
   ++summary.jacobian_evaluations;
   summary.initial_cost = summary.final_cost = at.cost;
   if (!at.finite) {
     summary.failed = true;
     summary.message = "non-finite cost at the start point";
     return summary;
+  }
+  if (varpro && project(&at, &x)) {
+    at = Jacobian(problem, geo, chunks, split(x), x[n]);
+    ++summary.jacobian_evaluations;
+    if (!at.finite) {
+      summary.message = "non-finite Jacobian";
+      return summary;
+    }
   }
 
   const bool trace = std::getenv("SHADEFIT_FIT_TRACE") != nullptr;
@@ -343,14 +783,14 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   update_scale();
   double radius = 0;
   for (int i = 0; i < N; ++i) {
-    if (unknown[i]) radius += std::pow(scale_of(i) * x[i], 2);
+    if (unknown[i] && !linear[i]) radius += std::pow(scale_of(i) * x[i], 2);
   }
   radius = std::sqrt(radius);
   radius = kInitialRadiusFactor * (radius > 0 ? radius : 1.0);
   summary.message = "maximum iterations reached";
   while (summary.iterations < options.max_iterations) {
     // Binding set and projected gradient (the first-order optimality measure with bounds).
-    std::vector<int> varying;
+    std::vector<int> varying, held_linear;
     double projected_gradient = 0;
     for (int i = 0; i < N; ++i) {
       if (!unknown[i]) continue;
@@ -360,7 +800,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
       projected_gradient = std::max(projected_gradient, std::abs(moved));
       const bool out_low = x[i] <= lo[i] + eps && at.g[i] > 0;
       const bool out_high = x[i] >= hi[i] - eps && at.g[i] < 0;
-      if (!out_low && !out_high) varying.push_back(i);
+      if (!out_low && !out_high) (linear[i] ? held_linear : varying).push_back(i);
     }
     if (projected_gradient <= options.gradient_tolerance) {
       summary.converged = true;
@@ -368,7 +808,8 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
       break;
     }
     if (varying.empty()) {
-      // Every unknown is held on a bound with its gradient pointing outwards: a KKT point.
+      // Every unknown is held on a bound with its gradient pointing outwards (with variable
+      // projection: every nonlinear one, the linear ones at their optimum): a KKT point.
       summary.converged = true;
       summary.message = "every unknown on a bound";
       break;
@@ -382,6 +823,30 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
       d_scale[a] = scale_of(varying[a]);
       x_norm += std::pow(d_scale[a] * x[varying[a]], 2);
       for (int b = 0; b < m; ++b) h(a, b) = at.h[varying[a] * N + varying[b]];
+    }
+    if (!held_linear.empty()) {
+      // The linear entries re-optimised along the step: the Schur complement of their block
+      // (Kaufman's reduced Gauss-Newton matrix), g likewise.
+      const int l = static_cast<int>(held_linear.size());
+      Eigen::MatrixXd hll(l, l), hln(l, m);
+      Eigen::VectorXd gl(l);
+      for (int a = 0; a < l; ++a) {
+        gl[a] = at.g[held_linear[a]];
+        for (int b = 0; b < l; ++b) hll(a, b) = at.h[held_linear[a] * N + held_linear[b]];
+        for (int b = 0; b < m; ++b) hln(a, b) = at.h[held_linear[a] * N + varying[b]];
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(hll);
+      const double max_lambda = eig.eigenvalues().maxCoeff();
+      Eigen::VectorXd inverse(l);
+      for (int a = 0; a < l; ++a) {
+        const double lambda = eig.eigenvalues()[a];
+        inverse[a] = max_lambda > 0 && lambda > 1e-12 * max_lambda ? 1.0 / lambda : 0.0;
+      }
+      const Eigen::MatrixXd pinv =
+          eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+      h -= hln.transpose() * pinv * hln;
+      g -= hln.transpose() * (pinv * gl);
+      h = 0.5 * (h + h.transpose());
     }
     x_norm = std::sqrt(x_norm);
     if (radius <= options.parameter_tolerance * (x_norm + options.parameter_tolerance)) {
@@ -412,31 +877,45 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
       break;
     }
     const double predicted = -(g.dot(step) + 0.5 * step.dot(h * step));
-    const Sums trial_cost = Cost(problem, chunks, split(trial), trial[n]);
-    ++summary.residual_evaluations;
-    const double actual = at.cost - trial_cost.cost;
+    // The trial's cost; with variable projection after re-optimising the linear entries there,
+    // which needs that point's normal equations (a Jacobian pass, kept if nothing moved).
+    Sums trial_pass;
+    bool trial_moved = false;
+    if (varpro) {
+      trial_pass = Jacobian(problem, geo, chunks, split(trial), trial[n]);
+      ++summary.jacobian_evaluations;
+      if (trial_pass.finite) trial_moved = project(&trial_pass, &trial);
+    } else {
+      trial_pass = Cost(problem, geo, chunks, split(trial), trial[n]);
+      ++summary.residual_evaluations;
+    }
+    const double actual = at.cost - trial_pass.cost;
     const double ratio = predicted > 0 ? actual / predicted : -1.0;
     if (trace) {
       // SHADEFIT_FIT_TRACE=1: one line per step (debugging aid, as the Ceres path's table).
       fmt::print("lm {:3d} cost {:.9g} trial {:.9g} ratio {:.3g} radius {:.3g} lambda {:.3g} "
                  "free {} |g| {:.3g}:",
-                 summary.iterations, at.cost, trial_cost.cost, ratio, radius, lambda, m,
+                 summary.iterations, at.cost, trial_pass.cost, ratio, radius, lambda, m,
                  projected_gradient);
       for (int i = 0; i < N; ++i) {
         fmt::print(" {:.4g}", i < n && InBoxLog(param, i) ? std::exp(trial[i]) : trial[i]);
       }
       fmt::print("\n");
     }
-    if (!trial_cost.finite || ratio < 0.25) {
+    if (!trial_pass.finite || ratio < 0.25) {
       radius = 0.25 * std::min(radius, step_norm);
     } else if (ratio > 0.75) {
       radius = std::max(radius, 2.0 * step_norm);
     }
-    if (trial_cost.finite && actual > 0 && ratio > kMinRatio) {
+    if (trial_pass.finite && actual > 0 && ratio > kMinRatio) {
       x = trial;
       const double previous = at.cost;
-      at = Jacobian(problem, chunks, split(x), x[n]);
-      ++summary.jacobian_evaluations;
+      if (varpro && !trial_moved) {
+        at = std::move(trial_pass);
+      } else {
+        at = Jacobian(problem, geo, chunks, split(x), x[n]);
+        ++summary.jacobian_evaluations;
+      }
       if (!at.finite) {
         summary.message = "non-finite Jacobian";
         break;

@@ -34,6 +34,10 @@ struct PixelSpan {
   int count = 0;
 };
 
+// How the Jacobian pass carries derivatives: one Jet slot per table row where the model is
+// channel-separable (ChannelSeparable; the default), or one per entry (tests compare the two).
+enum class JetLayout { kPerRow, kPerEntry };
+
 struct BoundedLmProblem {
   ModelId model{};
   Loss loss = Loss::kL2;  // Non-robust losses only (L2, log, cube root).
@@ -41,7 +45,19 @@ struct BoundedLmProblem {
   std::vector<PixelSpan> spans;
   bool exposure_free = false;
   int threads = 1;  // Any count gives the same bytes: partial sums per fixed chunk, summed in order.
+  JetLayout derivatives = JetLayout::kPerRow;
+  // Variable projection over the linear entries where it applies (L2 loss, fixed exposure;
+  // SolveBoundedLm says how); false: the plain bounded LM (tests compare the two).
+  bool projection = true;
 };
+
+// Whether every output channel of the model depends on the same channel of its colour rows
+// only (kd.r acts on red alone, ...): true for every model that does not mix its colours.
+bool ChannelSeparable(ModelId model);
+
+// Per flattened entry: whether the model's radiance is affine in it, jointly with the other
+// entries marked (ggx: kd and f0; not roughness).
+std::vector<bool> LinearEntries(ModelId model);
 
 struct BoundedLmOptions {
   int max_iterations = 100;
@@ -62,6 +78,12 @@ struct BoundedLmSummary {
 // Box coordinates y of internal u (fixed entries: their u, unused) and back.
 std::vector<double> BoxOfInternal(const Parametrization& param, const std::vector<double>& u);
 std::vector<double> InternalOfBox(const Parametrization& param, const std::vector<double>& y);
+
+// d y_i / d u_i of entry i at internal u (0 for fixed entries): the chain factor from the
+// bounded LM's coordinates to the sine transform's.
+double BoxDerivative(const Parametrization& param, int i, double u);
+// d y_i / d s_i, s = sin u the fraction of the box: finite on the bounds too.
+double FractionDerivative(const Parametrization& param, int i, double u);
 
 // 0.5 * sum r^2 at (y, e); NaN when a residual is not finite.
 double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>& y, double e);

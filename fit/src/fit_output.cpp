@@ -93,10 +93,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
       {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed"},
       {"coarse_to_fine", r.coarse_to_fine},
       {"results", starts}};
-  j["covariance"] = {{"status", r.covariance_status},
-                     {"method",
-                      "ceres::Covariance DENSE_SVD, null_space_rank -1, scaled by "
-                      "s^2 = 2 cost / (residuals - free parameters)"}};
+  j["covariance"] = {{"status", r.covariance_status}, {"method", r.covariance_method}};
   j["evaluations"] = {{"model_renders", r.renders},
                       {"gbuffer_renders", r.gbuffer_renders},
                       {"residual_evaluations", r.residual_evaluations},

@@ -129,7 +129,8 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
   internal::RecordStarts(param, problems, std::move(solved), &result);
 
-  // Uncertainty: ceres::Covariance at the best start, scaled by the residual variance.
+  // Uncertainty at the best start (the bounded LM's J^T J, or ceres::Covariance), scaled by the
+  // residual variance.
   result.covariance_status = "skipped";
   if (options.compute_covariance && std::isfinite(result.final_cost)) {
     internal::EstimateUncertainty(param, problems, &result);

@@ -233,6 +233,79 @@ TEST_P(BoundedLmGradientTest, GradientMatchesCentralDifferences) {
   }
 }
 
+// J^T J of the one-pass normal equations against J itself, built row by row from the gradient:
+// g(t) = J^T (f - t) for any targets t, so g(t) - g(t + e_k) is row k of J (the gradient is held
+// to central differences above). Both Jet layouts (one slot per row where the model is
+// channel-separable, one per entry), so neither the compressed accumulation nor its scatter onto
+// the unknowns can drop or misplace a term. Relative 1e-9 of the largest entry.
+TEST_P(BoundedLmGradientTest, GaussNewtonMatrixIsJTransposeJ) {
+  const ModelInfo& model = FindModel(GetParam());
+  const Geometry& g = SmallGeometry();
+  const fit::Parametrization param(model, {});
+  const int n = param.size(), N = n + 1;
+  const int residuals = 3 * static_cast<int>(g.points.size());
+  for (fit::internal::JetLayout layout :
+       {fit::internal::JetLayout::kPerRow, fit::internal::JetLayout::kPerEntry}) {
+    std::vector<double> targets(residuals, 0.05);
+    fit::internal::BoundedLmProblem problem;
+    problem.model = model.id;
+    problem.loss = fit::Loss::kL2;
+    problem.param = &param;
+    problem.exposure_free = true;
+    problem.derivatives = layout;
+    problem.spans.push_back({g.points.data(), targets.data(), static_cast<int>(g.points.size())});
+    const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 5));
+    const double e = -0.2;
+    std::vector<double> g0, h, gk, hk;
+    fit::internal::BoundedLmNormalEquations(problem, y, e, &g0, &h);
+    std::vector<double> jtj(N * N, 0.0);
+    for (int k = 0; k < residuals; ++k) {
+      targets[k] += 1.0;
+      fit::internal::BoundedLmNormalEquations(problem, y, e, &gk, &hk);
+      targets[k] -= 1.0;
+      for (int a = 0; a < N; ++a) {
+        for (int b = 0; b < N; ++b) jtj[a * N + b] += (gk[a] - g0[a]) * (gk[b] - g0[b]);
+      }
+    }
+    double largest = 0;
+    for (double v : jtj) largest = std::max(largest, std::abs(v));
+    ASSERT_GT(largest, 0.0);
+    for (int a = 0; a < N; ++a) {
+      for (int b = 0; b < N; ++b) {
+        EXPECT_NEAR(h[a * N + b], jtj[a * N + b], 1e-9 * largest)
+            << GetParam() << " (" << a << ", " << b << ") layout " << static_cast<int>(layout);
+      }
+    }
+  }
+}
+
+// What the solver reads of each model's structure, against what the formulas say: which models
+// mix colour channels (cycles-principled's tint is a luminance of base_color), and which entries
+// the radiance is affine in (variable projection's linear block).
+TEST(BoundedLmStructure, SeparableChannelsAndLinearEntries) {
+  using fit::internal::ChannelSeparable;
+  using fit::internal::LinearEntries;
+  EXPECT_TRUE(ChannelSeparable(FindModel("ggx").id));
+  EXPECT_TRUE(ChannelSeparable(FindModel("blinn-phong").id));
+  EXPECT_TRUE(ChannelSeparable(FindModel("ggx-metallic").id));
+  EXPECT_FALSE(ChannelSeparable(FindModel("cycles-principled").id));
+  auto linear_names = [](const std::string& name) {
+    const ModelInfo& model = FindModel(name);
+    const std::vector<bool> linear = LinearEntries(model.id);
+    std::string out;
+    for (int i = 0; i < model.ParamCount(); ++i) {
+      if (linear[i]) out += (out.empty() ? "" : " ") + model.EntryName(i);
+    }
+    return out;
+  };
+  // f = kd / pi + D V F_Schlick(f0): affine in kd and f0 (Schlick's F is), not in roughness.
+  EXPECT_EQ(linear_names("ggx"), "kd.r kd.g kd.b f0.r f0.g f0.b");
+  EXPECT_EQ(linear_names("lambert"), "kd.r kd.g kd.b");
+  // base_color (1 - metallic) and mix(f0_dielectric, base_color, metallic): bilinear in base and
+  // metallic, so the first row is kept, with f0_dielectric (affine jointly with base).
+  EXPECT_EQ(linear_names("ggx-metallic"), "base_color.r base_color.g base_color.b f0_dielectric");
+}
+
 INSTANTIATE_TEST_SUITE_P(Models, BoundedLmGradientTest, ::testing::ValuesIn(AllModelNames()),
                          [](const auto& info) {
                            std::string n = info.param;

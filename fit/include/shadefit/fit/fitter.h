@@ -184,6 +184,7 @@ struct FitResult {
   bool coarse_to_fine = false;      // Whether the coarse stage ran.
   std::vector<StartResult> start_results;
   std::string covariance_status;    // "ok", "rank deficient", "failed: ...", "skipped".
+  std::string covariance_method;    // How the standard errors were computed (the JSON says).
   long renders = 0;                 // GL renders of the model (not counting G-buffers/outputs).
   long gbuffer_renders = 0;
   long residual_evaluations = 0;    // Ceres evaluations without Jacobian (whole problem).

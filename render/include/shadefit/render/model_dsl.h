@@ -180,10 +180,11 @@ using std::sqrt;
 
 // SF_PARAMS(LIST): LIST(X) calls X(type, name, min, max, default, roles, description) per row,
 // type being Color or Real. Declares the named Params struct, its loader from the flattened
-// vector (rows in table order, colours as 3 entries) and the table itself.
+// vector (rows in table order, colours as 3 entries), the entry and row counts and the table.
 #define SF_PARAM_FIELD_(type, name, lo, hi, def, roles, desc) type name;
 #define SF_PARAM_LOAD_(type, name, lo, hi, def, roles, desc) LoadParam(flat, i, p.name);
 #define SF_PARAM_COUNT_(type, name, lo, hi, def, roles, desc) +int(sizeof(type) / sizeof(Real))
+#define SF_PARAM_ROWS_(type, name, lo, hi, def, roles, desc) +1
 #define SF_PARAM_ROW_(type, name, lo, hi, def, roles, desc)                                \
   ::shadefit::ParamSpec{#name, int(sizeof(type) / sizeof(Real)), lo, hi, def,             \
                         ((roles) & ::shadefit::kLogScale) != 0, desc, (roles)},
@@ -192,6 +193,7 @@ using std::sqrt;
     LIST(SF_PARAM_FIELD_)                                             \
   };                                                                  \
   static constexpr int kParamCount = 0 LIST(SF_PARAM_COUNT_);         \
+  static constexpr int kRowCount = 0 LIST(SF_PARAM_ROWS_);            \
   static Params Load(const Real* flat) {                              \
     Params p;                                                         \
     int i = 0;                                                        \
