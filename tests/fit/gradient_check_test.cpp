@@ -279,22 +279,24 @@ TEST_P(BoundedLmGradientTest, GaussNewtonMatrixIsJTransposeJ) {
   }
 }
 
-// What the solver reads of each model's structure, against what the formulas say: which models
-// mix colour channels (cycles-principled's tint is a luminance of base_color), and which entries
-// the radiance is affine in (variable projection's linear block).
+// What the solver reads of each model's structure, against what the formulas say: that no
+// shipped model mixes colour channels (cycles-principled has no tint: its specular tint is 0),
+// and which entries the radiance is affine in (variable projection's linear block).
 TEST(BoundedLmStructure, SeparableChannelsAndLinearEntries) {
   using fit::internal::ChannelSeparable;
   using fit::internal::LinearEntries;
   EXPECT_TRUE(ChannelSeparable(FindModel("ggx").id));
   EXPECT_TRUE(ChannelSeparable(FindModel("blinn-phong").id));
   EXPECT_TRUE(ChannelSeparable(FindModel("ggx-metallic").id));
-  EXPECT_FALSE(ChannelSeparable(FindModel("cycles-principled").id));
+  EXPECT_TRUE(ChannelSeparable(FindModel("cycles-principled").id));
   auto linear_names = [](const std::string& name) {
     const ModelInfo& model = FindModel(name);
     const std::vector<bool> linear = LinearEntries(model.id);
     std::string out;
     for (int i = 0; i < model.ParamCount(); ++i) {
-      if (linear[i]) out += (out.empty() ? "" : " ") + model.EntryName(i);
+      if (!linear[i]) continue;
+      if (!out.empty()) out += ' ';
+      out += model.EntryName(i);
     }
     return out;
   };
