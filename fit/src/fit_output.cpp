@@ -69,6 +69,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
                  {"termination", r.termination},
                  {"converged", r.converged},
                  {"message", r.solver_message},
+                 {"method", r.solver_name},
                  {"seconds", r.seconds},
                  {"solve_seconds", r.solve_seconds}};
   j["converged"] = r.converged;

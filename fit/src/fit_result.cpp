@@ -88,6 +88,10 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
   result->termination = winner.termination;
   result->converged = winner.converged && std::isfinite(winner.final_cost);
   result->solver_message = multistart.solver_message;
+  result->solver_name = !problems.native ? "ceres"
+                        : problems.native_full.loss == Loss::kL2 && !problems.exposure_free
+                            ? "bounded-lm (variable projection)"
+                            : "bounded-lm";
 
   // Starts that reached the best cost: relative 1e-6, plus an absolute floor of 1e-12 times the
   // cost of predicting black (exact synthetic fits end at costs ~1e-25 that differ relatively).

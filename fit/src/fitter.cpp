@@ -52,6 +52,15 @@ std::string LossName(Loss loss) {
   return "?";
 }
 
+Solver ParseSolver(const std::string& name, const std::string& flag) {
+  if (name == "auto") return Solver::kAuto;
+  if (name == "bounded-lm") return Solver::kBoundedLm;
+  if (name == "ceres") return Solver::kCeres;
+  throw Error("", flag,
+              fmt::format("unknown solver '{}'{} (known: auto, bounded-lm, ceres)", name,
+                          DidYouMean(name, {"auto", "bounded-lm", "ceres"})));
+}
+
 DerivativePath ParsePath(const std::string& name) {
   if (name == "auto") return DerivativePath::kAuto;
   if (name == "gbuffer") return DerivativePath::kGBuffer;

@@ -27,7 +27,7 @@ void RegisterFitCommand(CLI::App& app) {
     std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
     int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
     int threads = fit::FitOptions{}.num_threads, env_samples = 0;
-    std::string solver = "bounded-lm";
+    std::string solver = "auto";
     std::string encoding = "as-imported";
     int env_pixels = fit::FitOptions{}.environment_pixels;
     int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
@@ -79,8 +79,8 @@ void RegisterFitCommand(CLI::App& app) {
                   "G-buffer path, environment light: re-solves with the proposal on the fit")
       ->capture_default_str();
   cmd->add_option("--solver", opt->solver,
-                  "bounded-lm (G-buffer path, l2/log/cuberoot) | ceres (the staged Ceres solve, "
-                  "for comparison)")
+                  "auto (bounded-lm for l2 with fixed exposure, else ceres) | bounded-lm "
+                  "(G-buffer path, l2/log/cuberoot) | ceres (the staged Ceres solve)")
       ->capture_default_str();
   cmd->add_flag("--central-differences", opt->central,
                 "GL path: central instead of forward differences (2x renders)");
@@ -115,11 +115,7 @@ void RegisterFitCommand(CLI::App& app) {
     options.environment_twin_samples = opt->env_twin_samples;
     options.environment_rounds = opt->env_rounds;
     options.central_differences = opt->central;
-    if (opt->solver != "bounded-lm" && opt->solver != "ceres") {
-      throw Error("", "--solver",
-                  fmt::format("unknown solver '{}' (known: bounded-lm, ceres)", opt->solver));
-    }
-    options.bounded_lm = opt->solver == "bounded-lm";
+    options.solver = fit::ParseSolver(opt->solver, "--solver");
     options.render_outputs = !opt->no_images;
     if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
     if (opt->max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");

@@ -85,11 +85,9 @@ fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
   fo.num_threads = kCeresThreadsPerFit;
   fo.render_outputs = false;  // The evaluation renders every lighting, training ones too.
   fo.renderer = &renderer;
-  // Studies keep the staged Ceres solve for now. With the bounded LM, the default study's gold
-  // ggx-metallic fit (cube-root loss, pixel_stride 2, 3 starts) ended at metallic 0.36 and
-  // f0_dielectric 1 with a black base colour (LDR-FLIP 0.080 where the Ceres fit passes 0.05),
-  // while the CLI on every pixel finds the metal with both solvers.
-  fo.bounded_lm = false;
+  // fo.solver stays Solver::kAuto, the CLI's default: the bounded LM for l2 fits with a fixed
+  // exposure (the measured study), the staged Ceres solve for the rest (the Cycles study's
+  // cube-root fits, free-exposure photo sets).
   return fo;
 }
 
