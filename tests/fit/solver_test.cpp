@@ -184,11 +184,20 @@ TEST_P(MeasuredDefaultStartTest, KeyLightNearBestOf16) {
   request.scene_path = (CyclesDir() / "scenes" / "sphere-key.toml").string();
   request.output = testing::TestOutputDir("fit_solver") + "/" + GetParam() + "-key.exr";
   refs::MakeMeasuredReference(request, testing::SharedRenderer());
-  ExpectDefaultNearBestOf16(fit::LoadReference(request.output), GetParam() + "-key");
+  const fit::FitReference ref = fit::LoadReference(request.output);
+  ExpectDefaultNearBestOf16(ref, GetParam() + "-key");
+  // One start within the 40 iterations too. GGX does not fit a measured material
+  // exactly, and where the residuals stay large the reduced Gauss-Newton matrix overstates the
+  // curvature: without the step extension alum-bronze took 49 iterations at a ratio of 1.65 each.
+  fit::FitOptions one;
+  one.starts = 1;
+  const fit::FitResult r = FitReference(ref, "ggx", one);
+  EXPECT_LE(r.iterations, kMaxIterations) << GetParam() << ": " << r.solver_message;
 }
 
 INSTANTIATE_TEST_SUITE_P(Merl, MeasuredDefaultStartTest,
-                         ::testing::Values("steel", "brass", "aluminium"),
+                         ::testing::Values("steel", "brass", "aluminium", "alum-bronze",
+                                           "white-fabric"),
                          [](const auto& info) { return TestName(info.param); });
 
 }  // namespace
