@@ -212,6 +212,36 @@ Sums CostPass(const BoundedLmProblem& problem, const Geometry& geo,
   return out;
 }
 
+// Fixed pseudo-random numbers for the structure checks below (splitmix64, Steele, Lea and Flood
+// 2014): the same configurations on every platform and run.
+class StructureRng {
+ public:
+  explicit StructureRng(std::uint64_t seed) : state_(seed) {}
+  double Uniform() {
+    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  }
+  // A direction above the surface z = 0, at least ~11 degrees above the horizon.
+  Vec3d Hemisphere() {
+    const double z = 0.2 + 0.8 * Uniform(), phi = 2 * kPi * Uniform();
+    const double r = std::sqrt(1 - z * z);
+    return Vec3d{r * std::cos(phi), r * std::sin(phi), z};
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+// fn(ModelTag) for every model, in ModelId order.
+template <typename T, typename Fn>
+std::array<T, kModelCount> PerModel(const Fn& fn) {
+  std::array<T, kModelCount> out{};
+  for (int m = 0; m < kModelCount; ++m) out[m] = VisitModel(static_cast<ModelId>(m), fn);
+  return out;
+}
+
 // Whether each output channel of model M depends on channel c of its colour rows only (kd.r
 // on red alone, ...), as for every model whose colours are not mixed (every shipped model; a
 // luminance tint, Burley 2012's specular or sheen tint, would mix them, and such a model gets
@@ -230,18 +260,7 @@ bool ChannelSeparableImpl() {
   for (const ParamSpec& row : table) {
     for (int c = 0; c < row.size; ++c) channel.push_back(row.size == 3 ? c : -1);
   }
-  std::uint64_t state = 0x9e3779b97f4a7c15ull;
-  auto uniform = [&state] {  // splitmix64: fixed, platform-independent.
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
-  };
-  auto hemisphere = [&] {
-    const double z = 0.2 + 0.8 * uniform(), phi = 2 * kPi * uniform();
-    const double r = std::sqrt(1 - z * z);
-    return Vec3d{r * std::cos(phi), r * std::sin(phi), z};
-  };
+  StructureRng rng(0x9e3779b97f4a7c15ull);
   for (int trial = 0; trial < 24; ++trial) {
     Jet p[P];
     int i = 0;
@@ -249,11 +268,11 @@ bool ChannelSeparableImpl() {
       for (int c = 0; c < row.size; ++c, ++i) {
         const double lo = row.log_scale ? std::log(std::max(row.min, 1e-2)) : row.min;
         const double hi = row.log_scale ? std::log(std::min(row.max, 1e2)) : row.max;
-        const double t = lo + (0.1 + 0.8 * uniform()) * (hi - lo);
+        const double t = lo + (0.1 + 0.8 * rng.Uniform()) * (hi - lo);
         p[i] = Jet(row.log_scale ? std::exp(t) : t, i);
       }
     }
-    const Vec3d n{0, 0, 1}, l = hemisphere(), v = hemisphere();
+    const Vec3d n{0, 0, 1}, l = rng.Hemisphere(), v = rng.Hemisphere();
     const ShadingDots<double> d = ComputeShadingDots(n, l, v);
     const typename M::Params q = M::Load(p);
     const Rgb<Jet> r = M::Diffuse(q, d) * Jet(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
@@ -271,14 +290,8 @@ bool ChannelSeparableImpl() {
 }  // namespace
 
 bool ChannelSeparable(ModelId model) {
-  static const std::array<bool, kModelCount> separable = [] {
-    std::array<bool, kModelCount> out{};
-    for (int m = 0; m < kModelCount; ++m) {
-      out[m] = VisitModel(static_cast<ModelId>(m),
-                          [](auto tag) { return ChannelSeparableImpl<decltype(tag)>(); });
-    }
-    return out;
-  }();
+  static const std::array<bool, kModelCount> separable =
+      PerModel<bool>([](auto tag) { return ChannelSeparableImpl<decltype(tag)>(); });
   return separable[static_cast<int>(model)];
 }
 
@@ -297,18 +310,7 @@ std::vector<bool> LinearEntriesImpl() {
   for (const ParamSpec& row : table) {
     for (int c = 0; c < row.size; ++c) spec_of.push_back(&row);
   }
-  std::uint64_t state = 0x2545f4914f6cdd1dull;
-  auto uniform = [&state] {  // splitmix64
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
-  };
-  auto hemisphere = [&] {
-    const double z = 0.2 + 0.8 * uniform(), phi = 2 * kPi * uniform();
-    const double r = std::sqrt(1 - z * z);
-    return Vec3d{r * std::cos(phi), r * std::sin(phi), z};
-  };
+  StructureRng rng(0x2545f4914f6cdd1dull);
   struct Config {
     ShadingDots<double> d;
     double p[P];
@@ -319,10 +321,10 @@ std::vector<bool> LinearEntriesImpl() {
     for (int i = 0; i < P; ++i) {
       const ParamSpec& row = *spec_of[i];
       const double lo = row.min, hi = std::min(row.max, row.min + 100.0);
-      cfg.p[i] = lo + (0.3 + 0.4 * uniform()) * (hi - lo);
+      cfg.p[i] = lo + (0.3 + 0.4 * rng.Uniform()) * (hi - lo);
       cfg.step[i] = 0.25 * (hi - lo);
     }
-    cfg.d = ComputeShadingDots(Vec3d{0, 0, 1}, hemisphere(), hemisphere());
+    cfg.d = ComputeShadingDots(Vec3d{0, 0, 1}, rng.Hemisphere(), rng.Hemisphere());
   }
   // Radiance of the three terms (ambient light 1) at p with entries i, j moved by a, b steps.
   auto radiance = [](const Config& cfg, int i, double a, int j, double b, double* out) {
@@ -369,14 +371,8 @@ std::vector<bool> LinearEntriesImpl() {
 }  // namespace
 
 std::vector<bool> LinearEntries(ModelId model) {
-  static const std::array<std::vector<bool>, kModelCount> linear = [] {
-    std::array<std::vector<bool>, kModelCount> out;
-    for (int m = 0; m < kModelCount; ++m) {
-      out[m] = VisitModel(static_cast<ModelId>(m),
-                          [](auto tag) { return LinearEntriesImpl<decltype(tag)>(); });
-    }
-    return out;
-  }();
+  static const std::array<std::vector<bool>, kModelCount> linear =
+      PerModel<std::vector<bool>>([](auto tag) { return LinearEntriesImpl<decltype(tag)>(); });
   return linear[static_cast<int>(model)];
 }
 

@@ -102,6 +102,12 @@ int Parametrization::FreeCount() const {
 std::vector<double> Parametrization::ToNatural(const std::vector<double>& u) const {
   std::vector<double> p(u.size());
   ToNatural(u.data(), p.data());
+  // exp(log(max)) can exceed max by an ulp (shininess 100000.00000000001 on its bound), and the
+  // renderer and the probes check parameters against the table: values leave inside it.
+  for (int i = 0; i < size(); ++i) {
+    const ParamSpec& spec = model_->SpecOfEntry(i);
+    if (!entries_[i].fixed) p[i] = std::clamp(p[i], spec.min, spec.max);
+  }
   return p;
 }
 

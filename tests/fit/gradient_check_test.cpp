@@ -279,6 +279,22 @@ TEST_P(BoundedLmGradientTest, GaussNewtonMatrixIsJTransposeJ) {
   }
 }
 
+// Natural values at the ends of every entry's box are inside the model's table, for every model
+// (exp(log(1e5)) is 1e5 plus an ulp: a study's probe rejected shininess 100000.00000000001).
+TEST(ParametrizationTest, BoundsGiveValuesInsideTheTable) {
+  for (const ModelInfo& model : AllModels()) {
+    const fit::Parametrization param(model, {});
+    for (double end : {-kPi / 2, kPi / 2}) {
+      const std::vector<double> p = param.ToNatural(std::vector<double>(param.size(), end));
+      for (int i = 0; i < param.size(); ++i) {
+        const ParamSpec& spec = model.SpecOfEntry(i);
+        EXPECT_GE(p[i], spec.min) << model.name << " " << model.EntryName(i);
+        EXPECT_LE(p[i], spec.max) << model.name << " " << model.EntryName(i);
+      }
+    }
+  }
+}
+
 // What the solver reads of each model's structure, against what the formulas say: that no
 // shipped model mixes colour channels (cycles-principled has no tint: its specular tint is 0),
 // and which entries the radiance is affine in (variable projection's linear block).
