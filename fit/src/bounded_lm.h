@@ -16,6 +16,10 @@
 // projected step and is held there from the next iterate on; one whose gradient turns inward
 // leaves it at once. The damping follows Ceres' LM (Marquardt's diagonal scaling, Nielsen's
 // radius update) so that iteration counts compare with the Ceres solves.
+//
+// With the L2 loss and a fixed exposure the solve is a variable projection (Golub and Pereyra
+// 1973; Kaufman 1975): the entries the image is affine in (LinearEntries) are solved exactly at
+// every trial point and the trust region steps the others; SolveBoundedLm says how.
 #pragma once
 
 #include <string>
