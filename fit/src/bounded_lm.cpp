@@ -154,6 +154,13 @@ Geometry PrepareGeometry(const BoundedLmProblem& problem) {
   return geo;
 }
 
+// The model's reflected radiance per unit light, Reflect's sum (models.h) in its order:
+// Diffuse n.l + Fresnel Lobe.
+template <typename M, typename T>
+Rgb<T> Reflected(const typename M::Params& q, const ShadingDots<double>& d) {
+  return M::Diffuse(q, d) * T(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
+}
+
 // Radiance of point k of span `span` for the loaded parameters q of model M (T = double or a
 // Jet), ambient reflectance ka: the arithmetic of ShadePoint and Reflect (models.h) in the same
 // order, so that the cost is the same double the twin gives.
@@ -162,7 +169,7 @@ void ShadeLoaded(const typename M::Params& q, const Rgb<T>& ka, const Geometry& 
                  const ShadingPoint& point, int k, T* out) {
   for (int c = 0; c < 3; ++c) out[c] = ka[c] * T(point.ambient[c]);
   auto add = [&](const ShadingDots<double>& d, const Vec3d& irradiance) {
-    const Rgb<T> r = M::Diffuse(q, d) * T(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
+    const Rgb<T> r = Reflected<M, T>(q, d);
     out[0] += r.r * T(irradiance[0]);
     out[1] += r.g * T(irradiance[1]);
     out[2] += r.b * T(irradiance[2]);
@@ -275,7 +282,7 @@ bool ChannelSeparableImpl() {
     const Vec3d n{0, 0, 1}, l = rng.Hemisphere(), v = rng.Hemisphere();
     const ShadingDots<double> d = ComputeShadingDots(n, l, v);
     const typename M::Params q = M::Load(p);
-    const Rgb<Jet> r = M::Diffuse(q, d) * Jet(d.NoL) + M::Fresnel(q, d) * M::Lobe(q, d);
+    const Rgb<Jet> r = Reflected<M, Jet>(q, d);
     const Rgb<Jet> a = M::Ambient(q);
     for (int c = 0; c < 3; ++c) {
       for (int e = 0; e < P; ++e) {
@@ -333,8 +340,7 @@ std::vector<bool> LinearEntriesImpl() {
     if (i >= 0) p[i] += a * cfg.step[i];
     if (j >= 0) p[j] += b * cfg.step[j];
     const typename M::Params q = M::Load(p);
-    const Rgb<double> r = M::Diffuse(q, cfg.d) * cfg.d.NoL +
-                          M::Fresnel(q, cfg.d) * M::Lobe(q, cfg.d) + M::Ambient(q);
+    const Rgb<double> r = Reflected<M, double>(q, cfg.d) + M::Ambient(q);
     for (int c = 0; c < 3; ++c) out[c] = r[c];
   };
   // Whether sum_k w_k R(p + a_k e_i + b_k e_j) vanishes to rounding at every configuration.
@@ -717,7 +723,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   // together by 10x while roughness moves 10%) is then a one-dimensional problem.
   std::vector<bool> linear(N, false);
   bool varpro = false;
-  if (problem.projection && problem.loss == Loss::kL2 && !problem.exposure_free) {
+  if (ProjectionApplies(problem.loss, problem.exposure_free)) {
     const std::vector<bool> model_linear = LinearEntries(problem.model);
     bool any_linear = false, any_nonlinear = false;
     for (int i = 0; i < n; ++i) {

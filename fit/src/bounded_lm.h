@@ -50,10 +50,13 @@ struct BoundedLmProblem {
   bool exposure_free = false;
   int threads = 1;  // Any count gives the same bytes: partial sums per fixed chunk, summed in order.
   JetLayout derivatives = JetLayout::kPerRow;
-  // Variable projection over the linear entries where it applies (L2 loss, fixed exposure;
-  // SolveBoundedLm says how); false: the plain bounded LM (tests compare the two).
-  bool projection = true;
 };
+
+// Whether SolveBoundedLm runs as a variable projection: the image is affine in the linear
+// entries only with the L2 loss (no compression) and a fixed exposure (no product with them).
+inline bool ProjectionApplies(Loss loss, bool exposure_free) {
+  return loss == Loss::kL2 && !exposure_free;
+}
 
 // Whether every output channel of the model depends on the same channel of its colour rows
 // only (kd.r acts on red alone, ...): true for every model that does not mix its colours.

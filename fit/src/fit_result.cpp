@@ -89,7 +89,7 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
   result->converged = winner.converged && std::isfinite(winner.final_cost);
   result->solver_message = multistart.solver_message;
   result->solver_name = !problems.native ? "ceres"
-                        : problems.native_full.loss == Loss::kL2 && !problems.exposure_free
+                        : ProjectionApplies(problems.native_full.loss, problems.exposure_free)
                             ? "bounded-lm (variable projection)"
                             : "bounded-lm";
 

@@ -145,9 +145,9 @@ void BuildProblems(const ModelInfo& model, const Parametrization& param, const F
   // differences renders: both stay with Ceres. So do free-exposure fits for now: on the photo
   // workflow's 8-bit sRGB set the bounded LM stopped at exposure 2.84 (truth 4; the staged Ceres
   // solve reaches 3.96), where exposure and the colour scales trade off along a valley.
-  const bool projection = options.loss == Loss::kL2 && !p.exposure_free;
-  const bool bounded = options.solver == Solver::kBoundedLm ||
-                       (options.solver == Solver::kAuto && projection);
+  const bool bounded =
+      options.solver == Solver::kBoundedLm ||
+      (options.solver == Solver::kAuto && ProjectionApplies(options.loss, p.exposure_free));
   p.native = bounded && !gl && !IsRobust(options.loss) && !p.exposure_free;
   if (p.native) {
     for (BoundedLmProblem* q : {&p.native_full, &p.native_coarse}) {
