@@ -21,12 +21,12 @@ struct SquaredError {
 };
 
 SquaredError ReferenceError(const ModelInfo& model, bool gl, const FitResult& result,
-                            Renderer& renderer, PreparedReference& r) {
+                            Renderer* renderer, PreparedReference& r) {
   SquaredError e;
   if (gl || r.environment) {
     // A GL render over every valid pixel (the environment twin fitted a subsample).
     Image env_render;
-    if (r.environment) env_render = renderer.Render(r.scene, model.id, result.values);
+    if (r.environment) env_render = renderer->Render(r.scene, model.id, result.values);
     const Image& image = gl ? r.cache->Get(result.values) : env_render;
     const std::vector<int>& pixels = r.environment ? r.all_pixels : r.pixels;
     const std::vector<double>& linear = r.environment ? r.all_linear : r.linear;
@@ -127,7 +127,7 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
 }
 
 void RecordReferences(const ModelInfo& model, bool gl, const FitOptions& options,
-                      Renderer& renderer, std::vector<PreparedReference>& refs, FitResult* result) {
+                      Renderer* renderer, std::vector<PreparedReference>& refs, FitResult* result) {
   double total_sq = 0;
   long total_n = 0;
   for (auto& r : refs) {
@@ -138,7 +138,7 @@ void RecordReferences(const ModelInfo& model, bool gl, const FitOptions& options
     rr.rmse = std::sqrt(e.sum / (3.0 * e.pixels));
     total_sq += e.sum;
     total_n += 3 * e.pixels;
-    if (options.render_outputs) RenderOutputs(model, *result, renderer, r, &rr);
+    if (options.render_outputs) RenderOutputs(model, *result, *renderer, r, &rr);
     result->references.push_back(std::move(rr));
   }
   result->rmse = std::sqrt(total_sq / std::max<long>(1, total_n));

@@ -21,8 +21,9 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
 // Per reference the RMSE at result->values (the fitting path's own predictions: the twin, or a
 // GL render where the fit ran on GL or on an environment subsample) and, when
 // options.render_outputs, the GL prediction and |error| images; the GL path's render count.
+// `renderer` may be null when none of the three needs it.
 void RecordReferences(const ModelInfo& model, bool gl, const FitOptions& options,
-                      Renderer& renderer, std::vector<PreparedReference>& refs, FitResult* result);
+                      Renderer* renderer, std::vector<PreparedReference>& refs, FitResult* result);
 
 // Paths and SHA-256 of every file read, per reference, and the fixed assignments.
 nlohmann::json Provenance(const FitProblem& problem, const FitOptions& options,

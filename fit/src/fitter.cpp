@@ -16,6 +16,7 @@
 #include "multistart.h"
 #include "prepared_reference.h"
 #include "problem.h"
+#include "solve.h"
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/error.h"
 #include "uncertainty.h"
@@ -86,6 +87,31 @@ Exposure ParseExposure(const std::string& name) {
   throw Error("", "--exposure", fmt::format("unknown exposure '{}' (known: fixed, free)", name));
 }
 
+namespace internal {
+
+void SolvePrepared(const ModelInfo& model, const Parametrization& param, const FitOptions& options,
+                   bool gl, bool environment, Renderer* renderer,
+                   std::vector<PreparedReference>& refs, FitResult* result) {
+  CeresProblems problems;
+  BuildProblems(model, param, options, gl, renderer, refs, &problems);
+  result->loss_scale = problems.loss_scale;
+  const auto solve_start = std::chrono::steady_clock::now();
+  MultiStartResult solved = RunMultiStart(model, param, options, environment, refs, &problems);
+  result->solve_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+  RecordStarts(param, problems, std::move(solved), result);
+
+  // Uncertainty at the best start (the bounded LM's J^T J, or ceres::Covariance), scaled by the
+  // residual variance.
+  result->covariance_status = "skipped";
+  if (options.compute_covariance && std::isfinite(result->final_cost)) {
+    EstimateUncertainty(param, problems, result);
+  }
+  RecordReferences(model, gl, options, renderer, refs, result);
+}
+
+}  // namespace internal
+
 FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const ModelInfo& model = FindModel(problem.model);
@@ -128,24 +154,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
         std::max(4, options.environment_twin_samples));
   }
 
-  CeresProblems problems;
-  internal::BuildProblems(model, param, options, gl, renderer, refs, &problems);
-  result.loss_scale = problems.loss_scale;
-  const auto solve_start = std::chrono::steady_clock::now();
-  internal::MultiStartResult solved =
-      internal::RunMultiStart(model, param, options, environment, refs, &problems);
-  result.solve_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
-  internal::RecordStarts(param, problems, std::move(solved), &result);
-
-  // Uncertainty at the best start (the bounded LM's J^T J, or ceres::Covariance), scaled by the
-  // residual variance.
-  result.covariance_status = "skipped";
-  if (options.compute_covariance && std::isfinite(result.final_cost)) {
-    internal::EstimateUncertainty(param, problems, &result);
-  }
-
-  internal::RecordReferences(model, gl, options, renderer, refs, &result);
+  internal::SolvePrepared(model, param, options, gl, environment, &renderer, refs, &result);
   result.inputs = internal::Provenance(problem, options, refs);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

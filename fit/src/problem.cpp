@@ -25,7 +25,7 @@ void HoldFixed(CeresProblems& p, ceres::Problem& problem) {
 
 // The full problem: every valid pixel of every reference, pixels_per_block pixels per block.
 void AddFullResiduals(const ModelInfo& model, const ResidualSettings& settings,
-                      const FitOptions& options, bool gl, Renderer& renderer,
+                      const FitOptions& options, bool gl, Renderer* renderer,
                       std::vector<PreparedReference>& refs, CeresProblems& p) {
   const int block = p.pixels_per_block;
   for (auto& r : refs) {
@@ -38,7 +38,7 @@ void AddFullResiduals(const ModelInfo& model, const ResidualSettings& settings,
     }
     if (gl) {
       // Capacity: the centre, the trial point and one (two when central) per entry.
-      r.cache = std::make_unique<GlRenderCache>(&renderer, &r.scene, model.id,
+      r.cache = std::make_unique<GlRenderCache>(renderer, &r.scene, model.id,
                                                 (options.central_differences ? 2 : 1) * p.n + 3);
     }
     const int count = static_cast<int>(r.points.size());
@@ -110,7 +110,7 @@ double RobustLossScale(const FitOptions& options, const std::vector<PreparedRefe
 CeresProblems::CeresProblems() : full(ProblemOptions()), coarse_problem(ProblemOptions()) {}
 
 void BuildProblems(const ModelInfo& model, const Parametrization& param, const FitOptions& options,
-                   bool gl, Renderer& renderer, std::vector<PreparedReference>& refs,
+                   bool gl, Renderer* renderer, std::vector<PreparedReference>& refs,
                    CeresProblems* out) {
   CeresProblems& p = *out;
   p.n = param.size();

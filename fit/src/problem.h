@@ -49,9 +49,10 @@ struct CeresProblems {
 };
 
 // Builds `out` for the prepared references (fills their targets and, on the GL path, their render
-// caches). `gl`: the GL path (finite differences of renders) rather than the G-buffer twin.
+// caches). `gl`: the GL path (finite differences of renders) rather than the G-buffer twin;
+// `renderer` is used on it only (null is fine otherwise).
 void BuildProblems(const ModelInfo& model, const Parametrization& param, const FitOptions& options,
-                   bool gl, Renderer& renderer, std::vector<PreparedReference>& refs,
+                   bool gl, Renderer* renderer, std::vector<PreparedReference>& refs,
                    CeresProblems* out);
 
 // The scale of Huber/Cauchy: FitOptions::loss_scale when given, else kRobustScaleFraction of the

@@ -11,19 +11,75 @@
 #include <vector>
 
 #include "commands.h"
+#include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
+#include "shadefit/refs/measured_brdf.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 
 namespace shadefit::cli {
 
+namespace {
+
+// Loads the --ref images and fits them (with the encoding search when asked).
+fit::FitResult FitImages(fit::FitProblem& problem, const std::vector<std::string>& refs,
+                         const std::string& scene, const std::vector<std::string>& masks,
+                         fit::FitOptions options, fit::EncodingMode encoding,
+                         nlohmann::json* extra) {
+  for (std::size_t i = 0; i < refs.size(); ++i) {
+    problem.references.push_back(
+        fit::LoadReference(refs[i], scene, masks.empty() ? std::string() : masks[i]));
+  }
+  GlContext context;
+  Renderer renderer(context);
+  options.renderer = &renderer;
+  if (encoding != fit::EncodingMode::kFit) return fit::Fit(problem, options);
+  fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, options);
+  (*extra)["encoding"] = fit::EncodingSearchToJson(search);
+  for (const fit::EncodingCandidate& c : search.candidates) {
+    fmt::print("encoding {:<12} stored-value RMSE {:.6f} (x255: {:.3f}){}\n", c.encoding.Name(),
+               c.stored_rmse, 255.0 * c.stored_rmse,
+               c.encoding.kind == search.chosen.kind ? "  <- chosen" : "");
+  }
+  return std::move(search.fit);
+}
+
+void PrintFit(const fit::FitResult& result, const std::string& output) {
+  fmt::print("{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
+             "{} iterations, {}; {} of {} starts reached the best\n",
+             result.model, result.references.size(), fit::PathName(result.path),
+             result.final_cost, result.rmse, result.iterations, result.termination,
+             result.starts_reached_best, result.starts);
+  for (const auto& p : result.parameters) {
+    fmt::print("  {:<16} {:>12.6g}  +- {:<10.3g}{}{}{}\n", p.name, p.value, p.std_error,
+               p.fixed ? " fixed" : "", p.undetermined ? " undetermined" : "",
+               p.at_bound ? " at bound" : "");
+  }
+  if (result.exposure_free) {
+    fmt::print("  {:<16} {:>12.6g}  +- {:.3g}\n", "exposure", result.exposure,
+               result.exposure_std_error);
+  }
+  fmt::print("wrote {}\n", output);
+  if (!result.converged) {
+    std::fprintf(stderr,
+                 "shadefit: warning: the fit did not converge (%s after %d iterations: %s); "
+                 "the result is marked \"converged\": false\n",
+                 result.termination.c_str(), result.iterations, result.solver_message.c_str());
+  }
+}
+
+}  // namespace
+
 void RegisterFitCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "fit", "Fit a shading model to reference images (jointly, one material)");
   struct Options {
     std::vector<std::string> refs, masks, fixed;
+    std::string brdf;
+    std::vector<int> brdf_cells;
+    double brdf_max_theta = fit::BrdfSpaceSampling{}.max_theta_deg;
     std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
     int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
     int threads = fit::FitOptions{}.num_threads, env_samples = 0;
@@ -39,8 +95,16 @@ void RegisterFitCommand(CLI::App& app) {
   auto opt = std::make_shared<Options>();
   cmd->add_option("--ref", opt->refs,
                   "Reference image (EXR linear; PNG/JPEG sRGB, clipped pixels masked); "
-                  "repeat for a joint fit. Its scene comes from <ref>.json (scene_file)")
-      ->required();
+                  "repeat for a joint fit. Its scene comes from <ref>.json (scene_file)");
+  cmd->add_option("--brdf", opt->brdf,
+                  "Instead of --ref: fit in BRDF space to a measured BRDF (MERL .binary or "
+                  "Neural-BRDF .h5), Ngan et al. 2005's cosine-weighted L2 over directions");
+  cmd->add_option("--brdf-cells", opt->brdf_cells,
+                  "With --brdf: theta_h, theta_d, phi_d cell counts (default 90 45 45)")
+      ->expected(3);
+  cmd->add_option("--brdf-max-theta", opt->brdf_max_theta,
+                  "With --brdf: cells with theta_i or theta_o above this (degrees) are left out")
+      ->capture_default_str();
   cmd->add_option("--scene", opt->scene, "Scene TOML overriding the sidecar's (single --ref)");
   cmd->add_option("--mask", opt->masks,
                   "Mask image per --ref, in order (channel 0 > 0.5 = fit this pixel)");
@@ -87,6 +151,18 @@ void RegisterFitCommand(CLI::App& app) {
   cmd->add_flag("--no-images", opt->no_images, "Write only the JSON (no fit/error images)");
   cmd->add_option("-o,--output", opt->output, "Output JSON (images go next to it)")->required();
   cmd->callback([opt] {
+    if (opt->refs.empty() == opt->brdf.empty()) {
+      throw Error("", "--ref", "give reference images (--ref) or a measured BRDF (--brdf), one of them");
+    }
+    if (!opt->brdf.empty() && (!opt->scene.empty() || !opt->masks.empty())) {
+      throw Error("", opt->scene.empty() ? "--mask" : "--scene",
+                  "a BRDF-space fit (--brdf) has no scene or mask");
+    }
+    if (opt->brdf.empty() && (!opt->brdf_cells.empty() ||
+                              opt->brdf_max_theta != fit::BrdfSpaceSampling{}.max_theta_deg)) {
+      throw Error("", opt->brdf_cells.empty() ? "--brdf-max-theta" : "--brdf-cells",
+                  "only valid with --brdf");
+    }
     if (!opt->scene.empty() && opt->refs.size() != 1) {
       throw Error("", "--scene", "only valid with a single --ref (each reference has a sidecar)");
     }
@@ -129,50 +205,28 @@ void RegisterFitCommand(CLI::App& app) {
     problem.model = opt->model;
     problem.fixed = opt->fixed;
     FindModel(problem.model);  // Unknown model: fail before reading anything.
-    for (std::size_t i = 0; i < opt->refs.size(); ++i) {
-      problem.references.push_back(fit::LoadReference(
-          opt->refs[i], opt->scene, opt->masks.empty() ? std::string() : opt->masks[i]));
-    }
-    GlContext context;
-    Renderer renderer(context);
-    options.renderer = &renderer;
     fit::FitResult result;
     nlohmann::json extra;
-    if (encoding == fit::EncodingMode::kFit) {
-      fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, options);
-      result = std::move(search.fit);
-      extra["encoding"] = fit::EncodingSearchToJson(search);
-      for (const fit::EncodingCandidate& c : search.candidates) {
-        fmt::print("encoding {:<12} stored-value RMSE {:.6f} (x255: {:.3f}){}\n", c.encoding.Name(),
-                   c.stored_rmse, 255.0 * c.stored_rmse,
-                   c.encoding.kind == search.chosen.kind ? "  <- chosen" : "");
+    if (!opt->brdf.empty()) {
+      if (encoding == fit::EncodingMode::kFit) {
+        throw Error("", "--encoding", "a BRDF-space fit (--brdf) reads no stored image values");
       }
+      fit::BrdfSpaceSampling sampling;
+      if (!opt->brdf_cells.empty()) {
+        sampling.theta_h_cells = opt->brdf_cells[0];
+        sampling.theta_d_cells = opt->brdf_cells[1];
+        sampling.phi_d_cells = opt->brdf_cells[2];
+      }
+      sampling.max_theta_deg = opt->brdf_max_theta;
+      fit::ValidateBrdfSpaceSampling(sampling, "");
+      const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(opt->brdf);
+      result = fit::FitBrdfSpace(problem.model, problem.fixed,
+                                 fit::SampleBrdfSpace(*brdf, sampling), options);
     } else {
-      result = fit::Fit(problem, options);
+      result = FitImages(problem, opt->refs, opt->scene, opt->masks, options, encoding, &extra);
     }
-    const std::vector<std::string> written = fit::WriteFitOutputs(result, opt->output, extra);
-
-    fmt::print("{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
-               "{} iterations, {}; {} of {} starts reached the best\n",
-               result.model, result.references.size(), fit::PathName(result.path),
-               result.final_cost, result.rmse, result.iterations, result.termination,
-               result.starts_reached_best, result.starts);
-    for (const auto& p : result.parameters) {
-      fmt::print("  {:<16} {:>12.6g}  +- {:<10.3g}{}{}{}\n", p.name, p.value, p.std_error,
-                 p.fixed ? " fixed" : "", p.undetermined ? " undetermined" : "",
-                 p.at_bound ? " at bound" : "");
-    }
-    if (result.exposure_free) {
-      fmt::print("  {:<16} {:>12.6g}  +- {:.3g}\n", "exposure", result.exposure,
-                 result.exposure_std_error);
-    }
-    fmt::print("wrote {}\n", opt->output);
-    if (!result.converged) {
-      std::fprintf(stderr,
-                   "shadefit: warning: the fit did not converge (%s after %d iterations: %s); "
-                   "the result is marked \"converged\": false\n",
-                   result.termination.c_str(), result.iterations, result.solver_message.c_str());
-    }
+    fit::WriteFitOutputs(result, opt->output, extra);
+    PrintFit(result, opt->output);
   });
 }
 

@@ -12,11 +12,13 @@
 
 #include "job_kinds.h"
 #include "outputs.h"
+#include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/report.h"
 #include "shadefit/metrics/ssim.h"
+#include "shadefit/refs/measured_brdf.h"
 #include "shadefit/refs/reference.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/gl_context.h"
@@ -250,7 +252,14 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.
   try {
-    if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
+    if (TrainsInBrdfSpace(job.train)) {
+      // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
+      // the settings are l2 with a fixed exposure.
+      const std::unique_ptr<refs::MeasuredBrdf> brdf =
+          refs::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, g.material));
+      result = fit::FitBrdfSpace(job.model, s.fixed,
+                                 fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
+    } else if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
       fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
       result = std::move(search.fit);
       encoding = fit::EncodingSearchToJson(search);

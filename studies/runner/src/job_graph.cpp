@@ -34,6 +34,19 @@ json FitContext(const StudySpec& spec, const std::string& model,
           {"references", refs}};
 }
 
+// SHA-256 of a measured BRDF's files: the .binary, or the .h5 and its Keras config beside it.
+json BrdfHashes(const std::string& brdf) {
+  json out = json::array();
+  std::vector<std::string> files{brdf};
+  if (fs::path(brdf).extension() == ".h5") {
+    files.push_back(fs::path(brdf).replace_extension(".json").string());
+  }
+  for (const std::string& f : files) {
+    out.push_back(fs::exists(f) ? Sha256File(f) : std::string("missing"));
+  }
+  return out;
+}
+
 std::vector<std::string> ProbeNamesOf(const StudySpec& spec) {
   std::vector<std::string> names;
   for (probes::ProbeKind kind : spec.probes) names.emplace_back(probes::ProbeName(kind));
@@ -80,7 +93,9 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
         job.train = train;
         job.label = spec.Label(model, train);
         job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model, JoinTrain(train)));
-        const json context = FitContext(spec, model, train, job.label, refs);
+        json context = FitContext(spec, model, train, job.label, refs);
+        // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it.
+        if (TrainsInBrdfSpace(train)) context["brdf"] = BrdfHashes(MeasuredBrdfPath(spec, g.material));
         job.hash = Sha256String(version + "\n" + context.dump());
         job.weight = FitJobCost(spec.model_settings.at(model), train.size(), g.references.size());
         fit_jobs.push_back(static_cast<int>(jobs.size()));

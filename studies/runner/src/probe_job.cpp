@@ -68,16 +68,6 @@ std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, cons
   return models;
 }
 
-// The measured BRDF file of a [[measured]] material; "" for a material of a [[group]].
-std::string MeasuredBrdfPath(const StudySpec& spec, const std::string& material) {
-  for (const MeasuredSource& src : spec.measured) {
-    for (std::size_t m = 0; m < src.materials.size(); ++m) {
-      if (src.materials[m] == material) return src.brdfs[m];
-    }
-  }
-  return "";
-}
-
 }  // namespace
 
 void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Job>& jobs,

@@ -590,11 +590,31 @@ std::vector<std::vector<std::string>> ReadTrainingSets(const Reader& r, const to
   return sets;
 }
 
-// Every training lighting exists for every material, measured or not.
+// Every training lighting exists for every material, measured or not. The BRDF-space set
+// (kBrdfSpaceTraining) stands alone, needs a [[measured]] material and an l2 fit with a fixed
+// exposure (fit/brdf_space.h).
 void CheckTrainingLightings(const Reader& r, const toml::table& fit, const StudySpec& spec) {
+  for (const auto& set : spec.training_sets) {
+    if (std::find(set.begin(), set.end(), kBrdfSpaceTraining) == set.end()) continue;
+    if (set.size() != 1) {
+      r.Fail(fit.get("train"), "fit.train",
+             fmt::format("'{}' (a fit in BRDF space) is a training set of its own, not a "
+                         "lighting to combine with others",
+                         kBrdfSpaceTraining));
+    }
+    for (const auto& [model, s] : spec.model_settings) {
+      if (s.loss != "l2" || s.exposure != "fixed" || s.encoding != "as-imported") {
+        r.Fail(fit.get("train"), "fit.train",
+               fmt::format("'{}' fits the cosine-weighted BRDF in L2 with no scale: model '{}' "
+                           "needs loss = \"l2\", exposure = \"fixed\" and no encoding search",
+                           kBrdfSpaceTraining, model));
+      }
+    }
+  }
   for (const MeasuredSource& m : spec.measured) {
     for (const auto& set : spec.training_sets) {
       for (const std::string& l : set) {
+        if (l == kBrdfSpaceTraining) continue;
         if (std::find(m.lightings.begin(), m.lightings.end(), l) == m.lightings.end()) {
           r.Fail(fit.get("train"), "fit.train",
                  fmt::format("[[measured]] {} has no scene under lighting '{}'", m.folder, l));
@@ -605,6 +625,12 @@ void CheckTrainingLightings(const Reader& r, const toml::table& fit, const Study
   for (const ReferenceGroup& g : spec.groups) {
     for (const auto& set : spec.training_sets) {
       for (const std::string& l : set) {
+        if (l == kBrdfSpaceTraining) {
+          r.Fail(fit.get("train"), "fit.train",
+                 fmt::format("'{}' fits the measured BRDF itself; material '{}' is a [[group]] of "
+                             "images with no BRDF file ([[measured]] materials have one)",
+                             kBrdfSpaceTraining, g.material));
+        }
         const bool has = std::any_of(g.references.begin(), g.references.end(),
                                      [&](const ReferenceSpec& x) { return x.lighting == l; });
         if (!has) {
@@ -743,6 +769,15 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   ReadVerdicts(r, root, &spec);
   ReadOutputs(r, root, &spec);
   return spec;
+}
+
+std::string MeasuredBrdfPath(const StudySpec& spec, const std::string& material) {
+  for (const MeasuredSource& src : spec.measured) {
+    for (std::size_t m = 0; m < src.materials.size(); ++m) {
+      if (src.materials[m] == material) return src.brdfs[m];
+    }
+  }
+  return "";
 }
 
 std::string MeasuredSkipReason(const StudySpec& spec) {

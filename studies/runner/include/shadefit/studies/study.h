@@ -64,6 +64,14 @@ struct MeasuredSource {
   int samples = 0;                    // Environment samples per technique (0 = the scene's).
 };
 
+// The training set that fits a [[measured]] material's BRDF itself, in BRDF space (Ngan et al.
+// 2005's objective, fit/brdf_space.h), rather than images of it: fit.train = [["brdf"]]. Every
+// lighting is then a test.
+inline constexpr const char* kBrdfSpaceTraining = "brdf";
+inline bool TrainsInBrdfSpace(const std::vector<std::string>& train) {
+  return train.size() == 1 && train[0] == kBrdfSpaceTraining;
+}
+
 struct StudySpec {
   std::string name;         // [study] name; names the output folder.
   std::string description;
@@ -101,6 +109,9 @@ struct StudySpec {
 // "<file>: <key>: <problem>" on unknown keys, wrong types, unknown models or probes, globs that
 // match nothing and training lightings a group lacks.
 StudySpec LoadStudy(const std::string& path, bool quick = false);
+
+// The measured BRDF file of a [[measured]] material; "" for a material of a [[group]].
+std::string MeasuredBrdfPath(const StudySpec& spec, const std::string& material);
 
 // Why a [[measured]] source contributes nothing ("" when every source is present): one line
 // for the user, naming the folder and where the data comes from.
