@@ -89,6 +89,19 @@ void ValidateBrdfSpaceSampling(const BrdfSpaceSampling& s, const std::string& fi
   }
 }
 
+void CheckBrdfSpaceOptions(const FitOptions& options) {
+  if (options.loss != Loss::kL2) {
+    throw Error("", "--loss",
+                fmt::format("a BRDF-space fit is an L2 fit of the cosine-weighted BRDF (Ngan et "
+                            "al. 2005); got '{}'",
+                            LossName(options.loss)));
+  }
+  if (options.exposure != Exposure::kFixed) {
+    throw Error("", "--exposure", "a measured BRDF has no unknown scale: the exposure is fixed");
+  }
+  if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+}
+
 BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& sampling) {
   BrdfSpaceData data;
   data.files = brdf.SourceFiles();
@@ -150,16 +163,7 @@ FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::str
   const auto t0 = std::chrono::steady_clock::now();
   const ModelInfo& model = FindModel(model_name);
   const Parametrization param(model, fixed);
-  if (given.loss != Loss::kL2) {
-    throw Error("", "--loss",
-                fmt::format("a BRDF-space fit is an L2 fit of the cosine-weighted BRDF (Ngan et "
-                            "al. 2005); got '{}'",
-                            LossName(given.loss)));
-  }
-  if (given.exposure != Exposure::kFixed) {
-    throw Error("", "--exposure", "a measured BRDF has no unknown scale: the exposure is fixed");
-  }
-  if (given.starts < 1) throw Error("", "--starts", "must be >= 1");
+  CheckBrdfSpaceOptions(given);
   if (param.FreeCount() == 0) throw Error("", "--fix", "every parameter is fixed: nothing to fit");
   if (data.points.empty() || data.targets.size() != 3 * data.points.size()) {
     throw Error(data.label, "brdf_space", "no sampled cells (SampleBrdfSpace first)");

@@ -219,6 +219,7 @@ void RegisterFitCommand(CLI::App& app) {
       }
       sampling.max_theta_deg = opt->brdf_max_theta;
       fit::ValidateBrdfSpaceSampling(sampling, "");
+      fit::CheckBrdfSpaceOptions(options);
       const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(opt->brdf);
       result = fit::FitBrdfSpace(problem.model, problem.fixed,
                                  fit::SampleBrdfSpace(*brdf, sampling), options);

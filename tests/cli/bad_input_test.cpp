@@ -1009,6 +1009,46 @@ TEST_F(BadInput, EnvReportPythonMissing) {
   ExpectCleanFailure("report out/st", "SHADEFIT_PYTHON", "SHADEFIT_PYTHON=/no/such/python3");
 }
 
+// `fit --brdf` (a BRDF-space fit): the arguments and the BRDF file are checked before anything
+// is written.
+TEST_F(BadInput, FitBrdfWithRefs) {
+  ExpectCleanFailure("fit --brdf in/m.binary --ref in/r.exr --model ggx -o out/f.json",
+                     "--ref: give reference images \\(--ref\\) or a measured BRDF \\(--brdf\\)");
+}
+
+TEST_F(BadInput, FitBrdfCellCountTooSmall) {
+  Merl("m.binary", 90, kMerlValues);
+  ExpectCleanFailure("fit --brdf in/m.binary --brdf-cells 90 1 45 --model ggx -o out/f.json",
+                     "brdf_space.theta_d_cells: must be an integer in \\[2, 1024\\], got 1");
+}
+
+TEST_F(BadInput, FitBrdfCutAtTheHorizon) {
+  Merl("m.binary", 90, kMerlValues);
+  ExpectCleanFailure("fit --brdf in/m.binary --brdf-max-theta 90 --model ggx -o out/f.json",
+                     "brdf_space.max_theta_deg: must be in \\(0, 90\\) degrees, got 90");
+}
+
+TEST_F(BadInput, FitBrdfCellsWithoutBrdf) {
+  ExpectCleanFailure("fit --ref in/r.exr --brdf-cells 8 8 8 --model ggx -o out/f.json",
+                     "--brdf-cells: only valid with --brdf");
+}
+
+TEST_F(BadInput, FitBrdfCubeRootLoss) {
+  Merl("m.binary", 90, kMerlValues);
+  ExpectCleanFailure("fit --brdf in/m.binary --loss cuberoot --model ggx -o out/f.json",
+                     "--loss: a BRDF-space fit is an L2 fit");
+}
+
+TEST_F(BadInput, FitBrdfTruncatedMerlTable) {
+  Merl("t.binary", 90, kMerlValues / 2);
+  ExpectCleanFailure("fit --brdf in/t.binary --model ggx -o out/f.json", "in/t\\.binary: ");
+}
+
+TEST_F(BadInput, FitBrdfMissingFile) {
+  ExpectCleanFailure("fit --brdf in/none.binary --model ggx -o out/f.json",
+                     "in/none\\.binary: brdf: file not found");
+}
+
 // `probe brdf`: the measured BRDF file and the models are checked before anything is written.
 TEST_F(BadInput, ProbeBrdfNeedsBrdf) {
   ExpectCleanFailure("probe brdf --model ggx -o out",

@@ -60,6 +60,9 @@ struct BrdfSpaceData {
 // on all of them.
 BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& sampling);
 
+// The options a BRDF-space fit accepts (below); throws shadefit::Error otherwise.
+void CheckBrdfSpaceOptions(const FitOptions& options);
+
 // Fits `model` to the sampled BRDF. options as for Fit(); the loss must be l2 (the weights are
 // those of an L2 norm) and the exposure fixed (a BRDF has no unknown scale), else
 // shadefit::Error("--loss" / "--exposure"). No GL context is created or used (render_outputs
