@@ -9,9 +9,7 @@
 #include <cmath>
 #include <thread>
 
-#include "multistart.h"
 #include "prepared_reference.h"
-#include "problem.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 #include "solve.h"
@@ -106,10 +104,10 @@ BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSam
   BrdfSpaceData data;
   data.files = brdf.SourceFiles();
   data.label = data.files.empty() ? "brdf" : data.files.front();
+  ValidateBrdfSpaceSampling(sampling, data.label);
   for (const std::string& f : data.files) data.sha256.push_back(Sha256File(f));
   data.format = brdf.Format();
   data.sampling = sampling;
-  ValidateBrdfSpaceSampling(sampling, data.label);
 
   // Rows are independent; each thread takes every T-th row and the rows are joined in order,
   // so the data is the same bytes for any thread count.
@@ -159,7 +157,7 @@ BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSam
 }
 
 FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::string>& fixed,
-                       const BrdfSpaceData& data, const FitOptions& given) {
+                       BrdfSpaceData data, const FitOptions& given) {
   const auto t0 = std::chrono::steady_clock::now();
   const ModelInfo& model = FindModel(model_name);
   const Parametrization param(model, fixed);
@@ -186,10 +184,9 @@ FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::str
   internal::PreparedReference& r = refs[0];
   r.source = &source;
   r.label = data.label;
-  r.points = data.points;
-  r.linear = data.targets;
-  r.pixels.resize(r.points.size());
-  for (std::size_t k = 0; k < r.pixels.size(); ++k) r.pixels[k] = static_cast<int>(k);
+  const std::size_t cells = data.points.size();
+  r.points = std::move(data.points);  // `pixels` stays empty: only the GL path reads it
+  r.linear = std::move(data.targets);
 
   internal::SolvePrepared(model, param, options, false, false, nullptr, refs, &result);
 
@@ -207,7 +204,7 @@ FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::str
         {"theta_d_cells", data.sampling.theta_d_cells},
         {"phi_d_cells", data.sampling.phi_d_cells},
         {"max_theta_deg", data.sampling.max_theta_deg},
-        {"cells", data.points.size()},
+        {"cells", cells},
         {"extrapolated_weight_fraction", data.extrapolated_fraction}}},
       {"references", nlohmann::json::array()},
       {"fixed", fixed}};

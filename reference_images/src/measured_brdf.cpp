@@ -38,13 +38,19 @@ void FromHalfDiff(double theta_h, double theta_d, double phi_d, Vec3d* wi, Vec3d
   *wo = back(Vec3d{-d.x, -d.y, d.z});
 }
 
+std::vector<std::string> MeasuredBrdfFiles(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (fs::path(path).extension() != ".h5") return {path};
+  return {path, fs::path(path).replace_extension(".json").string()};
+}
+
 std::unique_ptr<MeasuredBrdf> LoadMeasuredBrdf(const std::string& path) {
   namespace fs = std::filesystem;
   const std::string ext = fs::path(path).extension().string();
   if (!fs::exists(path)) throw Error(path, "brdf", "file not found");
   if (ext == ".binary") return std::make_unique<MerlBrdf>(path);
   if (ext == ".h5") {
-    const std::string json = fs::path(path).replace_extension(".json").string();
+    const std::string json = MeasuredBrdfFiles(path)[1];
     if (!fs::exists(json)) {
       throw Error(path, "config", "the Keras model config " + json + " is missing beside it");
     }

@@ -9,6 +9,7 @@
 
 #include "job_cost.h"
 #include "shadefit/probes/probes.h"
+#include "shadefit/refs/measured_brdf.h"
 #include "shadefit/refs/sidecar.h"
 #include "shadefit/render/files.h"
 #include "shadefit/studies/runner.h"
@@ -34,16 +35,10 @@ json FitContext(const StudySpec& spec, const std::string& model,
           {"references", refs}};
 }
 
-// SHA-256 of a measured BRDF's files: the .binary, or the .h5 and its Keras config beside it.
+// SHA-256 of a measured BRDF's files (refs::MeasuredBrdfFiles).
 json BrdfHashes(const std::string& brdf) {
   json out = json::array();
-  std::vector<std::string> files{brdf};
-  if (fs::path(brdf).extension() == ".h5") {
-    files.push_back(fs::path(brdf).replace_extension(".json").string());
-  }
-  for (const std::string& f : files) {
-    out.push_back(fs::exists(f) ? Sha256File(f) : std::string("missing"));
-  }
+  for (const std::string& f : refs::MeasuredBrdfFiles(brdf)) out.push_back(Sha256File(f));
   return out;
 }
 

@@ -33,10 +33,8 @@ std::string ReadAll(const std::string& path) {
 
 std::string ReferenceKey(const MeasuredSource& src, std::size_t material, std::size_t lighting) {
   std::string key = "shadefit.measured-reference/1\n" + ShadefitVersion() + "\n";
-  const std::string& brdf = src.brdfs[material];
-  key += Sha256File(brdf) + "\n";
-  if (fs::path(brdf).extension() == ".h5") {
-    key += Sha256File(fs::path(brdf).replace_extension(".json").string()) + "\n";
+  for (const std::string& f : refs::MeasuredBrdfFiles(src.brdfs[material])) {
+    key += Sha256File(f) + "\n";
   }
   key += Sha256String(ReadAll(src.scenes[lighting])) + "\n";
   key += fmt::format("samples {}\n", src.samples);

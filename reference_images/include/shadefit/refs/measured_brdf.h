@@ -117,6 +117,10 @@ class NeuralBrdf : public MeasuredBrdf {
   std::array<Layer, 3> layers_;
 };
 
+// The files a measured BRDF path reads: "x.binary" -> {x.binary}; "x.h5" -> {x.h5, x.json} (the
+// Keras config beside it). For provenance and cache keys; nothing is opened.
+std::vector<std::string> MeasuredBrdfFiles(const std::string& path);
+
 // Opens a measured BRDF by file name: "x.binary" -> MerlBrdf; "x.h5" -> NeuralBrdf with the
 // config "x.json" beside it. Throws shadefit::Error for other extensions and missing files.
 std::unique_ptr<MeasuredBrdf> LoadMeasuredBrdf(const std::string& path);
