@@ -62,6 +62,16 @@ inline bool ProjectionApplies(Loss loss, bool exposure_free) {
 // only (kd.r acts on red alone, ...): true for every model that does not mix its colours.
 bool ChannelSeparable(ModelId model);
 
+// The table row each of the model's three terms (Diffuse, Fresnel, Lobe; models.h) reads, -1
+// for none; `single` is false when one of them reads two rows or more. Where every term reads
+// one row at most (ggx: kd, f0, roughness), the Jacobian pass shades each term with a one-slot
+// Jet and adds its derivative into that row's slot.
+struct TermRows {
+  bool single = false;
+  int diffuse = -1, fresnel = -1, lobe = -1;
+};
+const TermRows& RowsOfTerms(ModelId model);
+
 // Per flattened entry: whether the model's radiance is affine in it, jointly with the other
 // entries marked (ggx: kd and f0; not roughness).
 std::vector<bool> LinearEntries(ModelId model);

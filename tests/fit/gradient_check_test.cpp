@@ -180,7 +180,9 @@ TEST(GradientCheckGlTest, GlResidualMatchesNumericDerivatives) {
 }
 
 // The bounded LM's one-pass normal equations (fit/src/bounded_lm.h) against central differences
-// of its own cost, for every model, with the exposure free and a compressing loss: its
+// of its own cost, for every model, with the exposure free or fixed (a fixed one takes the pass's
+// plain path: no exposure slot in the sums, the Jet scaled by a number) and with L2 or a
+// compressing loss: its
 // gradient J^T r entry by entry (relative 1e-5 of the largest, step 1e-6 of the box), and J^T J
 // against the outer products of differenced residual rows is implied by the gradient check at
 // two targets (the gradient is J^T r for any r). Interior box points, so no entry is at a bound.
@@ -192,42 +194,51 @@ TEST_P(BoundedLmGradientTest, GradientMatchesCentralDifferences) {
   const fit::Parametrization param(model, {});
   for (fit::Loss loss : {fit::Loss::kL2, fit::Loss::kCubeRoot}) {
     for (double target : {0.0, 0.05}) {
-      std::vector<double> targets(3 * g.points.size(), fit::CompressRadiance(loss, target));
-      fit::internal::BoundedLmProblem problem;
-      problem.model = model.id;
-      problem.loss = loss;
-      problem.param = &param;
-      problem.exposure_free = true;
-      problem.threads = 2;
-      problem.spans.push_back({g.points.data(), targets.data(), static_cast<int>(g.points.size())});
-      const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 3));
-      const double e = 0.1;
-      std::vector<double> grad, h;
-      const double cost = fit::internal::BoundedLmNormalEquations(problem, y, e, &grad, &h);
-      ASSERT_TRUE(std::isfinite(cost));
-      EXPECT_NEAR(cost, fit::internal::BoundedLmCost(problem, y, e), 1e-12 * std::abs(cost));
-      const int n = param.size();
-      std::vector<double> numeric(n + 1);
-      double largest = 0;
-      for (int i = 0; i <= n; ++i) {
-        const double width = i < n ? param.entry(i).upper - param.entry(i).lower : 1.0;
-        const double step = 1e-6 * std::max(1.0, width);
-        std::vector<double> yp = y, ym = y;
-        double ep = e, em = e;
-        (i < n ? yp[i] : ep) += step;
-        (i < n ? ym[i] : em) -= step;
-        numeric[i] = (fit::internal::BoundedLmCost(problem, yp, ep) -
-                      fit::internal::BoundedLmCost(problem, ym, em)) /
-                     (2 * step);
-        largest = std::max(largest, std::abs(numeric[i]));
-      }
-      for (int i = 0; i <= n; ++i) {
-        EXPECT_NEAR(grad[i], numeric[i], 1e-5 * largest + 1e-9)
-            << GetParam() << " entry " << (i < n ? param.entry(i).name : "exposure") << " loss "
-            << static_cast<int>(loss) << " target " << target;
-        // J^T J is symmetric with a non-negative diagonal.
-        EXPECT_GE(h[i * (n + 1) + i], 0.0);
-        for (int j = 0; j <= n; ++j) EXPECT_EQ(h[i * (n + 1) + j], h[j * (n + 1) + i]);
+      for (bool exposure_free : {true, false}) {
+        std::vector<double> targets(3 * g.points.size(), fit::CompressRadiance(loss, target));
+        fit::internal::BoundedLmProblem problem;
+        problem.model = model.id;
+        problem.loss = loss;
+        problem.param = &param;
+        problem.exposure_free = exposure_free;
+        problem.threads = 2;
+        problem.spans.push_back(
+            {g.points.data(), targets.data(), static_cast<int>(g.points.size())});
+        const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 3));
+        const double e = 0.1;
+        std::vector<double> grad, h;
+        const double cost = fit::internal::BoundedLmNormalEquations(problem, y, e, &grad, &h);
+        ASSERT_TRUE(std::isfinite(cost));
+        EXPECT_NEAR(cost, fit::internal::BoundedLmCost(problem, y, e), 1e-12 * std::abs(cost));
+        const int n = param.size();
+        std::vector<double> numeric(n + 1);
+        double largest = 0;
+        for (int i = 0; i <= n; ++i) {
+          const double width = i < n ? param.entry(i).upper - param.entry(i).lower : 1.0;
+          const double step = 1e-6 * std::max(1.0, width);
+          std::vector<double> yp = y, ym = y;
+          double ep = e, em = e;
+          (i < n ? yp[i] : ep) += step;
+          (i < n ? ym[i] : em) -= step;
+          numeric[i] = (fit::internal::BoundedLmCost(problem, yp, ep) -
+                        fit::internal::BoundedLmCost(problem, ym, em)) /
+                       (2 * step);
+          largest = std::max(largest, std::abs(numeric[i]));
+        }
+        for (int i = 0; i <= n; ++i) {
+          // A fixed exposure is no unknown: its gradient entry and its row of J^T J are zero.
+          const double expected = i == n && !exposure_free ? 0.0 : numeric[i];
+          EXPECT_NEAR(grad[i], expected, 1e-5 * largest + 1e-9)
+              << GetParam() << " entry " << (i < n ? param.entry(i).name : "exposure") << " loss "
+              << static_cast<int>(loss) << " target " << target << " exposure free "
+              << exposure_free;
+          // J^T J is symmetric with a non-negative diagonal.
+          EXPECT_GE(h[i * (n + 1) + i], 0.0);
+          for (int j = 0; j <= n; ++j) EXPECT_EQ(h[i * (n + 1) + j], h[j * (n + 1) + i]);
+          if (i == n && !exposure_free) {
+            for (int j = 0; j <= n; ++j) EXPECT_EQ(h[i * (n + 1) + j], 0.0);
+          }
+        }
       }
     }
   }
@@ -246,34 +257,37 @@ TEST_P(BoundedLmGradientTest, GaussNewtonMatrixIsJTransposeJ) {
   const int residuals = 3 * static_cast<int>(g.points.size());
   for (fit::internal::JetLayout layout :
        {fit::internal::JetLayout::kPerRow, fit::internal::JetLayout::kPerEntry}) {
-    std::vector<double> targets(residuals, 0.05);
-    fit::internal::BoundedLmProblem problem;
-    problem.model = model.id;
-    problem.loss = fit::Loss::kL2;
-    problem.param = &param;
-    problem.exposure_free = true;
-    problem.derivatives = layout;
-    problem.spans.push_back({g.points.data(), targets.data(), static_cast<int>(g.points.size())});
-    const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 5));
-    const double e = -0.2;
-    std::vector<double> g0, h, gk, hk;
-    fit::internal::BoundedLmNormalEquations(problem, y, e, &g0, &h);
-    std::vector<double> jtj(N * N, 0.0);
-    for (int k = 0; k < residuals; ++k) {
-      targets[k] += 1.0;
-      fit::internal::BoundedLmNormalEquations(problem, y, e, &gk, &hk);
-      targets[k] -= 1.0;
-      for (int a = 0; a < N; ++a) {
-        for (int b = 0; b < N; ++b) jtj[a * N + b] += (gk[a] - g0[a]) * (gk[b] - g0[b]);
+    for (bool exposure_free : {true, false}) {
+      std::vector<double> targets(residuals, 0.05);
+      fit::internal::BoundedLmProblem problem;
+      problem.model = model.id;
+      problem.loss = fit::Loss::kL2;
+      problem.param = &param;
+      problem.exposure_free = exposure_free;
+      problem.derivatives = layout;
+      problem.spans.push_back({g.points.data(), targets.data(), static_cast<int>(g.points.size())});
+      const std::vector<double> y = fit::internal::BoxOfInternal(param, InteriorPoint(param, 5));
+      const double e = -0.2;
+      std::vector<double> g0, h, gk, hk;
+      fit::internal::BoundedLmNormalEquations(problem, y, e, &g0, &h);
+      std::vector<double> jtj(N * N, 0.0);
+      for (int k = 0; k < residuals; ++k) {
+        targets[k] += 1.0;
+        fit::internal::BoundedLmNormalEquations(problem, y, e, &gk, &hk);
+        targets[k] -= 1.0;
+        for (int a = 0; a < N; ++a) {
+          for (int b = 0; b < N; ++b) jtj[a * N + b] += (gk[a] - g0[a]) * (gk[b] - g0[b]);
+        }
       }
-    }
-    double largest = 0;
-    for (double v : jtj) largest = std::max(largest, std::abs(v));
-    ASSERT_GT(largest, 0.0);
-    for (int a = 0; a < N; ++a) {
-      for (int b = 0; b < N; ++b) {
-        EXPECT_NEAR(h[a * N + b], jtj[a * N + b], 1e-9 * largest)
-            << GetParam() << " (" << a << ", " << b << ") layout " << static_cast<int>(layout);
+      double largest = 0;
+      for (double v : jtj) largest = std::max(largest, std::abs(v));
+      ASSERT_GT(largest, 0.0);
+      for (int a = 0; a < N; ++a) {
+        for (int b = 0; b < N; ++b) {
+          EXPECT_NEAR(h[a * N + b], jtj[a * N + b], 1e-9 * largest)
+              << GetParam() << " (" << a << ", " << b << ") layout " << static_cast<int>(layout)
+              << " exposure free " << exposure_free;
+        }
       }
     }
   }
@@ -322,6 +336,23 @@ TEST(BoundedLmStructure, SeparableChannelsAndLinearEntries) {
   // base_color (1 - metallic) and mix(f0_dielectric, base_color, metallic): bilinear in base and
   // metallic, so the first row is kept, with f0_dielectric (affine jointly with base).
   EXPECT_EQ(linear_names("ggx-metallic"), "base_color.r base_color.g base_color.b f0_dielectric");
+}
+
+// Which row each term reads (the Jacobian pass's per-term Jets), against the formulas in
+// render/models: ggx's Diffuse kd / pi, Fresnel F_Schlick(f0), Lobe D V (roughness); classic
+// Blinn-Phong's kd, ks and cos^n (its ka is the Ambient term, not one of the three); Lambert has
+// no Fresnel or Lobe row; ggx-metallic's Diffuse reads base_color and metallic, so it keeps the
+// full Jet.
+TEST(BoundedLmStructure, EachTermReadsTheRowsOfItsFormula) {
+  using fit::internal::RowsOfTerms;
+  auto rows = [](const std::string& name) {
+    const fit::internal::TermRows& t = RowsOfTerms(FindModel(name).id);
+    return std::vector<int>{t.single ? 1 : 0, t.diffuse, t.fresnel, t.lobe};
+  };
+  EXPECT_EQ(rows("ggx"), (std::vector<int>{1, 0, 1, 2}));
+  EXPECT_EQ(rows("blinn-phong"), (std::vector<int>{1, 1, 2, 3}));
+  EXPECT_EQ(rows("lambert"), (std::vector<int>{1, 0, -1, -1}));
+  EXPECT_FALSE(RowsOfTerms(FindModel("ggx-metallic").id).single);
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, BoundedLmGradientTest, ::testing::ValuesIn(AllModelNames()),
