@@ -154,6 +154,27 @@ Geometry PrepareGeometry(const BoundedLmProblem& problem) {
   return geo;
 }
 
+// add(dots, irradiance) for every lit sample of point k of span `span`: the precomputed ones,
+// or those computed as ShadePoint does when the geometry was not precomputed.
+template <typename Add>
+void ForEachLitSample(const Geometry& geo, int span, const ShadingPoint& point, int k,
+                      const Add& add) {
+  if (geo.precomputed) {
+    const SpanGeometry& sg = geo.spans[span];
+    for (int i = sg.begin[k]; i < sg.begin[k + 1]; ++i) {
+      add(sg.samples[i].dots, sg.samples[i].irradiance);
+    }
+    return;
+  }
+  for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
+    for (const PixelLight& light : *set) {
+      if (SampleAboveSurface(point, light)) {
+        add(ComputeShadingDots(point.n, light.l, point.v), light.irradiance);
+      }
+    }
+  }
+}
+
 // The model's reflected radiance per unit light, Reflect's sum (models.h) in its order:
 // Diffuse n.l + Fresnel Lobe.
 template <typename M, typename T>
@@ -174,18 +195,7 @@ void ShadeLoaded(const typename M::Params& q, const Rgb<T>& ka, const Geometry& 
     out[1] += r.g * T(irradiance[1]);
     out[2] += r.b * T(irradiance[2]);
   };
-  if (geo.precomputed) {
-    const SpanGeometry& sg = geo.spans[span];
-    for (int i = sg.begin[k]; i < sg.begin[k + 1]; ++i) add(sg.samples[i].dots, sg.samples[i].irradiance);
-    return;
-  }
-  for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
-    for (const PixelLight& light : *set) {
-      if (SampleAboveSurface(point, light)) {
-        add(ComputeShadingDots(point.n, light.l, point.v), light.irradiance);
-      }
-    }
-  }
+  ForEachLitSample(geo, span, point, k, add);
 }
 
 // Cost only (no derivatives): doubles through the twin.
@@ -500,19 +510,7 @@ template <typename Tag, int K>
       if (t.lobe_slot >= 0) out[c].v[t.lobe_slot] += fresnel[c].a * lobe.v[0] * e;
     }
   };
-  if (geo.precomputed) {
-    const SpanGeometry& sg = geo.spans[span];
-    for (int i = sg.begin[k]; i < sg.begin[k + 1]; ++i)
-      add(sg.samples[i].dots, sg.samples[i].irradiance);
-    return;
-  }
-  for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
-    for (const PixelLight& light : *set) {
-      if (SampleAboveSurface(point, light)) {
-        add(ComputeShadingDots(point.n, light.l, point.v), light.irradiance);
-      }
-    }
-  }
+  ForEachLitSample(geo, span, point, k, add);
 }
 
 // One chunk's sums of the Jacobian pass: per group (the 3 channels when compressed, else one)
