@@ -251,6 +251,21 @@ class StructureRng {
   std::uint64_t state_;
 };
 
+// Entry i of a model at a generic point inside its table (log rows within 1e-2..1e2), as a
+// per-entry Jet seeded in slot i: the structure checks below read which slots each output has.
+template <typename Jet>
+void GenericEntries(const std::vector<ParamSpec>& table, StructureRng& rng, Jet* p) {
+  int i = 0;
+  for (const ParamSpec& row : table) {
+    for (int c = 0; c < row.size; ++c, ++i) {
+      const double lo = row.log_scale ? std::log(std::max(row.min, 1e-2)) : row.min;
+      const double hi = row.log_scale ? std::log(std::min(row.max, 1e2)) : row.max;
+      const double t = lo + (0.1 + 0.8 * rng.Uniform()) * (hi - lo);
+      p[i] = Jet(row.log_scale ? std::exp(t) : t, i);
+    }
+  }
+}
+
 // fn(ModelTag) for every model, in ModelId order.
 template <typename T, typename Fn>
 std::array<T, kModelCount> PerModel(const Fn& fn) {
@@ -280,15 +295,7 @@ bool ChannelSeparableImpl() {
   StructureRng rng(0x9e3779b97f4a7c15ull);
   for (int trial = 0; trial < 24; ++trial) {
     Jet p[P];
-    int i = 0;
-    for (const ParamSpec& row : table) {
-      for (int c = 0; c < row.size; ++c, ++i) {
-        const double lo = row.log_scale ? std::log(std::max(row.min, 1e-2)) : row.min;
-        const double hi = row.log_scale ? std::log(std::min(row.max, 1e2)) : row.max;
-        const double t = lo + (0.1 + 0.8 * rng.Uniform()) * (hi - lo);
-        p[i] = Jet(row.log_scale ? std::exp(t) : t, i);
-      }
-    }
+    GenericEntries(table, rng, p);
     const Vec3d n{0, 0, 1}, l = rng.Hemisphere(), v = rng.Hemisphere();
     const ShadingDots<double> d = ComputeShadingDots(n, l, v);
     const typename M::Params q = M::Load(p);
@@ -332,15 +339,7 @@ TermRows TermRowsImpl() {
   StructureRng rng(0x632be59bd9b4e019ull);
   for (int trial = 0; trial < 24; ++trial) {
     Jet p[P];
-    int i = 0;
-    for (const ParamSpec& row : table) {
-      for (int c = 0; c < row.size; ++c, ++i) {
-        const double lo = row.log_scale ? std::log(std::max(row.min, 1e-2)) : row.min;
-        const double hi = row.log_scale ? std::log(std::min(row.max, 1e2)) : row.max;
-        const double t = lo + (0.1 + 0.8 * rng.Uniform()) * (hi - lo);
-        p[i] = Jet(row.log_scale ? std::exp(t) : t, i);
-      }
-    }
+    GenericEntries(table, rng, p);
     const ShadingDots<double> d =
         ComputeShadingDots(Vec3d{0, 0, 1}, rng.Hemisphere(), rng.Hemisphere());
     const typename M::Params q = M::Load(p);
