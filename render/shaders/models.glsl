@@ -6,18 +6,19 @@
 vec3 Reflect(vec3 n, vec3 l, vec3 v) {
   float NoL = dot(n, l);
   float NoV = dot(n, v);
-  if (!(NoL > 0.0) || !(NoV > 0.0)) return vec3(0.0);
   Params p = LoadParams();
   Dots d = ComputeShadingDots(n, l, v);
 #if SHADEFIT_TERM == 1
-  return Diffuse(p, d) * d.NoL;
+  vec3 f = Diffuse(p, d) * d.NoL;
 #elif SHADEFIT_TERM == 2
-  return vec3(Lobe(p, d));
+  vec3 f = vec3(Lobe(p, d));
 #elif SHADEFIT_TERM == 3
-  return Fresnel(p, d);
+  vec3 f = Fresnel(p, d);
 #else
-  return Diffuse(p, d) * d.NoL + Fresnel(p, d) * Lobe(p, d);
+  vec3 f = Diffuse(p, d) * d.NoL + Fresnel(p, d) * Lobe(p, d);
 #endif
+  // A select, not an early return: llvmpipe computes both anyway (scene.glsl, IntersectObject).
+  return NoL > 0.0 && NoV > 0.0 ? f : vec3(0.0);
 }
 
 vec3 AmbientReflectance() {

@@ -1,16 +1,17 @@
 // Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_TERM,
 // SHADEFIT_GBUFFER, SHADEFIT_NUM_OBJECTS, SHADEFIT_NUM_LIGHTS, SHADEFIT_SUPERSAMPLE,
-// SHADEFIT_ENV_MODE, then brdf.glsl, model_dsl.glsl, the model's models/<name>.glsl,
+// SHADEFIT_ENV_MODE, SHADEFIT_OBJECT_TYPES, SHADEFIT_LIGHT_TYPES (kMaxObjects / kMaxLights
+// comma-separated codes), SHADEFIT_CAMERA_ORTHO, SHADEFIT_TRANSPARENT, then brdf.glsl, model_dsl.glsl, the model's models/<name>.glsl,
 // models.glsl, scene.glsl, environment.glsl.
 
 const int kMaxLights = 8;
 const int u_num_lights = SHADEFIT_NUM_LIGHTS;  // Point and directional lights.
-uniform int u_light_type[kMaxLights];   // 0 point, 1 directional (ambient/env handled apart).
+const int u_light_type[kMaxLights] = int[kMaxLights](SHADEFIT_LIGHT_TYPES);  // 0 point, 1 directional.
 uniform vec3 u_light_pos[kMaxLights];   // point: position; directional: direction to the light.
 uniform vec3 u_light_value[kMaxLights]; // point: intensity W/sr; directional: irradiance.
 uniform vec3 u_ambient;                 // ambient radiance (classic ka term)
 const int u_supersample = SHADEFIT_SUPERSAMPLE;
-uniform int u_transparent;
+const int u_transparent = SHADEFIT_TRANSPARENT;
 uniform vec3 u_background;
 
 #if SHADEFIT_GBUFFER
@@ -24,29 +25,56 @@ layout(location = 0) out vec4 out_color;     // premultiplied radiance, alpha = 
 // Offset added along the normal to shadow-ray origins, in world units (scenes are metre-sized).
 const float kRayEpsilon = 1e-4;
 
+// Light i's reflected radiance at p (a literal i, as IntersectObject's in scene.glsl).
+vec3 ShadeLight(const int i, vec3 p, vec3 n, vec3 v) {
+  vec3 l;
+  vec3 e;
+  float dist;
+  if (u_light_type[i] == 0) {
+    vec3 d = u_light_pos[i] - p;
+    float d2 = dot(d, d);
+    dist = sqrt(d2);
+    l = d / dist;
+    e = u_light_value[i] / d2;  // Inverse-square law: E = I / d^2 at normal incidence.
+  } else {
+    l = u_light_pos[i];
+    e = u_light_value[i];
+    dist = 1e30;
+  }
+  // Selects rather than early returns (IntersectObject in scene.glsl says why).
+  bool lit = !(dot(n, l) <= 0.0) && !(u_num_objects > 1 && Occluded(p + n * kRayEpsilon, l, dist));
+  return lit ? Reflect(n, l, v) * e : vec3(0.0);
+}
+
 vec3 ShadeDirect(vec3 p, vec3 n, vec3 v) {
   vec3 radiance = AmbientReflectance() * u_ambient;
-  for (int i = 0; i < u_num_lights; ++i) {
-    vec3 l;
-    vec3 e;
-    float dist;
-    if (u_light_type[i] == 0) {
-      vec3 d = u_light_pos[i] - p;
-      float d2 = dot(d, d);
-      dist = sqrt(d2);
-      l = d / dist;
-      e = u_light_value[i] / d2;  // Inverse-square law: E = I / d^2 at normal incidence.
-    } else {
-      l = u_light_pos[i];
-      e = u_light_value[i];
-      dist = 1e30;
-    }
-    if (dot(n, l) <= 0.0) continue;
-    if (u_num_objects > 1 && Occluded(p + n * kRayEpsilon, l, dist)) continue;
-    radiance += Reflect(n, l, v) * e;
-  }
+#define SHADEFIT_LIGHT_(i) if (i < u_num_lights) radiance += ShadeLight(i, p, n, v);
+  SHADEFIT_UNROLL_8(SHADEFIT_LIGHT_)
+#undef SHADEFIT_LIGHT_
   radiance += ShadeEnvironment(p, n, v);
   return radiance;
+}
+
+// Adds the radiance along the camera ray through `pixel` to sum (a hit, counted in hits) or to
+// background_sum (a miss, on an opaque background).
+void ShadeSample(vec2 pixel, inout vec3 sum, inout vec3 background_sum, inout int hits) {
+  vec3 origin, dir;
+  CameraRay(pixel, origin, dir);
+  float t;
+  vec3 n;
+  bool hit = Intersect(origin, dir, 0.0, 1e30, t, n) >= 0;
+  // A select on a transparent background, where a miss adds nothing (IntersectObject in
+  // scene.glsl says why).
+  if (u_transparent != 0) {
+    vec3 radiance = ShadeDirect(origin + dir * t, n, -dir);
+    sum += hit ? radiance : vec3(0.0);
+    hits += hit ? 1 : 0;
+  } else if (hit) {
+    sum += ShadeDirect(origin + dir * t, n, -dir);
+    ++hits;
+  } else {
+    background_sum += BackgroundRadiance(dir, u_background);
+  }
 }
 
 void main() {
@@ -58,8 +86,12 @@ void main() {
   float t;
   vec3 n;
   int obj = Intersect(origin, dir, 0.0, 1e30, t, n);
-  // Coverage from the supersampling grid so that silhouettes can be masked out of fits.
+  // Coverage from the supersampling grid so that silhouettes can be masked out of fits. With one
+  // sample per pixel that sample is the ray above.
   int ss = max(u_supersample, 1);
+#if SHADEFIT_SUPERSAMPLE <= 1
+  int hits = obj >= 0 ? 1 : 0;
+#else
   int hits = 0;
   for (int sy = 0; sy < ss; ++sy) {
     for (int sx = 0; sx < ss; ++sx) {
@@ -70,6 +102,7 @@ void main() {
       if (Intersect(o2, d2, 0.0, 1e30, t2, n2) >= 0) ++hits;
     }
   }
+#endif
   float coverage = float(hits) / float(ss * ss);
   if (obj < 0) {
     out_position = vec4(0.0);
@@ -85,20 +118,15 @@ void main() {
   vec3 sum = vec3(0.0);
   vec3 background_sum = vec3(0.0);
   int hits = 0;
+#if SHADEFIT_SUPERSAMPLE <= 1
+  ShadeSample(pixel_corner + 0.5, sum, background_sum, hits);  // (0 + 0.5) / 1: the same ray.
+#else
   for (int sy = 0; sy < ss; ++sy) {
     for (int sx = 0; sx < ss; ++sx) {
-      vec3 origin, dir;
-      CameraRay(pixel_corner + (vec2(sx, sy) + 0.5) / float(ss), origin, dir);
-      float t;
-      vec3 n;
-      if (Intersect(origin, dir, 0.0, 1e30, t, n) >= 0) {
-        sum += ShadeDirect(origin + dir * t, n, -dir);
-        ++hits;
-      } else if (u_transparent == 0) {
-        background_sum += BackgroundRadiance(dir, u_background);
-      }
+      ShadeSample(pixel_corner + (vec2(sx, sy) + 0.5) / float(ss), sum, background_sum, hits);
     }
   }
+#endif
   float inv = 1.0 / float(ss * ss);
   float coverage = float(hits) * inv;
   out_color = vec4((sum + background_sum) * inv, coverage);

@@ -78,6 +78,8 @@ GLuint CompileShader(GLenum type, const std::string& source,
 }
 
 constexpr int kMaxParams = 16;  // u_params[16] in model_dsl.glsl.
+constexpr int kMaxObjects = 8;  // kMaxObjects in scene.glsl.
+constexpr int kMaxLights = 8;   // kMaxLights in render.frag.
 // Texture unit used only to create textures, so that doing so never disturbs the units 0-2 the
 // environment samplers are bound to.
 constexpr int kScratchTextureUnit = 15;
@@ -121,12 +123,32 @@ struct Renderer::Impl {
     const int env = scene.EnvironmentLight();
     const int env_mode =
         env < 0 ? 0 : (scene.lights[env].type == Light::Type::kUniform ? 1 : 2);
+    // Object and light types as compile-time codes (scene.glsl, render.frag), padded to the
+    // arrays' fixed sizes.
+    std::string object_types, light_types;
+    for (int i = 0; i < kMaxObjects; ++i) {
+      const bool plane = i < static_cast<int>(scene.objects.size()) &&
+                         scene.objects[i].type != SceneObject::Type::kSphere;
+      object_types += fmt::format("{}{}", i ? "," : "", plane ? 1 : 0);
+    }
+    int n = 0;
+    for (const Light& light : scene.lights) {
+      if (light.type == Light::Type::kPoint || light.type == Light::Type::kDirectional) {
+        light_types +=
+            fmt::format("{}{}", n++ ? "," : "", light.type == Light::Type::kPoint ? 0 : 1);
+      }
+    }
+    for (; n < kMaxLights; ++n) light_types += fmt::format("{}0", n ? "," : "");
     const std::string preamble = fmt::format(
         "#version 430 core\n// model {}\n#define SHADEFIT_TERM {}\n#define SHADEFIT_GBUFFER {}\n"
         "#define SHADEFIT_NUM_OBJECTS {}\n#define SHADEFIT_NUM_LIGHTS {}\n"
-        "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n",
-        ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, scene.objects.size(), num_lights,
-        scene.camera.supersample, gbuffer ? 0 : env_mode);
+        "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n"
+        "#define SHADEFIT_OBJECT_TYPES {}\n#define SHADEFIT_LIGHT_TYPES {}\n"
+        "#define SHADEFIT_CAMERA_ORTHO {}\n#define SHADEFIT_TRANSPARENT {}\n",
+        ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, scene.objects.size(),
+        num_lights, scene.camera.supersample, gbuffer ? 0 : env_mode, object_types, light_types,
+        scene.camera.type == Camera::Type::kOrthographic ? 1 : 0,
+        scene.background.transparent ? 1 : 0);
     auto it = programs.find(preamble);
     if (it != programs.end()) return it->second;
     const std::vector<std::string> vfiles = {"fullscreen.vert"};
@@ -238,7 +260,6 @@ struct Renderer::Impl {
       glUniform3f(loc(n), static_cast<float>(v.x), static_cast<float>(v.y),
                   static_cast<float>(v.z));
     };
-    glUniform1i(loc("u_cam_ortho"), cam.type == Camera::Type::kOrthographic);
     set3("u_cam_pos", cam.position);
     set3("u_cam_right", right);
     set3("u_cam_up", up);
@@ -252,7 +273,6 @@ struct Renderer::Impl {
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
       const SceneObject& o = scene.objects[i];
       const std::string idx = fmt::format("[{}]", i);
-      glUniform1i(loc("u_obj_type" + idx), o.type == SceneObject::Type::kSphere ? 0 : 1);
       if (o.type == SceneObject::Type::kSphere) {
         glUniform4f(loc("u_obj_a" + idx), o.center.x, o.center.y, o.center.z, o.radius);
       } else {
@@ -269,13 +289,11 @@ struct Renderer::Impl {
       if (light.type == Light::Type::kAmbient) ambient += light.value;
       if (light.type != Light::Type::kPoint && light.type != Light::Type::kDirectional) continue;
       const std::string idx = fmt::format("[{}]", n++);
-      glUniform1i(loc("u_light_type" + idx), light.type == Light::Type::kPoint ? 0 : 1);
       set3("u_light_pos" + idx,
            light.type == Light::Type::kPoint ? light.position : -light.direction);
       set3("u_light_value" + idx, light.value);
     }
     set3("u_ambient", ambient);
-    glUniform1i(loc("u_transparent"), scene.background.transparent ? 1 : 0);
     set3("u_background", scene.background.color);
   }
 
