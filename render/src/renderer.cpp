@@ -90,6 +90,7 @@ struct Renderer::Impl {
   GlContext& context;
   RendererOptions options;
   GLuint vao = 0;
+  GLuint proxy_vbo = 0;  // Triangles of ObjectPixelPolygons, in pixels (fullscreen.vert).
   GLuint fbo = 0;
   int fbo_width = 0, fbo_height = 0;
   GLuint color_tex[3] = {0, 0, 0};
@@ -103,6 +104,11 @@ struct Renderer::Impl {
 
   Impl(GlContext& c, const RendererOptions& o) : context(c), options(o) {
     glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &proxy_vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, proxy_vbo);
+    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(0);
     glGenFramebuffers(1, &fbo);
   }
 
@@ -112,6 +118,7 @@ struct Renderer::Impl {
     GLuint env_textures[3] = {env_tex, env_pdf_tex, env_samples_tex};
     glDeleteTextures(3, env_textures);
     glDeleteFramebuffers(1, &fbo);
+    glDeleteBuffers(1, &proxy_vbo);
     glDeleteVertexArrays(1, &vao);
   }
 
@@ -300,9 +307,42 @@ struct Renderer::Impl {
   // Shades the pixels of `rect` (the scissor clips the full-screen triangle to them, so
   // llvmpipe bins and runs no fragment outside). Framebuffer rows are image rows
   // (fullscreen.vert), so `rect` needs no flip.
-  void Draw(int w, int h, int attachments, const PixelRect& rect) {
+  void Draw(GLuint program, int w, int h, int attachments, const PixelRect& rect) {
+    if (!BeginDraw(program, w, h, attachments, rect)) return;
+    glUniform1i(glGetUniformLocation(program, "u_proxy"), 0);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_SCISSOR_TEST);
+  }
+
+  // Clears `rect` to 0 and shades only the pixels whose centres lie in `polygons` (inside
+  // `rect`): the rest of it stays 0, as the ray cast leaves a transparent background.
+  void DrawPolygons(GLuint program, int w, int h, const PixelRect& rect,
+                    const std::vector<PixelPolygon>& polygons) {
+    if (!BeginDraw(program, w, h, 1, rect)) return;
+    glClearColor(0.0f, 0.0f, 0.0f, 0.0f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    std::vector<float> vertices;  // A fan about each polygon's first corner.
+    for (const PixelPolygon& poly : polygons) {
+      for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
+        for (const PixelPoint& p : {poly[0], poly[k], poly[k + 1]}) {
+          vertices.push_back(static_cast<float>(p.x));
+          vertices.push_back(static_cast<float>(p.y));
+        }
+      }
+    }
+    glBindBuffer(GL_ARRAY_BUFFER, proxy_vbo);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)),
+                 vertices.data(), GL_STREAM_DRAW);
+    glUniform1i(glGetUniformLocation(program, "u_proxy"), 1);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size() / 2));
+    glDisable(GL_SCISSOR_TEST);
+  }
+
+  // Binds the targets and the scissor of a draw; false when `rect` is empty.
+  bool BeginDraw(GLuint program, int w, int h, int attachments, const PixelRect& rect) {
     EnsureTargets(w, h);
-    if (rect.empty()) return;
+    if (rect.empty()) return false;
+    glUseProgram(program);
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
     glDrawBuffers(attachments, bufs);
@@ -310,8 +350,7 @@ struct Renderer::Impl {
     glEnable(GL_SCISSOR_TEST);
     glScissor(rect.x0, rect.y0, rect.width(), rect.height());
     glBindVertexArray(vao);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
-    glDisable(GL_SCISSOR_TEST);
+    return true;
   }
 
   // Reads `rect` of an attachment straight into a w x h image (rows in our order already);
@@ -353,11 +392,19 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   // Where no sample hits, a transparent background's pixel is 0 in all four channels (the
   // shader's sums start at 0 and the background adds nothing), which is what Read leaves
   // outside the rectangle. An opaque background (a colour or the environment) is shaded.
-  const PixelRect rect = impl_->options.bound_objects && scene.background.transparent
-                             ? ObjectPixelBounds(scene)
-                             : PixelRect{0, 0, w, h};
-  impl_->Draw(w, h, 1, rect);
-  return impl_->Read(0, w, h, rect);
+  // Within the rectangle, only the objects' polygons are rasterised.
+  const PixelRect frame{0, 0, w, h};
+  if (impl_->options.bound_objects && scene.background.transparent) {
+    bool whole_frame = false;
+    const std::vector<PixelPolygon> polygons = ObjectPixelPolygons(scene, &whole_frame);
+    if (!whole_frame) {
+      const PixelRect rect = ObjectPixelBounds(scene);
+      impl_->DrawPolygons(program, w, h, rect, polygons);
+      return impl_->Read(0, w, h, rect);
+    }
+  }
+  impl_->Draw(program, w, h, 1, frame);
+  return impl_->Read(0, w, h, frame);
 }
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
@@ -368,7 +415,7 @@ GBuffer Renderer::RenderGBuffer(const Scene& scene) {
   const int w = scene.camera.width, h = scene.camera.height_px;
   // Every pixel: the view direction is defined on the background too.
   const PixelRect frame{0, 0, w, h};
-  impl_->Draw(w, h, 3, frame);
+  impl_->Draw(program, w, h, 3, frame);
   GBuffer g;
   g.width = w;
   g.height = h;

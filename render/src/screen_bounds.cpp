@@ -134,24 +134,19 @@ void AddPlane(const View& view, const Camera& cam, const SceneObject& o, Extent*
   }
 }
 
-}  // namespace
-
-PixelRect ObjectPixelBounds(const Scene& scene) {
-  const Camera& cam = scene.camera;
-  const PixelRect frame{0, 0, cam.width, cam.height_px};
-  const View view(cam);
-  Extent e;
-  for (const SceneObject& o : scene.objects) {
-    if (o.type == SceneObject::Type::kSphere) {
-      AddSphere(view, cam, o, &e);
-    } else {
-      AddPlane(view, cam, o, &e);
-    }
-    if (e.full) return frame;
+void AddObject(const View& view, const Camera& cam, const SceneObject& o, Extent* e) {
+  if (o.type == SceneObject::Type::kSphere) {
+    AddSphere(view, cam, o, e);
+  } else {
+    AddPlane(view, cam, o, e);
   }
+}
+
+// The pixels whose square [i, i + 1) meets the extent: every sample of them may hit.
+PixelRect PixelsOf(const Extent& e, const Camera& cam) {
+  const PixelRect frame{0, 0, cam.width, cam.height_px};
   if (!(e.x0 <= e.x1) || !(e.y0 <= e.y1)) return PixelRect{};  // Nothing in front.
   if (!std::isfinite(e.x0 + e.x1 + e.y0 + e.y1)) return frame;
-  // A pixel belongs when its square [i, i + 1) meets the extent: every sample of it may hit.
   auto clamp = [](double v, int hi) {
     return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi)));
   };
@@ -162,6 +157,163 @@ PixelRect ObjectPixelBounds(const Scene& scene) {
   r.y1 = clamp(std::ceil(e.y1), cam.height_px);
   if (r.x0 >= r.x1 || r.y0 >= r.y1) return PixelRect{};
   return r;
+}
+
+// A convex polygon grown outward by `margin` pixels: each edge moved out along its normal, the
+// new corners where neighbouring edges meet (the miter, n1 + n2 over 1 + n1.n2 for unit
+// normals). False when an edge is degenerate (a plane seen edge-on): the caller falls back.
+bool GrowConvex(double margin, PixelPolygon* poly) {
+  const int n = static_cast<int>(poly->size());
+  double area2 = 0;
+  for (int k = 0; k < n; ++k) {
+    const PixelPoint& a = (*poly)[k];
+    const PixelPoint& b = (*poly)[(k + 1) % n];
+    area2 += a.x * b.y - a.y * b.x;
+  }
+  if (!(std::abs(area2) > 1e-9)) return false;
+  const double side = area2 > 0 ? 1.0 : -1.0;
+  std::vector<PixelPoint> normal(n);
+  for (int k = 0; k < n; ++k) {
+    const PixelPoint& a = (*poly)[k];
+    const PixelPoint& b = (*poly)[(k + 1) % n];
+    const double ex = b.x - a.x, ey = b.y - a.y, len = std::hypot(ex, ey);
+    if (!(len > 1e-9)) return false;
+    normal[k] = {side * ey / len, -side * ex / len};
+  }
+  PixelPolygon grown(n);
+  for (int k = 0; k < n; ++k) {
+    const PixelPoint& n1 = normal[(k + n - 1) % n];
+    const PixelPoint& n2 = normal[k];
+    const double s = margin / (1.0 + n1.x * n2.x + n1.y * n2.y);
+    grown[k] = {(*poly)[k].x + s * (n1.x + n2.x), (*poly)[k].y + s * (n1.y + n2.y)};
+  }
+  *poly = std::move(grown);
+  return true;
+}
+
+// Corners of the sphere's silhouette 16-gon in pixels, before growing: the tangent cone from
+// the eye touches the sphere along a circle (centre c (1 - r^2 / d^2), radius r sqrt(d^2 - r^2)
+// / d); a polygon about that circle in its plane contains the flat disc every silhouette ray
+// crosses, and projects to a convex polygon about the silhouette. Orthographic: the circle of
+// radius r about the centre, in the image plane. False when a corner is not in front.
+constexpr int kSilhouetteCorners = 16;
+bool SphereCorners(const View& view, const Camera& cam, const SceneObject& o, PixelPolygon* poly) {
+  const Vec3d c = view.Local(o.center);
+  const double r = o.radius;
+  const double grow = 1.0 / std::cos(std::numbers::pi / kSilhouetteCorners);
+  poly->clear();
+  if (view.ortho) {
+    for (int k = 0; k < kSilhouetteCorners; ++k) {
+      const double a = 2.0 * std::numbers::pi * k / kSilhouetteCorners;
+      poly->push_back({view.PixelX(c.x + grow * r * std::cos(a), cam),
+                       view.PixelY(c.y + grow * r * std::sin(a), cam)});
+    }
+    return true;
+  }
+  const double d2 = Dot(c, c);
+  const Vec3d axis = c / std::sqrt(d2);
+  const Vec3d centre = c * (1.0 - r * r / d2);
+  const double radius = grow * r * std::sqrt(std::max(d2 - r * r, 0.0) / d2);
+  // Any unit vector not along the axis, then the plane's basis.
+  const Vec3d pick = std::abs(axis.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+  const Vec3d a = Normalize(Cross(axis, pick));
+  const Vec3d b = Cross(axis, a);
+  for (int k = 0; k < kSilhouetteCorners; ++k) {
+    const double t = 2.0 * std::numbers::pi * k / kSilhouetteCorners;
+    const Vec3d p = centre + (a * std::cos(t) + b * std::sin(t)) * radius;
+    if (!(p.z > 1e-3 * r)) return false;
+    poly->push_back({view.PixelX(p.x / p.z, cam), view.PixelY(p.y / p.z, cam)});
+  }
+  return true;
+}
+
+// The projected corners of a bounded plane, in order around it.
+void PlaneCorners(const View& view, const Camera& cam, const SceneObject& o, PixelPolygon* poly) {
+  Vec3d u, v;
+  o.PlaneTangents(&u, &v);
+  poly->clear();
+  for (const double su : {-1.0, 1.0}) {
+    for (const double sv : {-1.0, 1.0}) {
+      // (-,-), (-,+), (+,+), (+,-): around the rectangle.
+      const double sv_around = su < 0 ? sv : -sv;
+      const Vec3d p = view.Local(o.point + u * (su * o.half_u) + v * (sv_around * o.half_v));
+      poly->push_back(view.ortho
+                          ? PixelPoint{view.PixelX(p.x, cam), view.PixelY(p.y, cam)}
+                          : PixelPoint{view.PixelX(p.x / p.z, cam), view.PixelY(p.y / p.z, cam)});
+    }
+  }
+}
+
+// The margin ObjectPixelBounds grows object o by (its float rounding and slack), in pixels.
+double FloatMargin(const View& view, const SceneObject& o) {
+  if (o.type == SceneObject::Type::kSphere) {
+    const double magnitude = Length(view.position) + Length(o.center) + o.radius;
+    if (view.ortho) return kMarginPixels + kFloatRelativeError * magnitude * view.pixels_per_unit;
+    const double gap = view.Local(o.center).z - o.radius;
+    return kMarginPixels + kFloatRelativeError * (1.0 + magnitude / gap) * view.pixels_per_unit;
+  }
+  Vec3d u, v;
+  o.PlaneTangents(&u, &v);
+  double magnitude = 0, z_min = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k) {
+    const Vec3d p =
+        o.point + u * ((k & 1) ? o.half_u : -o.half_u) + v * ((k & 2) ? o.half_v : -o.half_v);
+    magnitude = std::max(magnitude, Length(p));
+    z_min = std::min(z_min, view.Local(p).z);
+  }
+  magnitude += Length(view.position);
+  if (view.ortho) return kMarginPixels + kFloatRelativeError * magnitude * view.pixels_per_unit;
+  return kMarginPixels + kFloatRelativeError * (1.0 + magnitude / z_min) * view.pixels_per_unit;
+}
+
+}  // namespace
+
+PixelRect ObjectPixelBounds(const Scene& scene) {
+  const Camera& cam = scene.camera;
+  const View view(cam);
+  Extent e;
+  for (const SceneObject& o : scene.objects) {
+    AddObject(view, cam, o, &e);
+    if (e.full) return PixelRect{0, 0, cam.width, cam.height_px};
+  }
+  return PixelsOf(e, cam);
+}
+
+std::vector<PixelPolygon> ObjectPixelPolygons(const Scene& scene, bool* whole_frame) {
+  const Camera& cam = scene.camera;
+  const View view(cam);
+  // A pixel's centre lies within half its diagonal of every point of its square, so growing by
+  // that reaches every pixel any of its samples may hit.
+  const double half_diagonal = 0.5 * std::numbers::sqrt2;
+  std::vector<PixelPolygon> out;
+  *whole_frame = false;
+  for (const SceneObject& o : scene.objects) {
+    Extent e;
+    AddObject(view, cam, o, &e);
+    if (e.full) {
+      *whole_frame = true;
+      return {};
+    }
+    if (!(e.x0 <= e.x1) || !(e.y0 <= e.y1)) continue;  // Behind the camera.
+    if (!std::isfinite(e.x0 + e.x1 + e.y0 + e.y1)) {
+      *whole_frame = true;
+      return {};
+    }
+    PixelPolygon poly;
+    const bool sphere = o.type == SceneObject::Type::kSphere;
+    bool ok =
+        sphere ? SphereCorners(view, cam, o, &poly) : (PlaneCorners(view, cam, o, &poly), true);
+    ok = ok && GrowConvex(FloatMargin(view, o) + half_diagonal, &poly);
+    for (const PixelPoint& p : poly) ok = ok && std::isfinite(p.x) && std::isfinite(p.y);
+    if (!ok) {
+      // The pixels of the bounds instead (PixelsOf): their centres are inside these edges.
+      const double x0 = std::floor(e.x0), x1 = std::ceil(e.x1);
+      const double y0 = std::floor(e.y0), y1 = std::ceil(e.y1);
+      poly = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+    }
+    out.push_back(std::move(poly));
+  }
+  return out;
 }
 
 }  // namespace shadefit

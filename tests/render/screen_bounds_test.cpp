@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -112,6 +114,102 @@ TEST(ObjectPixelBounds, ContainTheHitPixelsAndAtMostOnePixelMore) {
   EXPECT_GT(touching, with_hits / 3);
   std::printf("[ bounds ] %d scenes, %d with hits, %d tight-checked, %d met on a side\n", scenes,
               with_hits, tight, touching);
+}
+
+// Whether the point lies inside the convex polygon (either orientation), strictly.
+bool InsideConvex(const PixelPolygon& poly, double x, double y) {
+  int positive = 0, negative = 0;
+  for (std::size_t k = 0; k < poly.size(); ++k) {
+    const PixelPoint& a = poly[k];
+    const PixelPoint& b = poly[(k + 1) % poly.size()];
+    const double side = (b.x - a.x) * (y - a.y) - (b.y - a.y) * (x - a.x);
+    positive += side > 0;
+    negative += side < 0;
+  }
+  return positive == static_cast<int>(poly.size()) || negative == static_cast<int>(poly.size());
+}
+
+// Pixels with a sample that hits (n x n samples), and pixels whose centre a polygon holds: the
+// pixels GL rasterises.
+struct PixelCounts {
+  int hit = 0, shaded = 0, hit_not_shaded = 0;
+};
+PixelCounts CountPixels(const Scene& scene, const std::vector<PixelPolygon>& polygons, int n) {
+  const Camera& cam = scene.camera;
+  PixelCounts c;
+  for (int y = 0; y < cam.height_px; ++y) {
+    for (int x = 0; x < cam.width; ++x) {
+      bool hit = false;
+      for (int k = 0; k < n * n && !hit; ++k) {
+        Hit h;
+        hit = Intersect(scene, CameraRay(cam, x + (k % n + 0.5) / n, y + (k / n + 0.5) / n), 0.0,
+                        1e30, &h);
+      }
+      bool shaded = false;
+      for (const PixelPolygon& poly : polygons)
+        shaded = shaded || InsideConvex(poly, x + 0.5, y + 0.5);
+      c.hit += hit;
+      c.shaded += shaded;
+      c.hit_not_shaded += hit && !shaded;
+    }
+  }
+  return c;
+}
+
+// The polygons a bounded frame rasterises hold every pixel a sample hits (spheres all over the
+// frame as above, and tilted tiles), and shade little more than the silhouette: at most a ring
+// of about two pixels beyond the pixels it enters (found with 6 x 6 samples).
+TEST(ObjectPixelPolygons, HoldTheHitPixelsAndLittleMore) {
+  int scenes = 0, with_hits = 0, large = 0;
+  long shaded_large = 0, rect_large = 0;
+  std::vector<std::string> objects;
+  for (const double r : {0.02, 0.31, 1.13}) {
+    for (double x = -1.9; x <= 1.9; x += 0.47) {
+      for (double z = -1.4; z <= 1.4; z += 0.53) objects.push_back(SphereToml(x, 0.7 * z, z, r));
+    }
+  }
+  for (int k = 0; k < 12; ++k) {
+    const double a = 0.5 * k;
+    objects.push_back("[[objects]]\ntype = \"plane\"\npoint = [" +
+                      std::to_string(0.3 * std::cos(a)) + ", 0.4, " +
+                      std::to_string(0.2 * k - 1.1) + "]\nnormal = [" +
+                      std::to_string(std::sin(a)) + ", -1.0, " + std::to_string(std::cos(3 * a)) +
+                      "]\nhalf_size = [" + std::to_string(0.2 + 0.1 * k) + ", 0.35]\n");
+  }
+  for (const bool ortho : {false, true}) {
+    for (const int ss : {1, 3}) {
+      for (const std::string& object : objects) {
+        const Scene scene =
+            ParseScene(CameraToml(ortho, 41, 29, ss) + object + kKeyLight, "polygons.toml");
+        bool whole_frame = true;
+        const std::vector<PixelPolygon> polygons = ObjectPixelPolygons(scene, &whole_frame);
+        ASSERT_FALSE(whole_frame) << object;
+        const PixelCounts at_samples = CountPixels(scene, polygons, ss);
+        const PixelCounts area = CountPixels(scene, polygons, 6);
+        ++scenes;
+        with_hits += at_samples.hit > 0;
+        EXPECT_EQ(at_samples.hit_not_shaded, 0)
+            << object << (ortho ? " ortho" : "") << " ss " << ss;
+        // A ring two pixels wide about the silhouette: its perimeter is about 2 sqrt(pi A).
+        const double ring = 2.0 * 2.0 * std::sqrt(std::numbers::pi * area.hit) + 8.0;
+        EXPECT_LE(area.shaded, area.hit + ring) << object << (ortho ? " ortho" : "");
+        if (area.hit > 150) {
+          ++large;
+          shaded_large += area.shaded;
+          const PixelRect rect = ObjectPixelBounds(scene);
+          rect_large += static_cast<long>(rect.width()) * rect.height();
+        }
+      }
+    }
+  }
+  EXPECT_GT(scenes, 600);
+  EXPECT_GT(with_hits, 300);
+  EXPECT_GT(large, 40);
+  // Large silhouettes (mostly discs) shade well under the rectangle's pixels (pi / 4 for a disc
+  // whose rectangle the frame does not cut).
+  EXPECT_LT(static_cast<double>(shaded_large), 0.9 * static_cast<double>(rect_large));
+  std::printf("[ polygons ] %d scenes, %d with hits, %d large: %ld shaded of %ld in rectangles\n",
+              scenes, with_hits, large, shaded_large, rect_large);
 }
 
 TEST(ObjectPixelBounds, WholeFrameOrNothingWhenTheyCannotBeBounded) {

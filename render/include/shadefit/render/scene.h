@@ -103,4 +103,17 @@ struct PixelRect {
 // the whole frame for an unbounded plane or an object reaching the camera plane.
 PixelRect ObjectPixelBounds(const Scene& scene);
 
+// A convex polygon in continuous pixel coordinates (x right, y down, as CameraRay's).
+struct PixelPoint {
+  double x = 0, y = 0;
+};
+using PixelPolygon = std::vector<PixelPoint>;
+
+// Convex polygons, at most one per object, whose union holds the centre of every pixel whose
+// square meets an object's projection, grown by the GL ray cast's float rounding: the proxy a
+// bounded frame rasterises instead of ObjectPixelBounds' rectangle (a sphere's disc fills pi / 4
+// of its square). A sphere gets a 16-gon about its silhouette, a bounded plane its projected
+// corners. None, with *whole_frame set, when an object cannot be bounded (as ObjectPixelBounds).
+std::vector<PixelPolygon> ObjectPixelPolygons(const Scene& scene, bool* whole_frame);
+
 }  // namespace shadefit
