@@ -95,6 +95,10 @@ PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int envir
   int non_finite = 0, first_x = -1, first_y = -1;
   bool any_light = false;
   std::vector<double> norms;
+  norms.reserve(all.size());
+  out.points.reserve(all.size());
+  out.pixels.reserve(all.size());
+  out.linear.reserve(3 * all.size());
   for (ShadingPoint& sp : all) {
     if (image.channels >= 4 && !(image.at(sp.x, sp.y, 3) >= kFullCoverage)) continue;
     if (!ref.mask.empty() && !(ref.mask.at(sp.x, sp.y, 0) > 0.5f)) continue;

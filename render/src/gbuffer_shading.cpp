@@ -12,6 +12,11 @@ bool TwinSupportsScene(const Scene& scene) { return scene.EnvironmentLight() < 0
 std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
                                          float min_coverage) {
   std::vector<ShadingPoint> points;
+  long covered = 0;  // Reserved up front: a grown vector would move every point again.
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) covered += g.Hit(x, y) && g.Coverage(x, y) >= min_coverage;
+  }
+  points.reserve(static_cast<std::size_t>(covered));
   Vec3d ambient{0, 0, 0};
   for (const Light& light : scene.lights) {
     if (light.type == Light::Type::kAmbient) ambient += light.value;
