@@ -63,16 +63,17 @@ void ShadeSample(vec2 pixel, inout vec3 sum, inout vec3 background_sum, inout in
   float t;
   vec3 n;
   bool hit = Intersect(origin, dir, 0.0, 1e30, t, n) >= 0;
-  // A select on a transparent background, where a miss adds nothing (IntersectObject in
-  // scene.glsl says why).
-  if (u_transparent != 0) {
+  // A select on a transparent background without environment light, where a miss adds nothing
+  // (IntersectObject in scene.glsl says why); with environment light, shading is a loop over
+  // hundreds of samples that a group of missing pixels should skip.
+  if (u_transparent != 0 && u_env_mode == 0) {
     vec3 radiance = ShadeDirect(origin + dir * t, n, -dir);
     sum += hit ? radiance : vec3(0.0);
     hits += hit ? 1 : 0;
   } else if (hit) {
     sum += ShadeDirect(origin + dir * t, n, -dir);
     ++hits;
-  } else {
+  } else if (u_transparent == 0) {
     background_sum += BackgroundRadiance(dir, u_background);
   }
 }

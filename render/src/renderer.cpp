@@ -113,8 +113,7 @@ struct Renderer::Impl {
     glGenBuffers(1, &proxy_vbo);
     glBindVertexArray(vao);
     glBindBuffer(GL_ARRAY_BUFFER, proxy_vbo);
-    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);  // Enabled by DrawPolygons.
     glGenFramebuffers(1, &fbo);
   }
 
@@ -317,6 +316,7 @@ struct Renderer::Impl {
   void Draw(GLuint program, int w, int h, int attachments, const PixelRect& rect) {
     if (!BeginDraw(program, w, h, attachments, rect)) return;
     clean = false;
+    glDisableVertexAttribArray(0);  // No vertex is read: gl_VertexID alone places them.
     glUniform1i(glGetUniformLocation(program, "u_proxy"), 0);
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glDisable(GL_SCISSOR_TEST);
@@ -349,6 +349,7 @@ struct Renderer::Impl {
     glBindBuffer(GL_ARRAY_BUFFER, proxy_vbo);
     glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)),
                  vertices.data(), GL_STREAM_DRAW);
+    glEnableVertexAttribArray(0);
     glUniform1i(glGetUniformLocation(program, "u_proxy"), 1);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size() / 2));
     glDisable(GL_SCISSOR_TEST);

@@ -164,13 +164,16 @@ PixelRect PixelsOf(const Extent& e, const Camera& cam) {
 // normals). False when an edge is degenerate (a plane seen edge-on): the caller falls back.
 bool GrowConvex(double margin, PixelPolygon* poly) {
   const int n = static_cast<int>(poly->size());
-  double area2 = 0;
+  double area2 = 0, size = 1;
   for (int k = 0; k < n; ++k) {
     const PixelPoint& a = (*poly)[k];
     const PixelPoint& b = (*poly)[(k + 1) % n];
     area2 += a.x * b.y - a.y * b.x;
+    size = std::max({size, std::abs(a.x), std::abs(a.y)});
   }
-  if (!(std::abs(area2) > 1e-9)) return false;
+  // Relative to the corners' size: far off-screen corners round the sum by ~1e-16 size^2, and a
+  // sign flipped by rounding would shrink the polygon instead of growing it.
+  if (!(std::abs(area2) > 1e-9 * size * size)) return false;
   const double side = area2 > 0 ? 1.0 : -1.0;
   std::vector<PixelPoint> normal(n);
   for (int k = 0; k < n; ++k) {

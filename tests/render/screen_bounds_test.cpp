@@ -275,19 +275,30 @@ TEST(BoundedRender, EqualsTheFullScreenRayCastBitForBit) {
     for (const Case& c : cases) {
       const Scene scene = ParseScene(c.toml, c.name + ".toml");
       const Image bounded = testing::SharedRenderer().Render(scene, model.id, params);
-      // The same frame again skips the clear (renderer.cpp): still the same pixels.
+      // The same frame again skips the clear (renderer.cpp): still the same pixels. After a
+      // full-frame draw (an opaque background writes every pixel), the next must clear again.
       const Image again = testing::SharedRenderer().Render(scene, model.id, params);
+      Scene opaque = scene;
+      opaque.background.transparent = false;
+      opaque.background.color = {0.25, 0.5, 0.75};
+      testing::SharedRenderer().Render(opaque, model.id, params);
+      const Image after_opaque = testing::SharedRenderer().Render(scene, model.id, params);
       const Image full = FullScreenRenderer().Render(scene, model.id, params);
       ASSERT_EQ(bounded.data.size(), full.data.size());
       ASSERT_EQ(again.data.size(), full.data.size());
-      int differ = 0, differ_again = 0, covered = 0;
+      ASSERT_EQ(after_opaque.data.size(), full.data.size());
+      int differ = 0, differ_again = 0, differ_after_opaque = 0, covered = 0;
       for (std::size_t i = 0; i < full.data.size(); ++i) {
         differ += std::memcmp(&bounded.data[i], &full.data[i], sizeof(float)) != 0;
         differ_again += std::memcmp(&again.data[i], &full.data[i], sizeof(float)) != 0;
+        differ_after_opaque +=
+            std::memcmp(&after_opaque.data[i], &full.data[i], sizeof(float)) != 0;
         covered += i % 4 == 3 && full.data[i] > 0;
       }
       EXPECT_EQ(differ, 0) << model_name << ", " << c.name;
       EXPECT_EQ(differ_again, 0) << model_name << ", " << c.name << ", again";
+      EXPECT_EQ(differ_after_opaque, 0)
+          << model_name << ", " << c.name << ", after an opaque frame";
       EXPECT_GT(covered, 20) << c.name;
     }
   }
