@@ -980,6 +980,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   }
   radius = std::sqrt(radius);
   radius = kInitialRadiusFactor * (radius > 0 ? radius : 1.0);
+  if (options.initial_radius > 0) radius = options.initial_radius;
   summary.message = "maximum iterations reached";
   while (summary.iterations < options.max_iterations) {
     // Binding set and projected gradient (the first-order optimality measure with bounds).
@@ -1172,6 +1173,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   summary.final_cost = at.cost;
   std::copy(x.begin(), x.begin() + n, y_io->begin());
   *e_io = x[n];
+  summary.final_radius = radius;
   return summary;
 }
 

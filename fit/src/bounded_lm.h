@@ -81,6 +81,9 @@ struct BoundedLmOptions {
   double function_tolerance = 1e-9;   // |delta cost| <= tol * cost on an accepted step.
   double gradient_tolerance = 1e-10;  // max |y - P(y - g)|.
   double parameter_tolerance = 1e-8;  // |step| <= tol * (|y| + tol).
+  // > 0: the trust radius to start from (a polish continues where the coarse solve's region
+  // ended, MultiStart); else kInitialRadiusFactor x |D y|.
+  double initial_radius = 0;
 };
 
 struct BoundedLmSummary {
@@ -90,6 +93,7 @@ struct BoundedLmSummary {
   bool failed = false;  // Non-finite cost at the start point.
   std::string message;
   long residual_evaluations = 0, jacobian_evaluations = 0;
+  double final_radius = 0;  // The trust radius at the end (0 when it failed at the start).
 };
 
 // Box coordinates y of internal u (fixed entries: their u, unused) and back.

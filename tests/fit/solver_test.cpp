@@ -127,6 +127,17 @@ TEST_P(IterationTest, OneGgxStartConvergesQuickly) {
               r.final_cost);
 }
 
+// The polish continues the coarse solve's trust region (multistart.cpp). With a fresh one, 100 x
+// |D y| wide, silver-mirror-rim's one start spent ten rejected full passes after its coarse
+// solve (40 iterations, issue 11's maximum, for the same cost); now 30.
+TEST(PolishTest, ContinuesTheCoarseTrustRegion) {
+  fit::FitOptions options;
+  options.starts = 1;
+  const fit::FitResult r = FitCycles("silver-mirror-rim", "ggx", options);
+  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message;
+  EXPECT_LE(r.iterations, 33) << r.solver_message;
+}
+
 // Every shipped point-lit reference (issue 11's maximum of 40 for one start). The bounds were
 // where the sine transform crawled (copper-side 39, aluminium-key 67, white-lambert-rim 45,
 // gold-mirror60 46 iterations), curved kd-f0-roughness valleys where the joint Gauss-Newton step
