@@ -20,7 +20,9 @@ struct Extent {
   double x0 = std::numeric_limits<double>::infinity(), y0 = x0;
   double x1 = -std::numeric_limits<double>::infinity(), y1 = x1;
   bool full = false;  // The whole frame (the object reaches the camera plane, or is unbounded).
+  double max_margin = 0;  // The largest margin added (an object's float rounding and slack).
   void Add(double x, double y, double margin) {
+    max_margin = std::max(max_margin, margin);
     x0 = std::min(x0, x - margin);
     x1 = std::max(x1, x + margin);
     y0 = std::min(y0, y - margin);
@@ -247,28 +249,6 @@ void PlaneCorners(const View& view, const Camera& cam, const SceneObject& o, Pix
   }
 }
 
-// The margin ObjectPixelBounds grows object o by (its float rounding and slack), in pixels.
-double FloatMargin(const View& view, const SceneObject& o) {
-  if (o.type == SceneObject::Type::kSphere) {
-    const double magnitude = Length(view.position) + Length(o.center) + o.radius;
-    if (view.ortho) return kMarginPixels + kFloatRelativeError * magnitude * view.pixels_per_unit;
-    const double gap = view.Local(o.center).z - o.radius;
-    return kMarginPixels + kFloatRelativeError * (1.0 + magnitude / gap) * view.pixels_per_unit;
-  }
-  Vec3d u, v;
-  o.PlaneTangents(&u, &v);
-  double magnitude = 0, z_min = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 4; ++k) {
-    const Vec3d p =
-        o.point + u * ((k & 1) ? o.half_u : -o.half_u) + v * ((k & 2) ? o.half_v : -o.half_v);
-    magnitude = std::max(magnitude, Length(p));
-    z_min = std::min(z_min, view.Local(p).z);
-  }
-  magnitude += Length(view.position);
-  if (view.ortho) return kMarginPixels + kFloatRelativeError * magnitude * view.pixels_per_unit;
-  return kMarginPixels + kFloatRelativeError * (1.0 + magnitude / z_min) * view.pixels_per_unit;
-}
-
 }  // namespace
 
 PixelRect ObjectPixelBounds(const Scene& scene) {
@@ -306,7 +286,7 @@ std::vector<PixelPolygon> ObjectPixelPolygons(const Scene& scene, bool* whole_fr
     const bool sphere = o.type == SceneObject::Type::kSphere;
     bool ok =
         sphere ? SphereCorners(view, cam, o, &poly) : (PlaneCorners(view, cam, o, &poly), true);
-    ok = ok && GrowConvex(FloatMargin(view, o) + half_diagonal, &poly);
+    ok = ok && GrowConvex(e.max_margin + half_diagonal, &poly);
     for (const PixelPoint& p : poly) ok = ok && std::isfinite(p.x) && std::isfinite(p.y);
     if (!ok) {
       // The pixels of the bounds instead (PixelsOf): their centres are inside these edges.

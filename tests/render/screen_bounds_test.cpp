@@ -36,7 +36,20 @@ std::string SphereToml(double x, double y, double z, double r) {
 const char* kKeyLight =
     "[[lights]]\ntype = \"point\"\nposition = [4.0, -4.0, 3.0]\npower = 1000.0\n";
 
-// Pixels any of whose n x n samples hits an object, by the C++ ray cast (double).
+// Whether any of pixel (x, y)'s n x n samples hits an object, by the C++ ray cast (double).
+bool AnySampleHits(const Scene& scene, int x, int y, int n) {
+  const Camera& cam = scene.camera;
+  for (int k = 0; k < n * n; ++k) {
+    Hit h;
+    if (Intersect(scene, CameraRay(cam, x + (k % n + 0.5) / n, y + (k / n + 0.5) / n), 0.0, 1e30,
+                  &h)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Pixels any of whose n x n samples hits an object.
 struct HitBox {
   int x0, y0, x1, y1;
   bool empty() const { return x0 >= x1; }
@@ -46,13 +59,7 @@ HitBox HitPixels(const Scene& scene, int n) {
   HitBox b{cam.width, cam.height_px, 0, 0};
   for (int y = 0; y < cam.height_px; ++y) {
     for (int x = 0; x < cam.width; ++x) {
-      bool hit = false;
-      for (int k = 0; k < n * n && !hit; ++k) {
-        Hit h;
-        hit = Intersect(scene, CameraRay(cam, x + (k % n + 0.5) / n, y + (k / n + 0.5) / n), 0.0,
-                        1e30, &h);
-      }
-      if (!hit) continue;
+      if (!AnySampleHits(scene, x, y, n)) continue;
       b.x0 = std::min(b.x0, x), b.x1 = std::max(b.x1, x + 1);
       b.y0 = std::min(b.y0, y), b.y1 = std::max(b.y1, y + 1);
     }
@@ -139,12 +146,7 @@ PixelCounts CountPixels(const Scene& scene, const std::vector<PixelPolygon>& pol
   PixelCounts c;
   for (int y = 0; y < cam.height_px; ++y) {
     for (int x = 0; x < cam.width; ++x) {
-      bool hit = false;
-      for (int k = 0; k < n * n && !hit; ++k) {
-        Hit h;
-        hit = Intersect(scene, CameraRay(cam, x + (k % n + 0.5) / n, y + (k / n + 0.5) / n), 0.0,
-                        1e30, &h);
-      }
+      const bool hit = AnySampleHits(scene, x, y, n);
       bool shaded = false;
       for (const PixelPolygon& poly : polygons)
         shaded = shaded || InsideConvex(poly, x + 0.5, y + 0.5);

@@ -15,8 +15,8 @@ namespace shadefit {
 struct RendererOptions {
   // On a transparent background, shade only the pixels inside ObjectPixelPolygons and read back
   // only ObjectPixelBounds (scene.h); every other pixel is what the shader would write there, 0
-  // in all four channels. false: ray cast
-  // every pixel (the reference tests/render/screen_bounds_test.cpp holds the bounded frame to).
+  // in all four channels. false: ray cast every pixel (the reference
+  // tests/render/screen_bounds_test.cpp holds the bounded frame to).
   bool bound_objects = true;
 };
 
