@@ -160,4 +160,10 @@ void GlContext::MakeCurrent() {
   }
 }
 
+void GlContext::ReleaseCurrent() {
+  if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)) {
+    throw Error("eglMakeCurrent (release) failed");
+  }
+}
+
 }  // namespace shadefit

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -255,6 +256,33 @@ TEST(FitCommandTest, BadInputWritesNothing) {
   EXPECT_EQ(RunCli({"fit", "--ref", f.exr, "--model", "nope", "-o", out}), 1);
   EXPECT_EQ(RunCli({"fit", "--ref", f.exr, "--model", "ggx", "--loss", "l3", "-o", out}), 1);
   EXPECT_FALSE(fs::exists(f.dir + "/bad"));
+}
+
+// The EGL context is made on a helper thread while the references are read (fit_command.cpp):
+// a bad reference is still the error reported when the context fails too, and a context that
+// fails is reported as itself, with nothing written either way.
+TEST(FitCommandTest, ContextMadeAlongsideTheReferencesKeepsTheErrorOrder) {
+  const Files f = MakeReferenceFiles("fit_io_cli_context");
+  const std::string out = f.dir + "/ctx/fit.json";
+  fs::remove_all(f.dir + "/ctx");
+  ASSERT_EQ(setenv("SHADEFIT_EGL_DEVICE", "no-such-device", 1), 0);
+  ::testing::internal::CaptureStderr();
+  const int missing_rc =
+      RunCli({"fit", "--ref", f.dir + "/missing.exr", "--model", "ggx", "-o", out});
+  const std::string missing_err = ::testing::internal::GetCapturedStderr();
+  ::testing::internal::CaptureStderr();
+  const int device_rc = RunCli({"fit", "--ref", f.exr, "--model", "ggx", "-o", out});
+  const std::string device_err = ::testing::internal::GetCapturedStderr();
+  unsetenv("SHADEFIT_EGL_DEVICE");
+  EXPECT_EQ(missing_rc, 1);
+  EXPECT_NE(missing_err.find("missing.exr"), std::string::npos) << missing_err;
+  EXPECT_EQ(missing_err.find("SHADEFIT_EGL_DEVICE"), std::string::npos) << missing_err;
+  EXPECT_EQ(device_rc, 1);
+  EXPECT_NE(device_err.find("SHADEFIT_EGL_DEVICE"), std::string::npos) << device_err;
+  EXPECT_FALSE(fs::exists(f.dir + "/ctx"));
+  // And the context the helper made is usable on this thread: the same fit now succeeds.
+  ASSERT_EQ(RunCli({"fit", "--ref", f.exr, "--model", "ggx", "--no-images", "-o", out}), 0);
+  EXPECT_TRUE(fs::exists(out));
 }
 
 TEST(FitCommandTest, NonConvergedFitSaysSo) {

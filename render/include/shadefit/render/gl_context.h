@@ -38,6 +38,9 @@ class GlContext {
   GlContext& operator=(const GlContext&) = delete;
 
   void MakeCurrent();
+  // Unbinds it from the calling thread, so that another thread can MakeCurrent() it (a context
+  // made on a helper thread while the main one reads its inputs).
+  void ReleaseCurrent();
   const GlDeviceInfo& info() const { return info_; }
   // Throws GlContextLostError when the context reports a reset (glGetGraphicsResetStatus, core
   // in GL 4.5; a no-op on a 4.3 context without KHR_robustness).
