@@ -1,17 +1,17 @@
 #include "bounded_lm.h"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Core>
 #include <ceres/jet.h>
-
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
-#include <cmath>
 #include <limits>
+#include <mutex>
 #include <thread>
 #include <type_traits>
 
@@ -126,7 +126,10 @@ bool SampleAboveSurface(const ShadingPoint& point, const PixelLight& light) {
   return Dot(point.n, light.l) > 0.0 && Dot(point.n, point.v) > 0.0;
 }
 
-Geometry PrepareGeometry(const BoundedLmProblem& problem) {
+// The lit samples of `problem`, in the order of its points and their lights. The offsets are
+// counted first (two dot products per sample), then the dot products are filled in per chunk on
+// the problem's threads: the same values whatever the thread count.
+Geometry PrepareGeometry(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks) {
   Geometry geo;
   long total = 0;
   for (const PixelSpan& s : problem.spans) {
@@ -139,19 +142,74 @@ Geometry PrepareGeometry(const BoundedLmProblem& problem) {
   for (const PixelSpan& s : problem.spans) {
     SpanGeometry& sg = geo.spans.emplace_back();
     sg.begin.reserve(s.count + 1);
+    int lit = 0;
     for (int k = 0; k < s.count; ++k) {
       const ShadingPoint& point = s.points[k];
-      sg.begin.push_back(static_cast<int>(sg.samples.size()));
+      sg.begin.push_back(lit);
+      for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
+        for (const PixelLight& light : *set) lit += SampleAboveSurface(point, light) ? 1 : 0;
+      }
+    }
+    sg.begin.push_back(lit);
+    sg.samples.resize(static_cast<std::size_t>(lit));
+  }
+  ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int c) {
+    const Chunk& chunk = chunks[c];
+    const ShadingPoint* points = problem.spans[chunk.span].points;
+    SpanGeometry& sg = geo.spans[chunk.span];
+    for (int k = chunk.begin; k < chunk.begin + chunk.count; ++k) {
+      const ShadingPoint& point = points[k];
+      LitSample* out = sg.samples.data() + sg.begin[k];
       for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
         for (const PixelLight& light : *set) {
           if (!SampleAboveSurface(point, light)) continue;
-          sg.samples.push_back({ComputeShadingDots(point.n, light.l, point.v), light.irradiance});
+          *out++ = {ComputeShadingDots(point.n, light.l, point.v), light.irradiance};
         }
       }
     }
-    sg.begin.push_back(static_cast<int>(sg.samples.size()));
-  }
+  });
   return geo;
+}
+
+bool SameSpans(const std::vector<PixelSpan>& a, const std::vector<PixelSpan>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].points != b[i].points || a[i].count != b[i].count) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+struct GeometryCache {
+  std::mutex mutex;
+  std::vector<PixelSpan> spans;  // What `geometry` was computed for.
+  std::shared_ptr<const Geometry> geometry;
+};
+
+std::shared_ptr<GeometryCache> NewGeometryCache() { return std::make_shared<GeometryCache>(); }
+
+void ForgetGeometry(const BoundedLmProblem& problem) {
+  if (!problem.geometry) return;
+  std::lock_guard<std::mutex> lock(problem.geometry->mutex);
+  problem.geometry->geometry.reset();
+}
+
+namespace {
+
+// The problem's geometry: from its cache when that was computed for the same spans.
+std::shared_ptr<const Geometry> GeometryOf(const BoundedLmProblem& problem,
+                                           const std::vector<Chunk>& chunks) {
+  if (!problem.geometry) {
+    return std::make_shared<const Geometry>(PrepareGeometry(problem, chunks));
+  }
+  GeometryCache& cache = *problem.geometry;
+  std::lock_guard<std::mutex> lock(cache.mutex);
+  if (!cache.geometry || !SameSpans(cache.spans, problem.spans)) {
+    cache.geometry = std::make_shared<const Geometry>(PrepareGeometry(problem, chunks));
+    cache.spans = problem.spans;
+  }
+  return cache.geometry;
 }
 
 // add(dots, irradiance) for every lit sample of point k of span `span`: the precomputed ones,
@@ -794,13 +852,15 @@ double BoxDerivative(const Parametrization& param, int i, double u) {
 }
 
 double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>& y, double e) {
-  const Sums s = Cost(problem, PrepareGeometry(problem), Chunks(problem), y, e);
+  const std::vector<Chunk> chunks = Chunks(problem);
+  const Sums s = Cost(problem, *GeometryOf(problem, chunks), chunks, y, e);
   return s.finite ? s.cost : std::numeric_limits<double>::quiet_NaN();
 }
 
 double BoundedLmNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
                                 double e, std::vector<double>* g, std::vector<double>* h) {
-  Sums s = Jacobian(problem, PrepareGeometry(problem), Chunks(problem), y, e);
+  const std::vector<Chunk> chunks = Chunks(problem);
+  Sums s = Jacobian(problem, *GeometryOf(problem, chunks), chunks, y, e);
   *g = std::move(s.g);
   *h = std::move(s.h);
   return s.finite ? s.cost : std::numeric_limits<double>::quiet_NaN();
@@ -877,7 +937,8 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   const int n = param.size();
   const int N = n + 1;
   const std::vector<Chunk> chunks = Chunks(problem);
-  const Geometry geo = PrepareGeometry(problem);
+  const std::shared_ptr<const Geometry> geometry = GeometryOf(problem, chunks);
+  const Geometry& geo = *geometry;
   BoundedLmSummary summary;
 
   // x = [y, e]; box of every unknown (the exposure is unbounded).

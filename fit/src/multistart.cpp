@@ -407,6 +407,8 @@ void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedR
        ++round) {
     AttachQuadrature(refs, ProposalAlphas(model.id, out_.starts[best_].params, true),
                      2 * std::max(4, options_.environment_twin_samples));
+    ForgetGeometry(p_.native_full);
+    ForgetGeometry(p_.native_coarse);
     for (int s = 0; s < options_.starts; ++s) {
       StartResult& sr = out_.starts[s];
       if (s == best_ || !std::isfinite(sr.final_cost)) continue;
