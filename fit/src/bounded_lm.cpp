@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <type_traits>
@@ -49,13 +50,95 @@ void ForEachChunk(int chunks, int threads, const Fn& fn) {
   for (std::thread& th : pool) th.join();
 }
 
+// The Gram matrix of one group of a Jacobian pass's rows (a colour channel when the Jet has
+// one slot per table row, else every residual): gram = sum q q^T over the rows
+// q = [slot derivatives..., (w,) r], `unknown` the unknown each slot stands for. With `mixed`
+// the row carries w, the derivative of the Fresnel-lobe product along both its rows
+// (F_v L_v e: ShiftLinear).
+struct GroupGram {
+  std::vector<int> unknown;
+  bool mixed = false;
+  int fresnel = -1, lobe = -1;  // Slots of the Fresnel and lobe terms' rows (with `mixed`).
+  Eigen::MatrixXd gram;
+};
+
 // One pass's sums: cost = 0.5 sum r^2, g = J^T r, h = J^T J (row-major, N x N), over the
-// unknowns [y_0 .. y_{n-1}, e].
+// unknowns [y_0 .. y_{n-1}, e]; for a Jacobian pass, the Gram matrices they were scattered from.
 struct Sums {
   double cost = 0;
   std::vector<double> g, h;
   bool finite = true;
+  std::vector<GroupGram> groups;
 };
+
+// cost, g and h of `sums` from its groups' Gram matrices: each group's slot rows and columns
+// added onto their unknowns (N of them), its residual entry onto the cost.
+void ScatterGroups(int n_unknowns, Sums* sums) {
+  const int N = n_unknowns;
+  double cost = 0;
+  std::vector<double> g(N, 0.0), h(N * N, 0.0);
+  for (const GroupGram& group : sums->groups) {
+    const int slots = static_cast<int>(group.unknown.size());
+    const int r = static_cast<int>(group.gram.rows()) - 1;
+    cost += group.gram(r, r);
+    for (int a = 0; a < slots; ++a) {
+      const int ia = group.unknown[a];
+      g[ia] += group.gram(a, r);
+      for (int b = a; b < slots; ++b) {
+        const int ib = group.unknown[b];
+        h[std::min(ia, ib) * N + std::max(ia, ib)] += group.gram(a, b);
+      }
+    }
+  }
+  for (int a = 0; a < N; ++a) {
+    for (int b = 0; b < a; ++b) h[a * N + b] = h[b * N + a];
+  }
+  sums->cost = 0.5 * cost;
+  sums->finite = std::isfinite(sums->cost);
+  for (int i = 0; i < N * N; ++i) sums->finite = sums->finite && std::isfinite(h[i]);
+  for (int i = 0; i < N; ++i) sums->finite = sums->finite && std::isfinite(g[i]);
+  sums->g = std::move(g);
+  sums->h = std::move(h);
+}
+
+// Moves a Jacobian pass at x to x + delta, delta non-zero on linear entries only (LinearEntries:
+// the radiance is jointly affine in them), without a pass over the pixels; false (the pass left
+// as it was) where its rows do not carry what that needs. Each row q = [J, (w,) r] becomes M q:
+// - r' = r + J delta, exactly, the radiance being affine in the entries moved;
+// - the derivative columns of the terms are their own rows' derivatives times the other terms'
+//   values (Diffuse_v n.l e, Fresnel_v Lobe e, Fresnel Lobe_v e; one row per term: TermRows);
+//   along a linear entry a term is affine, so its derivative does not change and its value
+//   changes by delta times it: the lobe column gains delta_fresnel w, w = Fresnel_v Lobe_v e
+//   (the mixed column), and no other column changes.
+// So gram' = M gram M^T. The new cost is a difference of the old sums: where it falls below
+// kShiftCancellation of the old one, too few of their digits are left, and the caller makes a
+// fresh pass instead.
+constexpr double kShiftCancellation = 1e-6;
+bool ShiftLinear(const std::vector<double>& delta, Sums* sums) {
+  if (sums->groups.empty()) return false;
+  for (const GroupGram& group : sums->groups) {
+    if (!group.mixed) return false;
+  }
+  const double before = sums->cost;
+  Sums shifted = *sums;
+  for (GroupGram& group : shifted.groups) {
+    const int slots = static_cast<int>(group.unknown.size());
+    const int columns = static_cast<int>(group.gram.rows());
+    const int w = slots, r = columns - 1;
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(columns, columns);
+    for (int a = 0; a < slots; ++a) m(r, a) += delta[group.unknown[a]];
+    auto delta_of = [&](int slot) { return slot >= 0 ? delta[group.unknown[slot]] : 0.0; };
+    // A lobe affine in its row would move the Fresnel column by delta_lobe w; no shipped model
+    // has one (the lobes' rows are widths, or classic ks in log space), so it gets a fresh pass.
+    if (delta_of(group.lobe) != 0.0) return false;
+    if (group.lobe >= 0) m(group.lobe, w) += delta_of(group.fresnel);
+    group.gram = m * group.gram * m.transpose();
+  }
+  ScatterGroups(static_cast<int>(sums->g.size()), &shifted);
+  if (!shifted.finite || !(shifted.cost >= kShiftCancellation * before)) return false;
+  *sums = std::move(shifted);
+  return true;
+}
 
 // Whether the bounded LM works on log p for entry i (else on p itself, in [exp(lower),
 // exp(upper)] for the parametrisation's log rows). The sine path fits every kMultiplicative row
@@ -101,10 +184,13 @@ void NaturalOfBox(const Parametrization& param, const T* y, T* p) {
 }
 
 // One light sample of a shading point (point.lights, then point.environment, in that order)
-// with l and v above the surface, reduced to the dot products the models read.
+// with l and v above the surface, reduced to the dot products the models read. Trivially
+// default-constructible (no Vec3d, whose members are zeroed), so that an array of them is
+// allocated without being written: the pages are first touched by the threads that fill them
+// (a zeroing resize of 39k samples took 1.3 ms of a 2 ms PrepareGeometry, on one thread).
 struct LitSample {
   ShadingDots<double> dots;
-  Vec3d irradiance;
+  double irradiance[3];
 };
 
 // The lit samples of every point of every span, computed once per solve instead of once per
@@ -114,7 +200,7 @@ struct LitSample {
 // the memory the points already hold.
 struct SpanGeometry {
   std::vector<int> begin;
-  std::vector<LitSample> samples;
+  std::unique_ptr<LitSample[]> samples;
 };
 struct Geometry {
   bool precomputed = false;
@@ -126,9 +212,9 @@ bool SampleAboveSurface(const ShadingPoint& point, const PixelLight& light) {
   return Dot(point.n, light.l) > 0.0 && Dot(point.n, point.v) > 0.0;
 }
 
-// The lit samples of `problem`, in the order of its points and their lights. The offsets are
-// counted first (two dot products per sample), then the dot products are filled in per chunk on
-// the problem's threads: the same values whatever the thread count.
+// The lit samples of `problem`, in the order of its points and their lights: each point's count
+// (two dot products per sample) and then its samples are computed per chunk on the problem's
+// threads, with the offsets summed in between: the same values whatever the thread count.
 Geometry PrepareGeometry(const BoundedLmProblem& problem, const std::vector<Chunk>& chunks) {
   Geometry geo;
   long total = 0;
@@ -139,19 +225,22 @@ Geometry PrepareGeometry(const BoundedLmProblem& problem, const std::vector<Chun
   }
   if (total > kMaxLitSamples) return geo;
   geo.precomputed = true;
-  for (const PixelSpan& s : problem.spans) {
-    SpanGeometry& sg = geo.spans.emplace_back();
-    sg.begin.reserve(s.count + 1);
-    int lit = 0;
-    for (int k = 0; k < s.count; ++k) {
-      const ShadingPoint& point = s.points[k];
-      sg.begin.push_back(lit);
-      for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
-        for (const PixelLight& light : *set) lit += SampleAboveSurface(point, light) ? 1 : 0;
+  for (const PixelSpan& s : problem.spans) geo.spans.emplace_back().begin.assign(s.count + 1, 0);
+  ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int c) {
+    const Chunk& chunk = chunks[c];
+    const ShadingPoint* points = problem.spans[chunk.span].points;
+    std::vector<int>& begin = geo.spans[chunk.span].begin;
+    for (int k = chunk.begin; k < chunk.begin + chunk.count; ++k) {
+      int lit = 0;
+      for (const std::vector<PixelLight>* set : {&points[k].lights, &points[k].environment}) {
+        for (const PixelLight& light : *set) lit += SampleAboveSurface(points[k], light) ? 1 : 0;
       }
+      begin[k + 1] = lit;
     }
-    sg.begin.push_back(lit);
-    sg.samples.resize(static_cast<std::size_t>(lit));
+  });
+  for (SpanGeometry& sg : geo.spans) {
+    for (std::size_t k = 1; k < sg.begin.size(); ++k) sg.begin[k] += sg.begin[k - 1];
+    sg.samples = std::make_unique_for_overwrite<LitSample[]>(static_cast<std::size_t>(sg.begin.back()));
   }
   ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int c) {
     const Chunk& chunk = chunks[c];
@@ -159,11 +248,13 @@ Geometry PrepareGeometry(const BoundedLmProblem& problem, const std::vector<Chun
     SpanGeometry& sg = geo.spans[chunk.span];
     for (int k = chunk.begin; k < chunk.begin + chunk.count; ++k) {
       const ShadingPoint& point = points[k];
-      LitSample* out = sg.samples.data() + sg.begin[k];
+      LitSample* out = sg.samples.get() + sg.begin[k];
       for (const std::vector<PixelLight>* set : {&point.lights, &point.environment}) {
         for (const PixelLight& light : *set) {
           if (!SampleAboveSurface(point, light)) continue;
-          *out++ = {ComputeShadingDots(point.n, light.l, point.v), light.irradiance};
+          out->dots = ComputeShadingDots(point.n, light.l, point.v);
+          for (int ch = 0; ch < 3; ++ch) out->irradiance[ch] = light.irradiance[ch];
+          ++out;
         }
       }
     }
@@ -220,7 +311,8 @@ void ForEachLitSample(const Geometry& geo, int span, const ShadingPoint& point, 
   if (geo.precomputed) {
     const SpanGeometry& sg = geo.spans[span];
     for (int i = sg.begin[k]; i < sg.begin[k + 1]; ++i) {
-      add(sg.samples[i].dots, sg.samples[i].irradiance);
+      const LitSample& sample = sg.samples[i];
+      add(sample.dots, Vec3d{sample.irradiance[0], sample.irradiance[1], sample.irradiance[2]});
     }
     return;
   }
@@ -324,12 +416,13 @@ void GenericEntries(const std::vector<ParamSpec>& table, StructureRng& rng, Jet*
   }
 }
 
-// fn(ModelTag) for every model, in ModelId order.
-template <typename T, typename Fn>
-std::array<T, kModelCount> PerModel(const Fn& fn) {
-  std::array<T, kModelCount> out{};
-  for (int m = 0; m < kModelCount; ++m) out[m] = VisitModel(static_cast<ModelId>(m), fn);
-  return out;
+// fn(Tag{}), computed on the first call for that model and kept (a function-local static per
+// Tag and fn: thread-safe). A fit pays for its own model's structure checks only: computed for
+// every model at the first call, they took about 1 ms of a one-start ggx fit's 8 ms solve.
+template <typename Tag, typename Fn>
+const auto& OncePerModel(const Fn& fn) {
+  static const auto value = fn(Tag{});
+  return value;
 }
 
 // Whether each output channel of model M depends on channel c of its colour rows only (kd.r
@@ -372,9 +465,9 @@ bool ChannelSeparableImpl() {
 }  // namespace
 
 bool ChannelSeparable(ModelId model) {
-  static const std::array<bool, kModelCount> separable =
-      PerModel<bool>([](auto tag) { return ChannelSeparableImpl<decltype(tag)>(); });
-  return separable[static_cast<int>(model)];
+  return VisitModel(model, [](auto tag) -> bool {
+    return OncePerModel<decltype(tag)>([](auto t) { return ChannelSeparableImpl<decltype(t)>(); });
+  });
 }
 
 namespace {
@@ -427,9 +520,9 @@ TermRows TermRowsImpl() {
 }  // namespace
 
 const TermRows& RowsOfTerms(ModelId model) {
-  static const std::array<TermRows, kModelCount> rows =
-      PerModel<TermRows>([](auto tag) { return TermRowsImpl<decltype(tag)>(); });
-  return rows[static_cast<int>(model)];
+  return VisitModel(model, [](auto tag) -> const TermRows& {
+    return OncePerModel<decltype(tag)>([](auto t) { return TermRowsImpl<decltype(t)>(); });
+  });
 }
 
 namespace {
@@ -507,9 +600,9 @@ std::vector<bool> LinearEntriesImpl() {
 }  // namespace
 
 std::vector<bool> LinearEntries(ModelId model) {
-  static const std::array<std::vector<bool>, kModelCount> linear =
-      PerModel<std::vector<bool>>([](auto tag) { return LinearEntriesImpl<decltype(tag)>(); });
-  return linear[static_cast<int>(model)];
+  return VisitModel(model, [](auto tag) -> std::vector<bool> {
+    return OncePerModel<decltype(tag)>([](auto t) { return LinearEntriesImpl<decltype(t)>(); });
+  });
 }
 
 namespace {
@@ -546,15 +639,18 @@ struct TermParams {
 };
 
 // ShadeLoaded for TermParams: the same values (Reflected's sum in its order, so the cost is the
-// double the twin gives), with each term's one derivative added into its slot of the full Jet.
-template <typename Tag, int K>
+// double the twin gives), with each term's one derivative added into its slot of the full Jet;
+// with kMixed also, per channel, the mixed derivative of the Fresnel-lobe product along both
+// its rows, sum Fresnel_v Lobe_v e (ShiftLinear).
+template <typename Tag, int K, bool kMixed>
 [[gnu::flatten]] void ShadeTermwise(const TermParams<Tag, K>& t,
                                     const Rgb<ceres::Jet<double, K>>& ka, const Geometry& geo,
                                     int span, const ShadingPoint& point, int k,
-                                    ceres::Jet<double, K>* out) {
+                                    ceres::Jet<double, K>* out, double* mixed) {
   using M1 = typename TermParams<Tag, K>::M1;
   using Jet = ceres::Jet<double, K>;
   for (int c = 0; c < 3; ++c) out[c] = ka[c] * Jet(point.ambient[c]);
+  if constexpr (kMixed) std::fill(mixed, mixed + 3, 0.0);
   auto add = [&](const ShadingDots<double>& d, const Vec3d& irradiance) {
     const auto diffuse = M1::Diffuse(t.diffuse, d);
     const auto fresnel = M1::Fresnel(t.fresnel, d);
@@ -565,20 +661,11 @@ template <typename Tag, int K>
       if (t.diffuse_slot >= 0) out[c].v[t.diffuse_slot] += diffuse[c].v[0] * d.NoL * e;
       if (t.fresnel_slot >= 0) out[c].v[t.fresnel_slot] += fresnel[c].v[0] * lobe.a * e;
       if (t.lobe_slot >= 0) out[c].v[t.lobe_slot] += fresnel[c].a * lobe.v[0] * e;
+      if constexpr (kMixed) mixed[c] += fresnel[c].v[0] * lobe.v[0] * e;
     }
   };
   ForEachLitSample(geo, span, point, k, add);
 }
-
-// One chunk's sums of the Jacobian pass: per group (the 3 channels when compressed, else one)
-// the upper triangle of sum v v^T and sum r v over the Jet's K slots. At namespace scope: gcc
-// 12 crashes on a local class with Eigen members inside the function template.
-template <int K, int kGroups>
-struct JetPartial {
-  double cost = 0;
-  double g[kGroups][K] = {};
-  double h[kGroups][K * (K + 1) / 2] = {};
-};
 
 // The Jacobian rows [v_0 .. v_{C-2}, r] of one group, gathered kRows at a time; each block is
 // folded into the Gram matrix of its columns (sum v v^T, sum r v, sum r^2) by one fixed-size
@@ -605,10 +692,12 @@ struct RowBlock {
 };
 
 // Cost, gradient and Gauss-Newton matrix in one pass: AutoDiff over the parameters only (the
-// geometry enters as plain numbers), each residual's Jacobian row folded into J^T J at once.
+// geometry enters as plain numbers), each residual's Jacobian row folded into its group's Gram
+// matrix at once (GroupGram), the groups then scattered onto the unknowns (ScatterGroups).
 // kCompressed: one slot per table row (ChannelSeparable), else one per entry. The last slot is
 // the log exposure. kTermwise (with kCompressed, where each term reads one row: TermRows): the
-// terms are shaded with one-slot Jets (ShadeTermwise).
+// terms are shaded with one-slot Jets (ShadeTermwise), and with L2 and a fixed exposure the rows
+// carry the mixed column that lets ShiftLinear move the pass along the linear entries.
 template <typename Tag, bool kCompressed, bool kTermwise>
 Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
                   const std::vector<Chunk>& chunks, const std::vector<double>& y, double e) {
@@ -644,24 +733,27 @@ Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
   const typename Model::Params q = Model::Load(p);
   const Rgb<Jet> ka = Model::Ambient(q);
   static_assert(kCompressed || !kTermwise, "per-term Jets need one slot per row");
-  const TermParams<Tag, K> terms(p, kTermwise ? RowsOfTerms(problem.model) : TermRows{});
-  using Partial = JetPartial<K, kGroups>;
-  std::vector<Partial> partial(chunks.size());
+  const TermRows rows = kTermwise ? RowsOfTerms(problem.model) : TermRows{};
+  const TermParams<Tag, K> terms(p, rows);
   // kActive: the slots that can be non-zero, the exposure's only when it is an unknown (a fixed
   // exposure's slot is zero in every residual: its sums are skipped, 10 of 15 per residual for
   // ggx). The residual is Compress(scale * radiance) - target; with L2 and a fixed exposure the
   // Jet is scaled by a plain number and not compressed.
   const bool plain = problem.loss == Loss::kL2 && !problem.exposure_free;
-  auto run = [&]<int kActive>() {
+  Sums out;
+  auto run = [&]<int kActive, bool kMixed>() {
+    constexpr int C = kActive + (kMixed ? 1 : 0) + 1;  // The active slots, w, the residual.
+    using Gram = Eigen::Matrix<double, C, C>;
+    std::vector<std::array<Gram, kGroups>> partial(chunks.size());
     ForEachChunk(static_cast<int>(chunks.size()), problem.threads, [&](int ci) {
       const Chunk& c = chunks[ci];
       const PixelSpan& s = problem.spans[c.span];
-      constexpr int C = kActive + 1;  // The active slots and the residual.
       RowBlock<C> blocks[kGroups];
       for (int k = c.begin; k < c.begin + c.count; ++k) {
         Jet rgb[3];
+        double mixed[3];
         if constexpr (kTermwise) {
-          ShadeTermwise<Tag, K>(terms, ka, geo, c.span, s.points[k], k, rgb);
+          ShadeTermwise<Tag, K, kMixed>(terms, ka, geo, c.span, s.points[k], k, rgb, mixed);
         } else {
           ShadeLoaded<Model>(q, ka, geo, c.span, s.points[k], k, rgb);
         }
@@ -670,58 +762,37 @@ Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
           r.a -= s.targets[3 * k + ch];
           RowBlock<C>& block = blocks[kCompressed ? ch : 0];
           // Column-major block: entry a of the row is kRows apart.
-          double* row = block.Next();
-          for (int a = 0; a < kActive; ++a) row[a * RowBlock<C>::kRows] = r.v[a];
-          row[kActive * RowBlock<C>::kRows] = r.a;
+          double* q_row = block.Next();
+          for (int a = 0; a < kActive; ++a) q_row[a * RowBlock<C>::kRows] = r.v[a];
+          if constexpr (kMixed) q_row[kActive * RowBlock<C>::kRows] = mixed[ch] * scale.a;
+          q_row[(C - 1) * RowBlock<C>::kRows] = r.a;
         }
       }
-      Partial out;
       for (int grp = 0; grp < kGroups; ++grp) {
-        RowBlock<C>& block = blocks[grp];
-        block.Flush();
-        out.cost += block.gram(kActive, kActive);
-        int t = 0;  // Row a of the upper triangle of K slots starts at t.
-        for (int a = 0; a < kActive; ++a) {
-          out.g[grp][a] = block.gram(a, kActive);
-          for (int b = a; b < kActive; ++b) out.h[grp][t + b - a] = block.gram(a, b);
-          t += K - a;
-        }
+        blocks[grp].Flush();
+        partial[ci][grp] = blocks[grp].gram;
       }
-      partial[ci] = out;
     });
+    // Partial sums in chunk order (thread-count independent).
+    for (int grp = 0; grp < kGroups; ++grp) {
+      Gram total = Gram::Zero();
+      for (const auto& part : partial) total += part[grp];
+      GroupGram& group = out.groups.emplace_back();
+      group.unknown.assign(unknown_of[grp], unknown_of[grp] + kActive);
+      group.mixed = kMixed;
+      group.fresnel = rows.fresnel;
+      group.lobe = rows.lobe;
+      group.gram = total;
+    }
   };
   if (problem.exposure_free) {
-    run.template operator()<K>();
+    run.template operator()<K, false>();
+  } else if (kTermwise && plain) {
+    run.template operator()<K - 1, kTermwise>();
   } else {
-    run.template operator()<K - 1>();
+    run.template operator()<K - 1, false>();
   }
-  // Partial sums in chunk order (thread-count independent), scattered onto the unknowns.
-  double cost = 0;
-  std::vector<double> g(N, 0.0), h(N * N, 0.0);
-  for (const Partial& part : partial) {
-    cost += part.cost;
-    for (int grp = 0; grp < kGroups; ++grp) {
-      int t = 0;
-      for (int a = 0; a < K; ++a) {
-        const int ia = unknown_of[grp][a];
-        g[ia] += part.g[grp][a];
-        for (int b = a; b < K; ++b, ++t) {
-          const int ib = unknown_of[grp][b];
-          h[std::min(ia, ib) * N + std::max(ia, ib)] += part.h[grp][t];
-        }
-      }
-    }
-  }
-  for (int a = 0; a < N; ++a) {
-    for (int b = 0; b < a; ++b) h[a * N + b] = h[b * N + a];
-  }
-  Sums out;
-  out.cost = 0.5 * cost;
-  out.finite = std::isfinite(out.cost);
-  for (int i = 0; i < N * N; ++i) out.finite = out.finite && std::isfinite(h[i]);
-  for (int i = 0; i < N; ++i) out.finite = out.finite && std::isfinite(g[i]);
-  out.g = std::move(g);
-  out.h = std::move(h);
+  ScatterGroups(N, &out);
   return out;
 }
 
@@ -866,6 +937,34 @@ double BoundedLmNormalEquations(const BoundedLmProblem& problem, const std::vect
   return s.finite ? s.cost : std::numeric_limits<double>::quiet_NaN();
 }
 
+std::vector<bool> ProjectedEntries(const BoundedLmProblem& problem) {
+  const Parametrization& param = *problem.param;
+  const int n = param.size();
+  std::vector<bool> linear(n + 1, false);
+  if (!ProjectionApplies(problem.loss, problem.exposure_free)) return linear;
+  const std::vector<bool> model_linear = LinearEntries(problem.model);
+  bool any_linear = false, any_nonlinear = false;
+  for (int i = 0; i < n; ++i) {
+    if (param.entry(i).fixed) continue;
+    linear[i] = model_linear[i] && !InBoxLog(param, i);
+    (linear[i] ? any_linear : any_nonlinear) = true;
+  }
+  if (!any_linear || !any_nonlinear) std::fill(linear.begin(), linear.end(), false);
+  return linear;
+}
+
+bool BoundedLmShiftedNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
+                                     double e, const std::vector<double>& delta, double* cost,
+                                     std::vector<double>* g, std::vector<double>* h) {
+  const std::vector<Chunk> chunks = Chunks(problem);
+  Sums s = Jacobian(problem, *GeometryOf(problem, chunks), chunks, y, e);
+  if (!ShiftLinear(delta, &s)) return false;
+  *cost = s.cost;
+  *g = std::move(s.g);
+  *h = std::move(s.h);
+  return true;
+}
+
 namespace {
 
 // Pseudo-inverse solve of a small symmetric positive semi-definite system: directions with
@@ -966,26 +1065,16 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
   // trial point is re-projected before it is judged. The valley that a joint step follows at
   // ~1% per step when a highlight and the diffuse trade off (black-glossy-rim: kd and f0 falling
   // together by 10x while roughness moves 10%) is then a one-dimensional problem.
-  std::vector<bool> linear(N, false);
-  bool varpro = false;
-  if (ProjectionApplies(problem.loss, problem.exposure_free)) {
-    const std::vector<bool> model_linear = LinearEntries(problem.model);
-    bool any_linear = false, any_nonlinear = false;
-    for (int i = 0; i < n; ++i) {
-      if (!unknown[i]) continue;
-      linear[i] = model_linear[i] && !InBoxLog(param, i);
-      (linear[i] ? any_linear : any_nonlinear) = true;
-    }
-    varpro = any_linear && any_nonlinear;
-    if (!varpro) std::fill(linear.begin(), linear.end(), false);
-  }
+  const std::vector<bool> linear = ProjectedEntries(problem);
+  const bool varpro = std::find(linear.begin(), linear.end(), true) != linear.end();
   std::vector<int> linear_index;
   for (int i = 0; i < N; ++i) {
     if (linear[i]) linear_index.push_back(i);
   }
   // Moves the linear entries of xv to their exact optimum for the other entries, from the
-  // pass at xv; updates the pass's cost (exact: the cost is quadratic in them) and returns
-  // whether anything moved (the pass's g and h then belong to the old point).
+  // pass at xv, and the pass with them (ShiftLinear); else updates only the pass's cost (exact:
+  // the cost is quadratic in them). Returns whether the pass is stale: its g and h belong to the
+  // old point, and a fresh pass is needed there.
   auto project = [&](Sums* pass, std::vector<double>* xv) {
     const int l = static_cast<int>(linear_index.size());
     Eigen::MatrixXd h(l, l);
@@ -1002,8 +1091,13 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
     const Eigen::VectorXd d = z - z0;
     const double change = g.dot(d) + 0.5 * d.dot(h * d);
     if (!(change < 0)) return false;
+    std::vector<double> delta(N, 0.0);
+    for (int a = 0; a < l; ++a) {
+      (*xv)[linear_index[a]] = z[a];
+      delta[linear_index[a]] = d[a];
+    }
+    if (ShiftLinear(delta, pass)) return false;
     pass->cost += change;
-    for (int a = 0; a < l; ++a) (*xv)[linear_index[a]] = z[a];
     return true;
   };
 
@@ -1144,13 +1238,13 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
       break;
     }
     // The trial's cost; with variable projection after re-optimising the linear entries there,
-    // which needs that point's normal equations (a Jacobian pass, kept if nothing moved).
+    // which needs that point's normal equations (a Jacobian pass, kept unless it went stale).
     Sums trial_pass;
-    bool trial_moved = false;
+    bool trial_stale = false;
     if (varpro) {
       trial_pass = Jacobian(problem, geo, chunks, split(trial), trial[n]);
       ++summary.jacobian_evaluations;
-      if (trial_pass.finite) trial_moved = project(&trial_pass, &trial);
+      if (trial_pass.finite) trial_stale = project(&trial_pass, &trial);
     } else {
       trial_pass = Cost(problem, geo, chunks, split(trial), trial[n]);
       ++summary.residual_evaluations;
@@ -1180,14 +1274,14 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
           Sums longer_pass = Jacobian(problem, geo, chunks, split(longer), longer[n]);
           ++summary.jacobian_evaluations;
           if (longer_pass.finite) {
-            const bool longer_moved = project(&longer_pass, &longer);
+            const bool longer_stale = project(&longer_pass, &longer);
             if (longer_pass.cost < trial_pass.cost) {
               Eigen::VectorXd taken(m);
               for (int a = 0; a < m; ++a) taken[a] = longer[varying[a]] - x[varying[a]];
               step_taken = d_scale.cwiseProduct(taken).norm();
               trial = std::move(longer);
               trial_pass = std::move(longer_pass);
-              trial_moved = longer_moved;
+              trial_stale = longer_stale;
               actual = at.cost - trial_pass.cost;
             }
           }
@@ -1213,7 +1307,7 @@ BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLm
     if (trial_pass.finite && actual > 0 && ratio > kMinRatio) {
       x = trial;
       const double previous = at.cost;
-      if (varpro && !trial_moved) {
+      if (varpro && !trial_stale) {
         at = std::move(trial_pass);
       } else {
         at = Jacobian(problem, geo, chunks, split(x), x[n]);

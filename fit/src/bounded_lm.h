@@ -130,6 +130,19 @@ double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>&
 double BoundedLmNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
                                 double e, std::vector<double>* g, std::vector<double>* h);
 
+// The unknowns [y_0 .. y_{n-1}, e] that variable projection re-optimises (SolveBoundedLm): the
+// free LinearEntries the box holds in linear coordinates, with the L2 loss and a fixed exposure,
+// where there are nonlinear unknowns too; all false otherwise.
+std::vector<bool> ProjectedEntries(const BoundedLmProblem& problem);
+
+// The normal equations at (y, e) moved to (y + delta, e) without a pass over the pixels, as the
+// solver's variable projection moves them (delta: [y deltas..., 0], non-zero on ProjectedEntries
+// only); false where the pass does not carry what that needs (then the solver makes a fresh
+// pass). Tests hold the result to BoundedLmNormalEquations at y + delta.
+bool BoundedLmShiftedNormalEquations(const BoundedLmProblem& problem, const std::vector<double>& y,
+                                     double e, const std::vector<double>& delta, double* cost,
+                                     std::vector<double>* g, std::vector<double>* h);
+
 // Minimises from (y, e); leaves the end point there.
 BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLmOptions& options,
                                 std::vector<double>* y, double* e);
