@@ -4,7 +4,7 @@
 # crash, leak, timeout, out-of-memory or sanitizer report; the input that caused it is left in
 # build-fuzz/artifacts/ (add it to tests/fuzz/corpus/<harness>/ with the fix: it then replays in
 # CTest for ever). New inputs found go to build-fuzz/fuzz-corpus/<harness>/, never to the
-# committed corpus. CI runs it with the defaults (issue 14; docs/inputs.md, "Fuzzing").
+# committed corpus. Run by hand, not yet by CI (issue 14; docs/testing.md, "Not in CI yet").
 #   bash scripts/fuzz-check.sh [--seconds N] [--only NAME[,NAME...]] [--jobs N] [--no-build]
 set -euo pipefail
 cd "$(dirname "$0")/.."

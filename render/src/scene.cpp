@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -63,8 +64,11 @@ class TableReader {
   int Integer(const std::string& key, int def, int min, int max) const {
     const toml::node* node = table_.get(key);
     if (!node) return def;
-    const auto v = node->value<int64_t>();
-    if (!v || !node->is_integer()) Fail(key, "expected an integer", node);
+    // The type first: toml++'s value<int64_t>() converts a float, and one beyond int64's range
+    // (samples = 1.9e41) is undefined behaviour (found by fuzz_scene).
+    if (!node->is_integer()) Fail(key, "expected an integer", node);
+    const std::optional<int64_t> v = node->value_exact<int64_t>();
+    if (!v) Fail(key, "expected an integer", node);
     if (*v < min || *v > max) Fail(key, fmt::format("value {} outside [{}, {}]", *v, min, max), node);
     return static_cast<int>(*v);
   }
@@ -163,8 +167,8 @@ void ParseCamera(const TableReader& r, Camera* cam) {
     if (!arr || arr->size() != 2 || !(*arr)[0].is_integer() || !(*arr)[1].is_integer()) {
       r.Fail("resolution", "expected [width, height] integers", node);
     }
-    const int64_t w = *(*arr)[0].value<int64_t>();
-    const int64_t h = *(*arr)[1].value<int64_t>();
+    const int64_t w = (*arr)[0].as_integer()->get();
+    const int64_t h = (*arr)[1].as_integer()->get();
     if (w < 1 || h < 1 || w > 8192 || h > 8192) r.Fail("resolution", "must be 1..8192", node);
     cam->width = static_cast<int>(w);
     cam->height_px = static_cast<int>(h);

@@ -577,6 +577,14 @@ TEST_F(BadInput, SceneFractionalSupersample) {
                     "bad\\.toml:7: camera\\.supersample: expected an integer");
 }
 
+// A float beyond int64's range where an integer belongs: an error, not toml++'s float to integer
+// conversion, which is undefined behaviour there (found by fuzz_scene; the input is also in
+// tests/fuzz/corpus/scene/float_samples_beyond_int64.toml, replayed under UBSan).
+TEST_F(BadInput, SceneIntegerFieldHugeFloat) {
+  ExpectRenderFails(SceneWith("fov_y = 22.0", "fov_y = 22.0\nsupersample = 1.9e41"),
+                    "bad\\.toml:7: camera\\.supersample: expected an integer");
+}
+
 TEST_F(BadInput, SceneMissingFile) {
   ExpectCleanFailure("render --scene in/none.toml -o out/a.exr",
                      "in/none\\.toml: scene file not found");

@@ -72,7 +72,7 @@ class Reader {
     const toml::node* n = t.get(key);
     if (n == nullptr) return fallback;
     if (!n->is_integer()) Fail(n, prefix + key, "expected an integer");
-    const std::int64_t v = *n->value<std::int64_t>();
+    const std::int64_t v = n->as_integer()->get();
     if (v < min) Fail(n, prefix + key, fmt::format("value {} below the minimum {}", v, min));
     if (v > max) Fail(n, prefix + key, fmt::format("value {} above the maximum {}", v, max));
     return v;

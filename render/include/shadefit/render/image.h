@@ -63,9 +63,10 @@ struct ImageFileInfo {
 // False with *error = OpenImageIO's message when the file cannot be opened as an image.
 bool ReadImageInfo(const std::string& path, ImageFileInfo* info, std::string* error);
 
-// Checks what a decoder would trust before reading a file: an EXR header attribute may not claim
-// more bytes than the file holds (OpenEXR 3.1 allocates the claimed size first). ReadImage and the
-// import call it before OpenImageIO opens the file. Throws shadefit::Error(path, "header", ...).
+// Checks what a decoder would trust before reading a file: an EXR header attribute or a PNG chunk
+// may not claim more bytes than the file holds (OpenEXR 3.1 and libpng 1.6 allocate the claimed
+// size first). ReadImage and the import call it before OpenImageIO opens the file. Throws
+// shadefit::Error(path, "header", ...).
 void CheckImageHeader(const std::string& path);
 
 // Writes a linear float EXR (half is never used: references need float). Written to a temporary
