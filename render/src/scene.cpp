@@ -7,7 +7,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <optional>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -67,10 +66,9 @@ class TableReader {
     // The type first: toml++'s value<int64_t>() converts a float, and one beyond int64's range
     // (samples = 1.9e41) is undefined behaviour (found by fuzz_scene).
     if (!node->is_integer()) Fail(key, "expected an integer", node);
-    const std::optional<int64_t> v = node->value_exact<int64_t>();
-    if (!v) Fail(key, "expected an integer", node);
-    if (*v < min || *v > max) Fail(key, fmt::format("value {} outside [{}, {}]", *v, min, max), node);
-    return static_cast<int>(*v);
+    const int64_t v = node->as_integer()->get();
+    if (v < min || v > max) Fail(key, fmt::format("value {} outside [{}, {}]", v, min, max), node);
+    return static_cast<int>(v);
   }
 
   bool Bool(const std::string& key, bool def) const {
