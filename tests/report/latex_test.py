@@ -2,7 +2,8 @@
 """The report's report.tex compiles with pdflatex into a PDF holding every table and figure
 (docs/studies.md, "Report"): every figure of figures.json is included as its PDF, every table as
 its longtable piece, the \\input-able booktabs tabular pieces exist beside them, and the PDF
-embeds each figure (pdfTeX's log names every graphic it embeds).
+embeds each figure (pdfTeX's log names every graphic it embeds), and nothing in it is wider than
+the page.
 
     latex_test.py STUDY_DIR      exit 0 pass, 1 fail, 77 skip (no pdflatex)
 """
@@ -66,6 +67,12 @@ def main(argv):
         for fig in figures:
             if "<" + fig["pdf"] not in flat:
                 failures.append(f"{fig['pdf']} was not embedded in report.pdf")
+        # Nothing wider than the page: a table or figure that runs off it is not publication
+        # ready (make_report.long_table splits wide tables and sets their headers on their side).
+        for m in re.finditer(r"Overfull \\hbox \(([0-9.]+)pt too wide\) ([^\n]*)", texlog):
+            if float(m.group(1)) > 1.0:
+                failures.append(f"report.pdf: a box {m.group(1)} pt wider than the page "
+                                f"({m.group(2).strip()}; {os.path.join(report, 'report.log')})")
         if "Float(s) lost" in texlog or pages < 2:
             failures.append(f"report.pdf: {pages} pages, floats lost: {'Float(s) lost' in texlog}")
         print(f"report.pdf: {pages} pages, {len(figures)} figures, {len(tables)} tables, "

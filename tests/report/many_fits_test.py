@@ -5,7 +5,8 @@ training sets = 10 fits labelled `model@training`, 20 materials with names as lo
 is written as result files, make_report.py lays out its report, and figures.json must record no
 text overlap and no text outside any figure; every figure is 3.3 or 7 in wide; each material's
 grid names every fit in the parts it is split into, and index.html and report.tex show every
-part. Needs no shadefit build: the result files are written here, with fixed values.
+part, and report.tex compiles with nothing wider than the page (latex_test.py). Needs no
+shadefit build: the result files are written here, with fixed values.
 
     many_fits_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -231,6 +232,11 @@ def main(argv):
     failures = []
     for shape in (MANY, FOUR):
         failures += check(shape, out, make_report, pdf_problems, png_size)
+    # Its tables too: 10 fits are as many columns, which report.tex must fit on the page.
+    import latex_test  # noqa: E402
+    rc = latex_test.main([None, os.path.join(out, MANY.name)])
+    if rc == 1:
+        failures.append(f"{MANY.name}: report.tex (above)")
     for f in failures:
         print("FAILED: " + f)
     return 1 if failures else 0
