@@ -242,16 +242,13 @@ def long_table_parts(plain_cols, rows, keep):
     other column indices one longtable holds; every part repeats the `keep` leading columns.
     Headers are rotated only when the table does not fit with them upright, and a table is split
     only when it does not fit with them rotated (the measured study's 10 fits)."""
-    def cell_pt(i):
-        return max([latex_width_pt(r[i]) for r in rows] + [0.0]) + LATEX_COLUMN_SEP_PT
-    keys = sum(max(cell_pt(i), latex_width_pt(plain_cols[i]) + LATEX_COLUMN_SEP_PT)
-               for i in range(keep))
+    cell = [max([latex_width_pt(r[i]) for r in rows] + [0.0]) for i in range(len(plain_cols))]
+    upright = [LATEX_COLUMN_SEP_PT + max(c, latex_width_pt(h)) for c, h in zip(cell, plain_cols)]
+    side = [LATEX_COLUMN_SEP_PT + max(c, LATEX_ROTATED_HEADER_PT) for c in cell]
+    keys = sum(upright[:keep])
     numeric = list(range(keep, len(plain_cols)))
-    upright = {i: max(cell_pt(i), latex_width_pt(plain_cols[i]) + LATEX_COLUMN_SEP_PT)
-               for i in numeric}
-    if keys + sum(upright.values()) <= LATEX_TEXT_WIDTH_PT:
+    if sum(upright) <= LATEX_TEXT_WIDTH_PT:
         return False, [numeric]
-    side = {i: max(cell_pt(i), LATEX_ROTATED_HEADER_PT + LATEX_COLUMN_SEP_PT) for i in numeric}
     # The fewest parts that fit, with the columns shared out evenly (11 columns in two parts are
     # 6 + 5, not 10 + 1); a part holds at least one column even where it cannot fit.
     for count in range(1, len(numeric) + 1):
@@ -278,10 +275,8 @@ def long_table(caption, columns, plain_cols, rows, numeric_from, keep):
             f"\\rotatebox{{90}}{{{latex_escape(columns[i])}}}" if rotate and i >= numeric_from
             else latex_escape(columns[i]) for i in cols) + " \\\\"
         body = [" & ".join(latex_escape(r[i]) for i in cols) + " \\\\" for r in rows]
-        title = caption if len(parts) == 1 else (
-            f"{caption} (part {n + 1} of {len(parts)}: "
-            f"{plain_cols[part[0]]} to {plain_cols[part[-1]]})" if len(part) > 1 else
-            f"{caption} (part {n + 1} of {len(parts)}: {plain_cols[part[0]]})")
+        span = plain_cols[part[0]] + ("" if len(part) == 1 else f" to {plain_cols[part[-1]]}")
+        title = caption if len(parts) == 1 else f"{caption} (part {n + 1} of {len(parts)}: {span})"
         lines += [f"\\begin{{longtable}}{{{align}}}", f"\\caption{{{latex_escape(title)}}}\\\\",
                   "\\toprule", head, "\\midrule", "\\endfirsthead", "\\toprule", head,
                   "\\midrule", "\\endhead", "\\bottomrule", "\\endfoot"] + body
