@@ -13,8 +13,9 @@
 #
 #   --rev REV      commit to clone (default HEAD; uncommitted changes are not part of a check)
 #   --reuse-pass   skip the check when one passed on this machine for the same install inputs
-#                  (bootstrap.sh, this script, every CMakeLists.txt and cmake/ file, the CI
-#                  skip list, at REV); .ci/run uses it (docs/testing.md says what that costs)
+#                  (bootstrap.sh, check-skips.py, this script, every CMakeLists.txt and cmake/
+#                  file, the CI skip list, at REV); .ci/run uses it (docs/testing.md says what
+#                  that costs)
 #   --shared DIR   the folder that sits beside the clone as ../shared (default: ../shared)
 #   --no-cache     build the base root afresh instead of reusing the cached minbase tarball
 #   --keep         leave the root in place afterwards (for debugging; prints where)
@@ -42,7 +43,7 @@ while [ $# -gt 0 ]; do
     --no-cache) use_cache=0; shift ;;
     --keep) keep=1; shift ;;
     --reuse-pass) reuse_pass=1; shift ;;
-    -h | --help) sed -n '2,24p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,25p' "$0"; exit 0 ;;
     *) die "unknown option '$1' (see --help)" ;;
   esac
 done
@@ -53,7 +54,8 @@ git -C "$repo" rev-parse --verify -q "$rev^{commit}" >/dev/null || die "$repo: n
 # What decides whether the README's commands install and build on a fresh machine: a pass for
 # the same bytes of these files is recorded under the cache folder and reused by --reuse-pass.
 pass_dir=${SHADEFIT_ROOT_CACHE:-/var/cache/shadefit-fresh-root}/passed
-pass_key=$(git -C "$repo" ls-tree -r "$rev" -- scripts/bootstrap.sh scripts/fresh-machine-check.sh \
+pass_key=$(git -C "$repo" ls-tree -r "$rev" -- scripts/bootstrap.sh scripts/check-skips.py \
+             scripts/fresh-machine-check.sh \
              cmake tests/ci-allowed-skips.txt $(git -C "$repo" ls-tree -r --name-only "$rev" |
              grep -E '(^|/)CMakeLists\.txt$') | sha256sum | cut -c1-16)
 if [ "$reuse_pass" = 1 ] && [ -f "$pass_dir/$pass_key" ]; then

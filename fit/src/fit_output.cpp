@@ -11,10 +11,7 @@
 #include "shadefit/render/files.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/models.h"
-
-#ifndef SHADEFIT_FIT_VERSION
-#define SHADEFIT_FIT_VERSION "unknown"
-#endif
+#include "shadefit/version.h"
 
 namespace shadefit::fit {
 namespace fs = std::filesystem;
@@ -23,7 +20,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   using nlohmann::json;
   auto num = [](double v) -> json { return std::isfinite(v) ? json(v) : json(nullptr); };
   json j;
-  j["shadefit_version"] = SHADEFIT_FIT_VERSION;
+  j["shadefit_version"] = SHADEFIT_VERSION_STRING;
   j["model"] = r.model;
   j["derivative_path"] = PathName(r.path);
   j["parameters"] = json::array();
@@ -151,7 +148,7 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
     if (seen[name]++ > 0) name += fmt::format("-{}", seen[name]);
     const std::string base = (dir / (stem + "." + name)).string();
     ImageMetadata meta{{"shadefit:model", result.model},
-                       {"shadefit:version", SHADEFIT_FIT_VERSION},
+                       {"shadefit:version", SHADEFIT_VERSION_STRING},
                        {"shadefit:fit", json.filename().string()}};
     writes.push_back({base + ".fit.exr",
                       [&ref, meta, base] { WriteExr(base + ".fit.exr", ref.prediction, meta); }});

@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
+#include "shadefit/version.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"shadefit: fit Blinn-Phong and microfacet shading models to reference images"};

@@ -11,6 +11,7 @@
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
+#include "shadefit/version.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"

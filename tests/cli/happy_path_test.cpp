@@ -5,7 +5,7 @@
 // Lambert sphere; `refs import` of a PNG written here byte by byte against the IEC 61966-2-1
 // decode and the documented clipping rule; `probe fresnel` against Y(f0) and Schlick's closed
 // form at a constant theta_d; `fit` of the environment-lit Cycles reference red-plastic-env
-// against its sidecar's material.
+// against its sidecar's material; `--version` against the checkout's git revision.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -491,6 +491,35 @@ TEST(CliHappyPath, FitEnvironmentLitCyclesReferenceRecoversRoughness) {
     EXPECT_NEAR(j["values"]["base_color"][c].get<double>(), b, 0.05 * b) << "base_color " << c;
   }
   EXPECT_LT(j["values"]["metallic"].get<double>(), 0.02);
+}
+
+
+// `--version` names the revision the binary was built from: cmake/ShadefitVersion.cmake writes it
+// on every build, not when CMake configured (a build after a commit used to record the revision
+// before it). Expected: <project version>+<git rev-parse --short=12 HEAD>, with ".dirty" exactly
+// when `git status` lists a changed tracked file. Run after building from the tree it tests.
+TEST(CliHappyPath, VersionNamesTheRevisionItWasBuiltFrom) {
+  const fs::path dir = OutputDir("version");
+  const std::string git = std::string("git -C '") + SHADEFIT_SOURCE_DIR + "' ";
+  if (std::system((git + "rev-parse --git-dir > /dev/null 2>&1").c_str()) != 0) {
+    GTEST_SKIP() << SHADEFIT_SOURCE_DIR << " is not a git checkout: the version says +unknown";
+  }
+  ASSERT_EQ(std::system((git + "rev-parse --short=12 HEAD > '" + (dir / "head.txt").string() +
+                         "'").c_str()), 0);
+  ASSERT_EQ(std::system((git + "status --porcelain --untracked-files=no > '" +
+                         (dir / "status.txt").string() + "'").c_str()), 0);
+  std::string head = ReadText(dir / "head.txt");
+  head.erase(head.find_last_not_of("\n") + 1);
+  ASSERT_EQ(head.size(), 12u) << head;
+  const bool dirty = !ReadText(dir / "status.txt").empty();
+  ASSERT_EQ(Shadefit("--version", dir), 0) << ReadText(dir / "stderr.txt");
+  std::string version = ReadText(dir / "stdout.txt");
+  version.erase(version.find_last_not_of("\n") + 1);
+  const std::string want = "+" + head + (dirty ? ".dirty" : "");
+  ASSERT_GE(version.size(), want.size()) << version;
+  EXPECT_EQ(version.substr(version.size() - want.size()), want) << version;
+  EXPECT_EQ(version.substr(0, version.find('+')).find_first_not_of("0123456789."),
+            std::string::npos) << version;
 }
 
 }  // namespace

@@ -31,11 +31,8 @@
 #include "shadefit/render/error.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
+#include "shadefit/version.h"
 #include "temporaries.h"
-
-#ifndef SHADEFIT_VERSION_STRING
-#define SHADEFIT_VERSION_STRING "unknown"
-#endif
 
 namespace shadefit::studies {
 namespace fs = std::filesystem;
