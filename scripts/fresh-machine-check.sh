@@ -212,8 +212,12 @@ mkdir -p "$root/work"
 git clone -q --no-hardlinks "$repo" "$root/work/main"
 git -C "$root/work/main" checkout -q --detach "$rev"
 if [ -d "$shared" ]; then
-  cp -a "$shared" "$root/work/shared"
-  say "../shared copied from $(cd "$shared" && pwd) ($(du -sh "$shared" | cut -f1))"
+  # Its files, not its links: ../shared may itself be a link (a CI checkout's), or hold links,
+  # whose targets are outside the root (copied as links, /work/shared was a link to itself in
+  # the root, and every test that needs the data skipped).
+  mkdir -p "$root/work/shared"
+  cp -RL --preserve=mode,timestamps "$shared/." "$root/work/shared/"
+  say "../shared copied from $(cd "$shared" && pwd -P) ($(du -sh "$root/work/shared" | cut -f1))"
 else
   say "no $shared: the measured-material part runs without it (as for a newcomer)"
 fi

@@ -6,7 +6,7 @@
 # line of tests/ci-allowed-skips.txt allows fails). CI runs it, then fuzzes with the harnesses the
 # same build made (scripts/fuzz-check.sh --build-dir build-sanitize --no-build). UBSan runs every
 # check but four pointer checks in the Jet kernels (cmake/ShadefitHelpers.cmake); issue 14,
-# docs/testing.md, "Sanitizers and fuzzing".
+# docs/testing.md, "Bad input, sanitizers and fuzzing".
 #   bash scripts/sanitizer-check.sh [--no-build] [ctest arguments...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
