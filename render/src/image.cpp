@@ -19,6 +19,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -51,83 +52,39 @@ std::string ReproducibleDateTime() {
   return buf;
 }
 
-// The checks below look at a file's header, its chunk headers or its last bytes, never at its
-// pixels, so they read those pieces and no more (a reference or an environment map may be
-// hundreds of MB, which the decoder then reads once).
-class FilePieces {
- public:
-  explicit FilePieces(const std::string& path) : in_(path, std::ios::binary) {
-    in_.seekg(0, std::ios::end);
-    const std::streamoff end = in_ ? static_cast<std::streamoff>(in_.tellg()) : 0;
-    size_ = end > 0 ? static_cast<std::uint64_t>(end) : 0;
-  }
-  // The file's size; 0 when it cannot be read (the decoder then says why).
-  std::uint64_t size() const { return size_; }
-  // The bytes [pos, pos + n), cut at the end of the file.
-  std::string Read(std::uint64_t pos, std::uint64_t n) {
-    if (pos >= size_) return {};
-    std::string out(static_cast<std::size_t>(std::min(n, size_ - pos)), '\0');
-    in_.clear();
-    in_.seekg(static_cast<std::streamoff>(pos));
-    in_.read(out.data(), static_cast<std::streamsize>(out.size()));
-    out.resize(static_cast<std::size_t>(std::max<std::streamsize>(in_.gcount(), 0)));
-    return out;
-  }
-  unsigned char Byte(std::uint64_t pos) {
-    const std::string b = Read(pos, 1);
-    return b.empty() ? 0 : static_cast<unsigned char>(b[0]);
-  }
-
- private:
-  std::ifstream in_;
-  std::uint64_t size_ = 0;
-};
-
-bool IsJpeg(const std::string& magic) {
-  return magic.size() >= 3 && magic.compare(0, 3, "\xFF\xD8\xFF") == 0;
-}
-bool IsPng(const std::string& magic) {
-  return magic.size() >= 8 && magic.compare(0, 8, std::string("\x89PNG\r\n\x1a\n", 8)) == 0;
-}
-
 // libjpeg (through OpenImageIO) fills a JPEG cut short with grey and only warns, and PNG
 // decoders may stop at the last complete row: check that the file ends the way the format says.
 void CheckComplete(const std::string& path) {
-  FilePieces file(path);
-  const std::string magic = file.Read(0, 8);
-  if (IsJpeg(magic)) {
-    // JPEG (ITU T.81, B.2): entropy-coded data never holds FF D9 (FF is stuffed), so the image
-    // is complete only if an EOI marker (FF D9) follows the last start-of-scan marker (FF DA).
-    // Scanned from the end, a block at a time (a pair may straddle two blocks): the first EOI
-    // met is the last one, and the scan stops at the first SOS met.
-    constexpr std::uint64_t kBlock = std::uint64_t{1} << 16;
-    bool eoi_after_last_sos = false, sos_found = false;
-    for (std::uint64_t end = file.size(); end >= 2 && !sos_found;) {
-      const std::uint64_t begin = end > kBlock ? end - kBlock : 0;
-      const std::string block = file.Read(begin, end - begin + (end < file.size() ? 1 : 0));
-      if (block.size() < 2) break;  // a read error: the decoder reports it
-      for (std::size_t i = block.size() - 1; i-- > 0;) {  // pairs (i, i + 1), last first
-        if (static_cast<unsigned char>(block[i]) != 0xFF) continue;
-        const auto next = static_cast<unsigned char>(block[i + 1]);
-        if (next == 0xD9) eoi_after_last_sos = true;
-        if (next == 0xDA) {
-          sos_found = true;
-          break;
-        }
-      }
-      end = begin;
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  in.read(magic, sizeof magic);
+  const bool jpeg = magic[0] == '\xFF' && magic[1] == '\xD8' && magic[2] == '\xFF';
+  const bool png = magic[0] == '\x89' && magic[1] == 'P' && magic[2] == 'N' && magic[3] == 'G';
+  if (!jpeg && !png) return;  // Other formats' decoders report short files themselves.
+  in.seekg(0);
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  auto find_last = [&](unsigned char a, unsigned char b) -> long long {
+    for (long long i = static_cast<long long>(bytes.size()) - 2; i >= 0; --i) {
+      if (bytes[i] == a && bytes[i + 1] == b) return i;
     }
-    if (!sos_found || !eoi_after_last_sos) {
+    return -1;
+  };
+  if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF) {
+    // JPEG (ITU T.81, B.2): entropy-coded data never holds FF D9 (FF is stuffed), so the image
+    // is complete only if an EOI marker follows the last start-of-scan marker.
+    const long long sos = find_last(0xFF, 0xDA), eoi = find_last(0xFF, 0xD9);
+    if (sos < 0 || eoi < sos) {
       throw Error(path, "pixels", "truncated JPEG: no end-of-image marker after the last scan");
     }
-  } else if (magic.size() >= 8 && magic.compare(0, 4, "\x89PNG") == 0) {
+  } else if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' &&
+             bytes[3] == 'G') {
     // PNG (ISO/IEC 15948, 5.6): the last chunk is IEND.
-    const std::uint64_t tail = std::min<std::uint64_t>(file.size(), 64);
-    if (file.Read(file.size() - tail, tail).find("IEND") == std::string::npos) {
+    const std::string tail(bytes.end() - std::min<std::size_t>(bytes.size(), 64), bytes.end());
+    if (tail.find("IEND") == std::string::npos) {
       throw Error(path, "pixels", "truncated PNG: no IEND chunk at the end");
     }
   }
-  // Other formats' decoders report short files themselves.
 }
 
 // libpng 1.6 (Debian 12, through OpenImageIO) allocates what a chunk's length field claims
@@ -135,14 +92,13 @@ void CheckComplete(const std::string& path) {
 // past 2 GB (found by fuzz_image). A PNG is the signature and then chunks, each a big-endian
 // length (at most 2^31 - 1), a four-letter type, that many bytes and a CRC (ISO/IEC 15948,
 // 5.3); every length must fit in what is left of the file.
-void CheckPngChunks(const std::string& path, FilePieces& file) {
-  std::uint64_t pos = 8;
-  while (pos + 8 <= file.size()) {
-    const std::string head = file.Read(pos, 8);
+void CheckPngChunks(const std::string& path, const std::string& bytes) {
+  std::size_t pos = 8;
+  while (pos + 8 <= bytes.size()) {
     std::uint32_t length = 0;
-    for (int i = 0; i < 4; ++i) length = (length << 8) | static_cast<unsigned char>(head[i]);
-    const std::string type = head.substr(4, 4);
-    const std::uint64_t left = file.size() - pos - 8;
+    for (int i = 0; i < 4; ++i) length = (length << 8) | static_cast<unsigned char>(bytes[pos + i]);
+    const std::string type = bytes.substr(pos + 4, 4);
+    const std::size_t left = bytes.size() - pos - 8;
     if (length > 0x7fffffffu || length > left || left - length < 4) {
       // A file cut short and a length that lies look the same here (CheckComplete's error).
       throw Error(path, "pixels",
@@ -150,7 +106,7 @@ void CheckPngChunks(const std::string& path, FilePieces& file) {
                               OneLine(type), length, left < 4 ? 0 : left - 4));
     }
     if (type == "IEND") return;
-    pos += 12 + std::uint64_t{length};
+    pos += 12 + length;
   }
 }
 
@@ -162,44 +118,41 @@ void CheckImageHeader(const std::string& path) {
   // attributes, each a name, a type name (both NUL-terminated, at most 255 characters) and an
   // int32 size followed by that many bytes, ended by an empty name; a multi-part file has one
   // such list per part, ended by an empty list (OpenEXR file layout, "Header").
-  FilePieces file(path);
-  const std::string magic = file.Read(0, 8);
-  if (IsPng(magic)) {
-    CheckPngChunks(path, file);
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (bytes.size() >= 8 && bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0) {
+    CheckPngChunks(path, bytes);
     return;
   }
-  if (magic.size() < 8 || magic.compare(0, 4, "\x76\x2f\x31\x01") != 0) return;
-  const bool multipart = (static_cast<unsigned char>(magic[5]) & 0x10) != 0;
-  const std::uint64_t size = file.size();
-  std::uint64_t pos = 8;
+  if (bytes.size() < 8 || bytes.compare(0, 4, "\x76\x2f\x31\x01") != 0) return;
+  const bool multipart = (static_cast<unsigned char>(bytes[5]) & 0x10) != 0;
+  std::size_t pos = 8;
   auto read_name = [&](std::string* name) {
-    const std::string piece = file.Read(pos, 256);  // at most 255 characters and the NUL
-    const std::size_t end = piece.find('\0');
-    if (end == std::string::npos) {
+    const std::size_t end = bytes.find('\0', pos);
+    if (end == std::string::npos || end - pos > 255) {
       throw Error(path, "header", "corrupt EXR header (unterminated attribute name)");
     }
-    *name = piece.substr(0, end);
-    pos += end + 1;
+    *name = bytes.substr(pos, end - pos);
+    pos = end + 1;
   };
   for (;;) {  // one header per part
     std::string name, type;
     read_name(&name);
     while (!name.empty()) {
       read_name(&type);
-      if (pos + 4 > size) throw Error(path, "header", "EXR header cut short");
-      const std::string field = file.Read(pos, 4);
-      std::int32_t attribute_size = 0;
-      std::memcpy(&attribute_size, field.data(), sizeof attribute_size);  // little-endian host
+      if (pos + 4 > bytes.size()) throw Error(path, "header", "EXR header cut short");
+      std::int32_t size = 0;
+      std::memcpy(&size, bytes.data() + pos, sizeof size);  // little-endian, as the host
       pos += 4;
-      if (attribute_size < 0 || static_cast<std::uint64_t>(attribute_size) > size - pos) {
+      if (size < 0 || static_cast<std::size_t>(size) > bytes.size() - pos) {
         throw Error(path, "header",
                     fmt::format("EXR attribute '{}' claims {} bytes, {} are left in the file",
-                                OneLine(name), attribute_size, size - pos));
+                                OneLine(name), size, bytes.size() - pos));
       }
-      pos += static_cast<std::uint64_t>(attribute_size);
+      pos += static_cast<std::size_t>(size);
       read_name(&name);
     }
-    if (!multipart || pos >= size || file.Byte(pos) == 0) return;  // empty list: the end
+    if (!multipart || pos >= bytes.size() || bytes[pos] == '\0') return;  // empty list: the end
   }
 }
 

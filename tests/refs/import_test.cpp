@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -334,45 +333,6 @@ TEST_F(BadImportTest, TruncatedJpeg) {
   const std::string full = dir_ + "/full.jpg";
   WriteEncoded8(full, Noise(3));
   ExpectImportError(Truncated(full, "cut.jpg", 0.6), dir_ + "/cut.jpg", "pixels");
-}
-
-// The completeness check reads a JPEG from its end in 64 KiB blocks (render/src/image.cpp); these
-// two hold it to the rule of ITU T.81, B.2 (complete only if an end-of-image marker FF D9 follows
-// the last start-of-scan marker FF DA) on files longer than one block.
-TEST_F(BadImportTest, JpegLongerThanOneReadBlockIsCheckedToItsLastScan) {
-  Image noise(512, 512, 3);
-  unsigned state = 777;
-  for (float& v : noise.data) {
-    state = state * 1664525u + 1013904223u;
-    v = static_cast<float>((state >> 8) & 0xFF) / 255.0f;
-  }
-  const std::string full = dir_ + "/full.jpg";
-  WriteEncoded8(full, noise);
-  ASSERT_GT(fs::file_size(full), 3u * 65536u) << "the file must span several blocks";
-  EXPECT_EQ(ReadImage(full).width, 512);
-  ExpectImportError(Truncated(full, "cut.jpg", 0.9), dir_ + "/cut.jpg", "pixels");
-}
-
-TEST_F(BadImportTest, JpegScanMarkerAcrossTwoReadBlocksIsSeen) {
-  // A complete JPEG, then bytes a decoder ignores (it stops at the end-of-image marker): zeros
-  // with an FF DA pair whose FF is the last byte of the second block from the end and whose DA
-  // is the first byte of the last block. That pair is the file's last scan marker and no FF D9
-  // follows it, so the file is incomplete; missing the pair would find the real scan, followed
-  // by its FF D9, and accept the file.
-  const std::string small = dir_ + "/small.jpg";
-  WriteEncoded8(small, Noise(3));
-  std::ifstream in(small, std::ios::binary);
-  const std::string jpeg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  auto write = [&](const std::string& name, const std::string& tail) {
-    std::string bytes = jpeg + std::string(70000, '\0') + tail;
-    bytes[bytes.size() - 65537] = '\xFF';
-    bytes[bytes.size() - 65536] = '\xDA';
-    std::ofstream(dir_ + "/" + name, std::ios::binary) << bytes;
-    return dir_ + "/" + name;
-  };
-  ExpectImportError(write("straddle.jpg", ""), dir_ + "/straddle.jpg", "pixels");
-  // The same file with an FF D9 at its end after the pair is complete, and reads.
-  EXPECT_EQ(ReadImage(write("straddle-ended.jpg", std::string("\xFF\xD9", 2))).width, 32);
 }
 
 TEST_F(BadImportTest, NanPixels) {
