@@ -11,10 +11,10 @@
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
-#include "shadefit/version.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
+#include "shadefit/version.h"
 
 namespace shadefit::cli {
 

@@ -493,7 +493,6 @@ TEST(CliHappyPath, FitEnvironmentLitCyclesReferenceRecoversRoughness) {
   EXPECT_LT(j["values"]["metallic"].get<double>(), 0.02);
 }
 
-
 // `--version` names the revision the binary was built from: cmake/ShadefitVersion.cmake writes it
 // on every build, not when CMake configured (a build after a commit used to record the revision
 // before it). Expected: <project version>+<git rev-parse --short=12 HEAD>, with ".dirty" exactly
