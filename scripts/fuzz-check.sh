@@ -54,7 +54,8 @@ done
 echo "fuzz-check: built in $(( $(date +%s) - start )) s"
 
 # Leaks and UB are errors; libFuzzer turns a sanitizer report into a crash with its input saved.
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}
+# intercept_tls_get_addr=0: see scripts/sanitizer-check.sh (clang 14's garbage dynamic-TLS ranges).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1:intercept_tls_get_addr=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0}
 mkdir -p "$dir/artifacts"

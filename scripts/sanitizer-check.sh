@@ -28,7 +28,13 @@ echo "sanitizer-check: built in $(( built - start )) s"
 
 # Every report fails the test that caused it: ASan and UBSan abort, LeakSanitizer runs at exit.
 # The suppressions name leaks in system libraries only (tests/sanitizers/lsan.supp says why).
-export ASAN_OPTIONS=${ASAN_OPTIONS:-halt_on_error=1:detect_leaks=1:abort_on_error=1:strict_string_checks=1}
+# intercept_tls_get_addr=0: clang 14's __tls_get_addr interceptor takes a dynamic TLS block that
+# lies 16 bytes past a page boundary for one with glibc 2.19's header and records the two words
+# before it as the block's range; since glibc 2.25 there is no header, the range is garbage, and
+# LeakSanitizer's tracer faults scanning it ("Tracer caught signal 11", a fatal error, the test
+# fails with no report). Off, dynamic TLS is not scanned for roots (static TLS still is); the
+# whole suite is clean with it off (docs/testing.md, "LeakSanitizer's tracer crash").
+export ASAN_OPTIONS=${ASAN_OPTIONS:-halt_on_error=1:detect_leaks=1:abort_on_error=1:strict_string_checks=1:intercept_tls_get_addr=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:abort_on_error=1:print_stacktrace=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/sanitizers/lsan.supp:print_suppressions=0}
 rc=0
