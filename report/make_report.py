@@ -23,6 +23,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import report_charts  # noqa: E402
+import report_compare  # noqa: E402
 import report_figures  # noqa: E402
 import report_page  # noqa: E402
 
@@ -80,6 +81,12 @@ def check_study(study, path):
         for j, r in enumerate(need(g, "references", path, list, f"groups[{i}]")):
             need(r, "lighting", path, str, f"groups[{i}].references[{j}]")
     need(study, "training_sets", path, list)
+    models = [f["model"] for f in study["fits"]]
+    if study.get("baseline") is not None and need(study, "baseline", path, str) not in models:
+        raise ReportInputError(f"{path}: baseline: '{study['baseline']}' is not a fitted model")
+    for i, pair in enumerate(study.get("compare") or []):
+        if not (isinstance(pair, list) and len(pair) == 2 and all(p in models for p in pair)):
+            raise ReportInputError(f"{path}: compare[{i}]: want a pair of fitted models")
     for name, v in (study.get("verdicts") or {}).items():
         for field, kind in [("source", str), ("kind", str), ("tolerance", (int, float))]:
             need(v, field, path, kind, f"verdicts.{name}")
@@ -404,8 +411,17 @@ def compute_verdicts(study, rows, probes):
     for name, v in study.get("verdicts", {}).items():
         tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
         for m in materials_of(study):
+            why = report_compare.not_valid_reason(study, source, m)
             for label in labels:
                 checks = []  # (quantity, reference, value, error, passed)
+                if why:
+                    # Not valid on this kind of reference: n/a with its reason, never judged.
+                    summary.append({"phenomenon": name, "question": v.get("question", name),
+                                    "material": m, "fit": label, "quantity": "",
+                                    "reference": None, "model": None, "error": None,
+                                    "kind": kind, "tolerance": tol, "reproduced": None,
+                                    "quantities": 0, "not_valid": why})
+                    continue
                 if source == "metrics":
                     vals = [to_float(r[v["metric"]]) for r in rows
                             if r["material"] == m and r["label"] == label and r["split"] == v["split"]]
@@ -496,12 +512,20 @@ def verdict_tables(study, summary, detail):
 # Pages
 
 
-def summary_markdown(study, summary, matrix, provenance):
+def not_valid_reasons(summary, name):
+    return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
+
+
+def summary_markdown(study, summary, matrix, provenance, comparisons):
     labels = labels_of(study)
     lines = [f"# {study['name']}", "", study.get("description", ""), "",
              f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
              f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
-             "## Answers", ""]
+             "## Answers", "", report_compare.method_text(comparisons), ""]
+    lines += report_compare.answer_lines(comparisons)
+    lines += ["", "## Within tolerance (secondary)", "",
+              "Materials whose numbers are within the study's fixed tolerance, out of those "
+              "judged.", ""]
     for name, v in study.get("verdicts", {}).items():
         parts = []
         for label in labels:
@@ -512,7 +536,11 @@ def summary_markdown(study, summary, matrix, provenance):
             good = [s["material"] for s in judged if s["reproduced"]]
             parts.append(f"{label}: {len(good)}/{len(judged)}")
         tol = f"{v['kind']} tolerance {v['tolerance']:g}"
-        answer = "; ".join(parts) if parts else "not measured (no numbers)"
+        why = not_valid_reasons(summary, name)
+        answer = "; ".join(parts) if parts else (
+            f"n/a ({why[0]})" if why else "not measured (no numbers)")
+        if parts and why:
+            answer += f"; n/a on the other materials ({why[0]})"
         lines.append(f"- **{v.get('question', name)}** ({tol}) — materials reproduced: {answer}")
     lines += ["", "## Verdict matrix", "", "| " + " | ".join(matrix[0]) + " |",
               "|" + "|".join("---" for _ in matrix[0]) + "|"]
@@ -668,7 +696,7 @@ def write_latex_document(report_dir, tables, figures):
             "\\usepackage{booktabs}", "\\usepackage{longtable}", "\\usepackage{graphicx}",
             "\\setlength{\\LTcapwidth}{\\textwidth}", "\\begin{document}",
             "\\section*{Tables}"]
-    for key in ["matrix", "verdicts", "verdict_details", "metrics", "parameters", "probes",
+    for key in ["comparisons", "matrix", "verdicts", "verdict_details", "metrics", "parameters", "probes",
                 "ngan2005_spearman", "ngan2005"]:
         if key in tables:
             body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",
@@ -757,17 +785,22 @@ def make_report(study_dir):
 
     summary, detail = compute_verdicts(study, rows, probes)
     verdicts, verdict_details, matrix = verdict_tables(study, summary, detail)
-    tables = {"metrics": metrics_table(study, rows), "parameters": parameters_table(study, fits),
+    comparisons = report_compare.compare_study(study, rows, summary, to_float)
+    tables = {"comparisons": report_compare.comparison_table(comparisons, fmt),
+              "metrics": metrics_table(study, rows), "parameters": parameters_table(study, fits),
               "probes": probes_table(study, probes), "verdicts": verdicts,
               "verdict_details": verdict_details, "matrix": matrix}
-    captions = {"metrics": "Image metrics per reference and fit (linear radiance; display metrics at exposure 0)",
+    captions = {"comparisons": "Comparative answers: each fit against the baseline fit over "
+                               "the materials (effect: baseline error / fit error, geometric "
+                               "mean; p: Wilcoxon or exact sign test; Holm-corrected)",
+                "metrics": "Image metrics per reference and fit (linear radiance; display metrics at exposure 0)",
                 "parameters": "Fitted parameters with standard errors",
                 "probes": "Phenomenon probe numbers: reference and each fit",
                 "verdicts": "Verdicts: worst quantity per phenomenon, material and fit",
                 "verdict_details": "Verdicts per quantity",
                 "matrix": "Materials reproduced within tolerance per phenomenon and fit"}
     for key, (cols, trows) in tables.items():
-        numeric_from = {"metrics": 4, "parameters": 3, "probes": 3, "verdicts": 4,
+        numeric_from = {"comparisons": 3, "metrics": 4, "parameters": 3, "probes": 3, "verdicts": 4,
                         "verdict_details": 4, "matrix": 2}[key]
         # A part of the probes table without the reference column would compare with nothing.
         write_table(table_dir, key, cols, trows, captions[key], numeric_from,
@@ -775,8 +808,15 @@ def make_report(study_dir):
     # The verdicts also as JSON for tools and tests.
     write_text(os.path.join(report_dir, "verdicts.json"),
                json.dumps({"summary": summary, "detail": detail}, indent=1))
+    write_text(os.path.join(report_dir, "comparisons.json"),
+               json.dumps(report_compare.to_json(comparisons), indent=1))
 
-    figures = per_material_figures(study_dir, study, fits, probes, fig_dir, jobs)
+    figures = []
+    for rec in comparisons:
+        report_figures.paired_errors_figure(
+            rec, study, fig_dir, figures, report_compare.question_title(rec),
+            report_compare.error_label(rec))
+    figures += per_material_figures(study_dir, study, fits, probes, fig_dir, jobs)
     report_figures.metric_bars(study, rows, fig_dir, figures, to_float)
     charts = report_charts.chart_figures(study_dir, study, fits, fig_dir, [], charts_in,
                                           probes)
@@ -796,7 +836,7 @@ def make_report(study_dir):
         write_table(table_dir, "ngan2005_spearman", corr_cols, corr_rows,
                     "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
         write_text(os.path.join(report_dir, "ngan2005.json"), json.dumps(ngan, indent=1))
-    summary_md = summary_markdown(study, summary, matrix, provenance)
+    summary_md = summary_markdown(study, summary, matrix, provenance, comparisons)
     enc_rows = encoding_table(fits)
     if enc_rows[1]:
         tables["encoding"] = enc_rows
@@ -813,7 +853,7 @@ def make_report(study_dir):
             for c in ngan["correlations"])
     write_text(os.path.join(report_dir, "summary.md"), summary_md)
     report_page.write_index(report_dir, study, tables, figures, provenance, summary, rows, fits,
-                            charts, write_text)
+                            charts, write_text, comparisons)
     write_latex_document(report_dir, tables, figures + charts)
     return os.path.join(report_dir, "index.html")
 

@@ -8,6 +8,7 @@ Called by make_report.py; reads only result files (preview PNGs, job and probe J
 study's parameter charts).
 """
 
+import math
 import os
 import re
 import textwrap
@@ -646,3 +647,73 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
                 f"Mean {metric} per material and fit: training lighting "
                 f"({'top' if stacked else 'left'}) and test lightings "
                 f"({'bottom' if stacked else 'right'})")
+
+
+# --- Comparative answers ------------------------------------------------------------------------
+
+
+def paired_errors_figure(rec, study, fig_dir, manifest, title, y_label):
+    """One question's errors: each material's errors per fit as grey lines joining that
+    material's fits of one training set, over a box per fit (median, quartiles, whiskers at 1.5
+    IQR) of the distribution over materials. Log axis for ratio questions."""
+    fits = study["fits"]
+    used = set()
+    for c in rec["comparisons"]:
+        used.update([c["fit"], c["baseline"]])
+    order = [f["label"] for f in fits if f["label"] in used]
+    if not order:
+        return
+    groups = {}
+    for f in fits:
+        if f["label"] in used:
+            groups.setdefault(tuple(f.get("train") or []), []).append(f["label"])
+    errors = {}
+    for key, e in rec["errors"].items():
+        m, label = key.split("|", 1)
+        if e is not None and math.isfinite(e):
+            errors[(m, label)] = e
+    materials = sorted({m for m, _ in errors})
+    log = rec["mode"] == "ratio" and all(e > 0 for e in errors.values())
+    wide = len(order) > 4
+    width = PAGE_IN if wide else COLUMN_IN
+    label_in = max(text_width_in(l, FONT_PT - 1) for l in order) + 0.1
+    title_lines = wrap_to_width(title, width - 0.2, FONT_PT)
+    title_in = 0.16 * (title_lines.count("\n") + 1) + 0.06
+    axes_in = 1.7
+    height = title_in + axes_in + label_in + 0.1
+    left_in = 0.6
+    fig = plt.figure(figsize=(width, height))
+    ax = fig.add_axes([left_in / width, (label_in + 0.05) / height,
+                       (width - left_in - 0.1) / width, axes_in / height])
+    x_of = {l: i for i, l in enumerate(order)}
+    for labels in groups.values():
+        for m in materials:
+            pts = [(x_of[l], errors[(m, l)]) for l in labels if (m, l) in errors]
+            if len(pts) >= 2:
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], color="#999999",
+                        linewidth=0.5, alpha=0.7, zorder=1)
+    data = [[errors[(m, l)] for m in materials if (m, l) in errors] for l in order]
+    keep = [i for i, d in enumerate(data) if d]
+    if keep:
+        ax.boxplot([data[i] for i in keep], positions=keep, widths=0.45, showfliers=False,
+                   patch_artist=True, zorder=2,
+                   boxprops={"facecolor": "none", "linewidth": 0.8},
+                   medianprops={"color": "black", "linewidth": 1.2},
+                   whiskerprops={"linewidth": 0.8}, capprops={"linewidth": 0.8})
+    for i, l in enumerate(order):
+        ys = [errors[(m, l)] for m in materials if (m, l) in errors]
+        ax.scatter([i] * len(ys), ys, s=5, color=style_of(l, [f["label"] for f in fits])["color"],
+                   zorder=3, linewidths=0)
+    if log:
+        ax.set_yscale("log")
+    ax.set_xticks(range(len(order)))
+    ax.set_xticklabels(order, rotation=90)
+    ax.set_xlim(-0.6, len(order) - 0.4)
+    ax.set_ylabel(y_label)
+    fig.text(0.5, 1 - 0.04 / height, title_lines, ha="center", va="top", fontsize=FONT_PT)
+    save_figure(fig, fig_dir, f"compare-{re.sub(r'[^A-Za-z0-9_-]+', '_', rec['name'])}",
+                manifest, f"{title}: each material's error per fit (grey lines join a "
+                          f"material's fits of one training set) over the distribution per fit "
+                          f"(box: quartiles and median; whiskers: 1.5 IQR)"
+                          + (" (log axis)" if log else ""),
+                {"kind": "comparison", "question": rec["name"]})

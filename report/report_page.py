@@ -12,6 +12,8 @@ import json
 import os
 import re
 
+import report_compare
+
 PAGE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "page")
 
 # The questions a shading report answers, in reading order, and which verdicts answer each:
@@ -143,29 +145,79 @@ def figure_html(f, extra_caption=""):
             f"(<a href='{esc(f['pdf'])}'>PDF</a>, {f['width_in']:g} in)</figcaption></figure>")
 
 
+# At most this many fit columns in one matrix table: more (the measured study's 10 fits) are
+# shown as one table per training set, so the question column keeps its width at 1400 px.
+MATRIX_MAX_FITS = 6
+
+
+def matrix_groups(study, labels):
+    """[(heading, [(label, column name)])]: one group, or one per training set (columns named by
+    model) when there are more than MATRIX_MAX_FITS fits."""
+    if len(labels) <= MATRIX_MAX_FITS:
+        return [("", [(l, l) for l in labels])]
+    groups = {}
+    for f in study["fits"]:
+        if f["label"] in labels:
+            key = "+".join(f.get("train") or [])
+            groups.setdefault(key, []).append((f["label"], f["model"]))
+    return [(f"Trained on {k}", cols) for k, cols in groups.items()]
+
+
 def matrix_html(study, summary, labels):
-    """The verdict matrix; each cell links to the question's section, where its evidence is."""
-    out = ["<table class='matrix'><thead><tr><th>phenomenon</th><th>question</th>"
-           + "".join(f"<th>{esc(l)}</th>" for l in labels) + "</tr></thead><tbody>"]
+    """The verdict matrix; each cell links to the question's section, where its evidence is. An
+    "n/a" cell says why in its title (a probe not valid on the material's kind of reference)."""
     order = [k for k, _, _ in FAMILIES]
     verdicts = sorted(study.get("verdicts", {}).items(),  # Questions in reading order.
                       key=lambda kv: order.index(family_of(kv[1])) if family_of(kv[1]) else len(order))
-    for name, v in verdicts:
-        fam = family_of(v)
-        target = anchor("q", fam) if fam else anchor("v", name)
-        row = [f"<td class='key'>{esc(name)}</td>",
-               f"<td><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
-        for label in labels:
-            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
-                      and s["reproduced"] is not None]
-            good = sum(1 for s in judged if s["reproduced"])
-            text = f"{good}/{len(judged)}" if judged else "n/a"
-            cls = "" if not judged else (" class='yes'" if good == len(judged) else
-                                         (" class='no'" if good == 0 else " class='some'"))
-            row.append(f"<td{cls}><a href='#{anchor('v', name)}' title='evidence: "
-                       f"{esc(name)}, {esc(label)}'>{text}</a></td>")
-        out.append("<tr>" + "".join(row) + "</tr>")
-    out.append("</tbody></table>")
+    out = []
+    for heading, cols in matrix_groups(study, labels):
+        if heading:
+            out.append(f"<h3 class='matrix-group'>{esc(heading)}</h3>")
+        out.append("<table class='matrix'><thead><tr><th>phenomenon</th><th>question</th>"
+                   + "".join(f"<th>{esc(c)}</th>" for _, c in cols) + "</tr></thead><tbody>")
+        for name, v in verdicts:
+            fam = family_of(v)
+            target = anchor("q", fam) if fam else anchor("v", name)
+            row = [f"<td class='key'>{esc(name)}</td>",
+                   f"<td class='question'><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
+            for label, _ in cols:
+                mine = [s for s in summary if s["phenomenon"] == name and s["fit"] == label]
+                judged = [s for s in mine if s["reproduced"] is not None]
+                why = sorted({s["not_valid"] for s in mine if s.get("not_valid")})
+                good = sum(1 for s in judged if s["reproduced"])
+                text = f"{good}/{len(judged)}" if judged else "n/a"
+                cls = "" if not judged else (" class='yes'" if good == len(judged) else
+                                             (" class='no'" if good == 0 else " class='some'"))
+                title = f"evidence: {name}, {label}" + (f"; n/a: {why[0]}" if why else "")
+                row.append(f"<td{cls}><a href='#{anchor('v', name)}' title='{esc(title)}'>"
+                           f"{text}</a></td>")
+            out.append("<tr>" + "".join(row) + "</tr>")
+        out.append("</tbody></table>")
+    reasons = sorted({s["not_valid"] for s in summary if s.get("not_valid")})
+    if reasons:
+        out.append("<p class='na'>n/a: " + " ".join(f"{esc(r)}." for r in reasons) + "</p>")
+    return "\n".join(out)
+
+
+def answers_html(comparisons, figures):
+    """The comparative answers, first on the page: how they are computed, then per question its
+    sentences and its figure."""
+    out = ["<section id='answers'><h2>Answers</h2>",
+           f"<p class='method'>{esc(report_compare.method_text(comparisons))}</p>"]
+    by_question = {f.get("question"): f for f in figures if f.get("kind") == "comparison"}
+    for rec in comparisons:
+        lines = report_compare.answer_lines([rec])
+        title = report_compare.question_title(rec)
+        out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
+                   + (" <span class='default'>(default question)</span>" if rec["default"] else "")
+                   + "</h3><ul class='answers'>")
+        for line in lines[1:]:
+            out.append(f"<li>{esc(line.strip()[2:])}</li>")
+        out.append("</ul>")
+        f = by_question.get(rec["name"])
+        if f is not None:
+            out.append(figure_html(f))
+    out.append("</section>")
     return "\n".join(out)
 
 
@@ -244,7 +296,7 @@ def viewer_html(material, study, fits, rows, labels):
 
 
 def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
-                write_text):
+                write_text, comparisons=()):
     labels = [f["label"] for f in study["fits"]]
     materials = [g["material"] for g in study["groups"]]
     verdicts = study.get("verdicts", {})
@@ -254,7 +306,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
     families = {k: names for k, names in families.items() if names}
     titles = {k: t for k, t, _ in FAMILIES}
 
-    nav = ["<nav><a href='#verdicts'>Verdicts</a>"]
+    nav = ["<nav><a href='#answers'>Answers</a><a href='#verdicts'>Within tolerance</a>"]
     nav += [f"<a href='#{anchor('q', k)}'>{esc(titles.get(k, k))}</a>" for k in families]
     if charts:
         nav.append("<a href='#charts'>Parameter charts</a>")
@@ -266,11 +318,13 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              f"<title>{esc(study['name'])}</title><style>{read_asset('report.css')}</style>"
              "</head><body>",
              f"<h1>{esc(study['name'])}</h1><p>{esc(study.get('description', ''))}</p>",
-             "".join(nav),
-             "<h2 id='verdicts'>Verdicts</h2><p>Materials whose numbers are within the study's "
-             "tolerance, out of those judged, per question and fit. Every number is computed "
-             "from the result files (rules: docs/studies.md). A cell links to its evidence.</p>",
-             matrix_html(study, summary, labels)]
+             "".join(nav)]
+    parts.append(answers_html(comparisons, figures))
+    parts += ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
+              "are within the study's fixed tolerance, out of those judged, per question and "
+              "fit. Every number is computed from the result files (rules: docs/studies.md). A "
+              "cell links to its evidence.</p>",
+              matrix_html(study, summary, labels)]
     # Photographs whose encoding was fitted (fit.encoding = "fit"): which one won, in words.
     if "encoding" in tables:
         chosen = [r for r in tables["encoding"][1] if r[5] == "yes"]
@@ -327,7 +381,8 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
                  "heading to sort it. The same rows are in tables/ as CSV, Markdown and "
                  "LaTeX.</p>")
     # The worst-quantity verdict rows are in the question sections already.
-    named = [("matrix", "Verdict matrix"), ("verdict_details", "Verdicts per quantity"),
+    named = [("comparisons", "Comparative answers, every comparison"),
+             ("matrix", "Within tolerance: verdict matrix"), ("verdict_details", "Verdicts per quantity"),
              ("metrics", "Image metrics per reference and fit"),
              ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),
              ("encoding", "Encoding of the photographs (fitted)"),

@@ -15,7 +15,7 @@ packages=(
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-numpy python3-matplotlib python3-skimage
+  python3 python3-numpy python3-matplotlib python3-skimage python3-scipy python3-statsmodels
   blender-data  # CC0 environment maps used by the environment-lit references, read by path
 )
 # Test mode also installs what the suite needs to run every test rather than skip it:
