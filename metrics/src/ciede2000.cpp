@@ -102,7 +102,6 @@ DeltaE2000Result DeltaE2000(const Image& reference, const Image& test,
   ValidateInputs(reference, test, p.mask, 3);
   const Image r = ExposeAndClip(reference, p.exposure_stops);
   const Image t = ExposeAndClip(test, p.exposure_stops);
-  const std::size_t n = r.PixelCount();
   Image map(r.width, r.height, 1, std::numeric_limits<float>::quiet_NaN());
   internal::ParallelRows(r.height, [&](int row_begin, int row_end) {
     for (std::size_t i = static_cast<std::size_t>(row_begin) * r.width;
@@ -114,19 +113,11 @@ DeltaE2000Result DeltaE2000(const Image& reference, const Image& test,
                                                  LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
     }
   });
-  std::vector<float> values;
-  values.reserve(n);
-  double sum = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!internal::IsValid(p.mask, i)) continue;
-    values.push_back(map.data[i]);
-    sum += map.data[i];
-  }
+  const internal::MapStatistics s = internal::SummarizeMap(map, p.mask);
   DeltaE2000Result result;
-  result.mean = sum / static_cast<double>(values.size());
-  internal::SortNonNegative(values);
-  result.p95 = internal::NearestRankSorted(values, 0.95);
-  result.max = values.back();
+  result.mean = s.mean;
+  result.p95 = s.p95;
+  result.max = s.max;
   if (error_map) *error_map = std::move(map);
   return result;
 }

@@ -69,4 +69,30 @@ inline double NearestRankSorted(const std::vector<float>& sorted, double q) {
   return sorted[index];
 }
 
+// Mean, 95th percentile (nearest rank) and maximum of a one-channel map over the valid pixels
+// of the mask (every pixel without one); the map's values must be non-negative. The summary of
+// the point-wise colour differences (CIEDE2000, Delta E_ITP).
+struct MapStatistics {
+  double mean = 0.0;
+  double p95 = 0.0;
+  double max = 0.0;
+};
+inline MapStatistics SummarizeMap(const Image& map, const Image* mask) {
+  std::vector<float> values;
+  values.reserve(map.PixelCount());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < map.PixelCount(); ++i) {
+    if (!IsValid(mask, i)) continue;
+    values.push_back(map.data[i]);
+    sum += map.data[i];
+  }
+  MapStatistics s;
+  if (values.empty()) return s;
+  s.mean = sum / static_cast<double>(values.size());
+  SortNonNegative(values);
+  s.p95 = NearestRankSorted(values, 0.95);
+  s.max = values.back();
+  return s;
+}
+
 }  // namespace shadefit::metrics::internal

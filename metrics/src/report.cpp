@@ -47,6 +47,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   r.exposure_stops = p.exposure_stops;
   r.ppd = p.ppd;
   r.relative_epsilon = p.relative_epsilon;
+  r.itp_white_luminance = p.itp_white_luminance;
 
   const PixelMetricParameters pixel{mask, p.relative_epsilon};
   r.rmse = Rmse(ref, tst, pixel);
@@ -85,6 +86,11 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   de.mask = mask;
   r.ciede2000 = DeltaE2000(ref, tst, de, maps ? &maps->ciede2000 : nullptr);
 
+  DeltaEItpParameters itp;
+  itp.white_luminance = p.itp_white_luminance;
+  itp.mask = mask;
+  r.delta_e_itp = DeltaEItp(ref, tst, itp, maps ? &maps->delta_e_itp : nullptr);
+
   FlipParameters flip;
   flip.ppd = p.ppd;
   flip.mask = mask;
@@ -109,7 +115,8 @@ nlohmann::json MetricsToJson(const MetricsReport& r) {
   j["valid_pixels"] = r.valid_pixels;
   j["parameters"] = {{"exposure_stops", r.exposure_stops},
                      {"ppd", r.ppd},
-                     {"relative_epsilon", r.relative_epsilon}};
+                     {"relative_epsilon", r.relative_epsilon},
+                     {"itp_white_luminance", r.itp_white_luminance}};
   j["linear"] = {{"rmse", r.rmse},
                  {"relative_rmse", r.relative_rmse},
                  {"log_rmse", r.log_rmse},
@@ -125,6 +132,8 @@ nlohmann::json MetricsToJson(const MetricsReport& r) {
         {"contrast_structure", r.ms_ssim.contrast_structure},
         {"luminance", r.ms_ssim.luminance}}}};
   j["ciede2000"] = {{"mean", r.ciede2000.mean}, {"p95", r.ciede2000.p95}, {"max", r.ciede2000.max}};
+  j["delta_e_itp"] = {
+      {"mean", r.delta_e_itp.mean}, {"p95", r.delta_e_itp.p95}, {"max", r.delta_e_itp.max}};
   j["flip_ldr"] = FlipJson(r.flip_ldr, false);
   j["flip_hdr"] = FlipJson(r.flip_hdr, true);
   return j;
@@ -141,6 +150,7 @@ void WriteMetricMaps(const MetricsMaps& maps, const std::string& directory) {
   WriteFalseColorPng(path("abs_error.png"), maps.absolute_error, viridis);
   WriteFalseColorPng(path("rel_error.png"), maps.relative_error, viridis);
   WriteFalseColorPng(path("ciede2000.png"), maps.ciede2000, viridis);
+  WriteFalseColorPng(path("delta_e_itp.png"), maps.delta_e_itp, viridis);
   FalseColorParameters unit = viridis;
   unit.min = 0.0;
   unit.max = 1.0;

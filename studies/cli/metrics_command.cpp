@@ -1,4 +1,5 @@
-// `shadefit metrics REF TEST [--mask M] [--json] [--exposure X] [--ppd P] [--maps DIR]`:
+// `shadefit metrics REF TEST [--mask M] [--json] [--exposure X] [--ppd P] [--itp-white NITS]
+// [--maps DIR]`:
 // every image metric between a reference and a test image (docs/metrics.md).
 //
 // Links: shadefit::metrics (brings shadefit::render), CLI11::CLI11, fmt::fmt.
@@ -27,6 +28,7 @@ struct MetricsOptions {
   bool json = false;
   float exposure = 0.0f;
   double ppd = 67.0;
+  double itp_white = 100.0;
 };
 
 std::string Fixed(double v, int decimals) {
@@ -53,6 +55,9 @@ void PrintTable(const metrics::MetricsReport& r, const MetricsOptions& o) {
       fmt::format("display luminance, {} scales", r.ms_ssim.scales_used).c_str());
   row("CIEDE2000 mean", Fixed(r.ciede2000.mean, 4), "display-referred linear sRGB");
   row("CIEDE2000 p95", Fixed(r.ciede2000.p95, 4), "");
+  row("dE_ITP mean", Fixed(r.delta_e_itp.mean, 4),
+      fmt::format("linear HDR, 1.0 = {:g} cd/m^2, PQ", r.itp_white_luminance).c_str());
+  row("dE_ITP p95", Fixed(r.delta_e_itp.p95, 4), "");
   row("LDR-FLIP mean", Fixed(r.flip_ldr.mean, 6), "display-referred");
   row("LDR-FLIP p95", Fixed(r.flip_ldr.p95, 6), "");
   row("HDR-FLIP mean", Fixed(r.flip_hdr.mean, 6),
@@ -75,6 +80,10 @@ void RunMetrics(const MetricsOptions& o) {
   if (!std::isfinite(o.ppd) || o.ppd > 1000) {
     throw Error("", "--ppd", fmt::format("{} pixels per degree is not in (0, 1000]", o.ppd));
   }
+  if (!std::isfinite(o.itp_white) || o.itp_white <= 0 || o.itp_white > 10000) {
+    throw Error("", "--itp-white",
+                fmt::format("{} cd/m^2 is not in (0, 10000]", o.itp_white));
+  }
   const Image reference = ReadImage(o.reference);
   const Image test = ReadImage(o.test);
   std::optional<Image> mask;
@@ -83,6 +92,7 @@ void RunMetrics(const MetricsOptions& o) {
   metrics::MetricsParameters p;
   p.exposure_stops = o.exposure;
   p.ppd = o.ppd;
+  p.itp_white_luminance = o.itp_white;
   p.names = {o.reference, o.test, o.mask};
   metrics::MetricsMaps maps;
   const metrics::MetricsReport report = metrics::ComputeMetrics(
@@ -118,8 +128,12 @@ void RegisterMetricsCommand(CLI::App& app) {
   cmd->add_option("--ppd", options->ppd, "FLIP observer pixels per degree")
       ->check(CLI::Range(1e-3, 1000.0))
       ->capture_default_str();
+  cmd->add_option("--itp-white", options->itp_white,
+                  "Luminance in cd/m^2 of the linear value 1.0 for dE_ITP (BT.2124)")
+      ->capture_default_str();
   cmd->add_option("--maps", options->maps,
-                  "Existing directory for false-colour maps (abs/rel error, SSIM, CIEDE2000, FLIP)");
+                  "Existing directory for false-colour maps (abs/rel error, SSIM, CIEDE2000, "
+                  "dE_ITP, FLIP)");
   cmd->callback([options] { RunMetrics(*options); });
 }
 

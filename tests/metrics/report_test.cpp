@@ -26,6 +26,7 @@ TEST(ReportTest, IdenticalImages) {
   EXPECT_NEAR(r.ssim_rgb.mean, 1.0, 1e-12);
   EXPECT_NEAR(r.ms_ssim.value, 1.0, 1e-12);
   EXPECT_EQ(r.ciede2000.mean, 0.0);
+  EXPECT_EQ(r.delta_e_itp.mean, 0.0);
   EXPECT_EQ(r.flip_ldr.mean, 0.0);
   EXPECT_EQ(r.flip_hdr.mean, 0.0);
   const nlohmann::json j = MetricsToJson(r);
@@ -43,9 +44,13 @@ TEST(ReportTest, JsonHasEveryDocumentedField) {
   const nlohmann::json j = MetricsToJson(r);
   EXPECT_EQ(j["schema"], "shadefit.metrics/1");
   for (const char* key : {"width", "height", "masked", "valid_pixels", "parameters", "linear",
-                          "display", "ciede2000", "flip_ldr", "flip_hdr"}) {
+                          "display", "ciede2000", "delta_e_itp", "flip_ldr", "flip_hdr"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
+  for (const char* key : {"mean", "p95", "max"}) {
+    EXPECT_GT(j["delta_e_itp"][key].get<double>(), 0.0) << key;
+  }
+  EXPECT_EQ(j["parameters"]["itp_white_luminance"].get<double>(), 100.0);
   for (const char* key : {"rmse", "relative_rmse", "log_rmse", "mae"}) {
     EXPECT_GT(j["linear"][key].get<double>(), 0.0) << key;
   }
@@ -63,8 +68,8 @@ TEST(ReportTest, JsonHasEveryDocumentedField) {
   const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "metrics_maps";
   fs::create_directories(dir);
   WriteMetricMaps(maps, dir.string());
-  for (const char* name : {"abs_error.png", "rel_error.png", "ciede2000.png", "ssim.png",
-                           "flip_ldr.png", "flip_hdr.png"}) {
+  for (const char* name : {"abs_error.png", "rel_error.png", "ciede2000.png", "delta_e_itp.png",
+                           "ssim.png", "flip_ldr.png", "flip_hdr.png"}) {
     const Image png = ReadImage((dir / name).string());
     EXPECT_EQ(png.height, 64) << name;
     EXPECT_GT(png.width, 64 + 16) << name;  // Map plus the colour bar strip.

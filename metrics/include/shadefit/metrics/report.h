@@ -7,6 +7,7 @@
 
 #include "shadefit/metrics/ciede2000.h"
 #include "shadefit/metrics/common.h"
+#include "shadefit/metrics/delta_e_itp.h"
 #include "shadefit/metrics/flip.h"
 #include "shadefit/metrics/ssim.h"
 #include "shadefit/render/image.h"
@@ -20,6 +21,9 @@ struct MetricsParameters {
   double ppd = 67.0;
   // eps of the relative error (linear units).
   float relative_epsilon = 0.01f;
+  // Luminance (cd/m^2) of the linear value 1.0 for Delta E_ITP, which works on absolute
+  // luminance (DeltaEItpParameters::white_luminance: an SDR display's reference white).
+  double itp_white_luminance = 100.0;
   // Names used in error messages (the CLI passes file paths).
   InputNames names;
   // Optional: keeps the reference's half of LDR- and HDR-FLIP for the next call with the same
@@ -35,6 +39,7 @@ struct MetricsReport {
   float exposure_stops = 0.0f;
   double ppd = 67.0;
   float relative_epsilon = 0.01f;
+  double itp_white_luminance = 100.0;
   // Linear HDR RGB.
   double rmse = 0.0;
   double relative_rmse = 0.0;
@@ -46,6 +51,7 @@ struct MetricsReport {
   SsimResult ssim_rgb;
   MsSsimResult ms_ssim;  // On display-encoded luminance.
   DeltaE2000Result ciede2000;
+  DeltaEItpResult delta_e_itp;  // On the linear HDR images, 1.0 = itp_white_luminance cd/m^2.
   FlipResult flip_ldr;  // On the display-referred (exposed, clipped) linear images.
   FlipResult flip_hdr;  // On the linear HDR images.
 };
@@ -56,6 +62,7 @@ struct MetricsMaps {
   Image relative_error;  // Mean over RGB of |t - r| / (|r| + eps).
   Image ssim;            // Luminance SSIM map.
   Image ciede2000;       // Delta E_00.
+  Image delta_e_itp;     // Delta E_ITP.
   Image flip_ldr;        // LDR-FLIP.
   Image flip_hdr;        // HDR-FLIP.
 };
@@ -70,7 +77,8 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
 nlohmann::json MetricsToJson(const MetricsReport& report);
 
 // Writes abs_error.png, rel_error.png (viridis), flip_ldr.png, flip_hdr.png (magma, fixed range
-// [0, 1]), ssim.png (viridis, [0, 1]) and ciede2000.png into an existing directory.
+// [0, 1]), ssim.png (viridis, [0, 1]), ciede2000.png and delta_e_itp.png (viridis) into an
+// existing directory.
 void WriteMetricMaps(const MetricsMaps& maps, const std::string& directory);
 
 }  // namespace shadefit::metrics
