@@ -298,7 +298,7 @@ def fmt_p(p):
 
 
 def fmt_effect(v):
-    return f"{v:.2g}" if abs(v) < 100 else f"{v:.0f}"
+    return f"{v:.3g}" if abs(v) < 1000 else f"{v:.0f}"
 
 
 def effect_words(c):
@@ -324,6 +324,9 @@ def effect_words(c):
 
 
 def sentence(rec, c):
+    if c["test"] == "all tied":
+        return (f"{c['fit']}'s error equals {c['baseline']}'s on every one of the {c['n']} "
+                f"materials (p = 1)")
     p = c.get("p_holm", c["p"])
     test = {"Wilcoxon": "Wilcoxon", "sign test": "exact sign test",
             "all tied": "all tied"}[c["test"]]

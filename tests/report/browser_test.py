@@ -33,7 +33,74 @@ def find_binary(names):
     return None
 
 
+def layout_problems(driver):
+    """A page that holds many fits (docs/studies.md, "Report"): nothing wider than the window,
+    and no verdict-matrix question squeezed to about one word per line."""
+    out = []
+    width = driver.execute_script("return [document.documentElement.scrollWidth, window.innerWidth]")
+    if width[0] > width[1]:
+        out.append(f"the page is {width[0]} px wide in a {width[1]} px window (horizontal overflow)")
+    squeezed = driver.execute_script(
+        "return Array.from(document.querySelectorAll('table.matrix td.question')).map(td => {"
+        " const lh = parseFloat(getComputedStyle(td).lineHeight) || 16;"
+        " const pad = parseFloat(getComputedStyle(td).paddingTop) + parseFloat(getComputedStyle(td).paddingBottom);"
+        " const lines = Math.round((td.getBoundingClientRect().height - pad) / lh);"
+        " const words = td.textContent.trim().split(/\\s+/).length;"
+        " return [td.textContent.trim(), lines, words]; })"
+        ".filter(([t, lines, words]) => words > 2 && words / lines < 2.5)")
+    for text, lines, words in squeezed:
+        out.append(f"matrix question '{text}' takes {lines} lines for {words} words")
+    return out
+
+
+def make_driver(chromium, driver_bin, width, height):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = chromium
+    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", f"--window-size={width},{height}",
+              "--hide-scrollbars", "--force-device-scale-factor=1",
+              # No network at all: any http(s) request fails, so a CDN dependency would show
+              # as a console error or a broken resource below.
+              "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE localhost",
+              "--disable-background-networking", "--no-first-run"]:
+        opts.add_argument(a)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(driver_bin), options=opts)
+
+
+def layout_main(index, shot):
+    """browser_test.py --layout INDEX.html SCREENSHOT.png: the many-fits layout checks only, at
+    1400 px (the synthetic 10-fit study of many_fits_test.py)."""
+    chromium = find_binary(["chromium", "chromium-browser"])
+    driver_bin = find_binary(["chromedriver"])
+    if chromium is None or driver_bin is None:
+        skip("chromium or chromedriver not installed (Debian: chromium chromium-driver)")
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        skip("python3-selenium not installed (scripts/bootstrap.sh test installs it)")
+    driver = make_driver(chromium, driver_bin, 1400, 1000)
+    try:
+        driver.get("file://" + os.path.abspath(index))
+        failures = layout_problems(driver)
+        n = driver.execute_script("return document.querySelectorAll('table.matrix td.question').length")
+        if n == 0:
+            failures.append("no verdict-matrix question on the page")
+        os.makedirs(os.path.dirname(os.path.abspath(shot)), exist_ok=True)
+        driver.save_screenshot(shot)
+    finally:
+        driver.quit()
+    for f in failures:
+        print("FAILED: " + f)
+    if not failures:
+        print(f"PASS: {n} matrix questions laid out at 1400 px without overflow ({shot})")
+    return 1 if failures else 0
+
+
 def main(argv):
+    if len(argv) == 4 and argv[1] == "--layout":
+        return layout_main(argv[2], argv[3])
     if len(argv) != 3:
         print("usage: browser_test.py STUDY_DIR SCREENSHOT_DIR", file=sys.stderr)
         return 2
@@ -48,24 +115,12 @@ def main(argv):
         skip("chromium or chromedriver not installed (Debian: chromium chromium-driver; "
              "scripts/bootstrap.sh test installs them)")
     try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
         from selenium.webdriver.common.action_chains import ActionChains
         from selenium.webdriver.common.by import By
     except ImportError:
         skip("python3-selenium not installed (scripts/bootstrap.sh test installs it)")
 
     os.makedirs(shot_dir, exist_ok=True)
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = chromium
-    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,1000",
-              "--hide-scrollbars", "--force-device-scale-factor=1",
-              # No network at all: any http(s) request fails, so a CDN dependency would show
-              # as a console error or a broken resource below.
-              "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE localhost",
-              "--disable-background-networking", "--no-first-run"]:
-        opts.add_argument(a)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     failures = []
     # selenium reaches chromedriver at localhost:<port>; where 'localhost' does not resolve (no
     # /etc/hosts, as in a bare minbase chroot) it only says "Can not connect to the Service".
@@ -75,7 +130,7 @@ def main(argv):
         print(f"FAILED: 'localhost' does not resolve ({e}): selenium cannot reach chromedriver "
               "(is /etc/hosts missing its '127.0.0.1 localhost' line?)")
         return 1
-    driver = webdriver.Chrome(service=Service(driver_bin), options=opts)
+    driver = make_driver(chromium, driver_bin, 1280, 1000)
     try:
         t0 = time.time()
         driver.get("file://" + index)
@@ -106,11 +161,20 @@ def main(argv):
             "const t = document.querySelector('table'); return t ? t.className : null")
         if first_table != "matrix":
             failures.append(f"the first table is not the verdict matrix (class {first_table!r})")
+        # The comparative answers open the page: before the matrix, each with a sentence.
+        answers_first = driver.execute_script(
+            "const a = document.querySelector('#answers'), t = document.querySelector('table.matrix');"
+            "return !!a && !!t && !!(a.compareDocumentPosition(t) & Node.DOCUMENT_POSITION_FOLLOWING)"
+            " && a.querySelectorAll('ul.answers li').length > 0")
+        if not answers_first:
+            failures.append("the page does not open with the comparative answers")
         before_fig = driver.execute_script(
-            "const t = document.querySelector('table.matrix'), f = document.querySelector('figure');"
+            "const t = document.querySelector('table.matrix'),"
+            " f = document.querySelector('section:not(#answers) figure');"
             "return !!t && !!f && !!(t.compareDocumentPosition(f) & Node.DOCUMENT_POSITION_FOLLOWING)")
         if not before_fig:
-            failures.append("the verdict matrix does not come before the first figure")
+            failures.append("the verdict matrix does not come before the first evidence figure")
+        failures += layout_problems(driver)
         dangling = driver.execute_script(
             "return Array.from(document.querySelectorAll('table.matrix a')).map(a => a.getAttribute('href'))"
             ".filter(h => !h.startsWith('#') || !document.getElementById(h.slice(1)))")
