@@ -89,7 +89,12 @@ def questions_of(study, rows):
                     "metric": DEFAULT_METRIC, "kind": "max",
                     "question": "Do fitted parameters carry over to new lighting (image error "
                                 "under test lightings)?"})
-    return out
+    # Reading order: image closeness, new lighting, then the phenomena (BRDF space first: on
+    # measured references it is where the lobe and the Fresnel rise are measured).
+    rank = {("metrics", "train"): 0, ("metrics", "test"): 1, ("brdf", None): 2,
+            ("highlight", None): 3, ("fresnel", None): 4, ("energy", None): 5}
+    return sorted(out, key=lambda q: rank.get(
+        (q["source"], q.get("split") if q["source"] == "metrics" else None), 6))
 
 
 def metric_mode(metric):
@@ -261,12 +266,20 @@ def compare_study(study, rows, summary, to_float):
     for q in questions_of(study, rows):
         errors, why = material_errors(study, rows, summary, q, to_float)
         mode = question_mode(q)
+        comparisons = [c for c in (compare_pair(errors, materials, l, b, mode)
+                                   for l, b in pairs) if c is not None]
+        what = "error"
+        if q["source"] != "metrics" and q["kind"] == "max":
+            what = f"excess over the bound {float(q['tolerance']):g}"
+        elif q["source"] == "metrics" and q["metric"] in HIGHER_IS_BETTER_DB:
+            what = "PSNR deficit [dB]"
+        for c in comparisons:
+            c["what"] = what
         rec = {"name": q["name"], "question": q.get("question", q["name"]),
                "default": q["default"], "source": q["source"], "metric": q.get("metric"),
                "split": q.get("split"), "mode": mode, "n_a": sorted(set(why.values())),
                "errors": {f"{m}|{l}": e for (m, l), e in errors.items()},
-               "comparisons": [c for c in (compare_pair(errors, materials, l, b, mode)
-                                           for l, b in pairs) if c is not None]}
+               "comparisons": comparisons}
         # Measured references: the metrics above are over measured pixels; the same comparison
         # over every pixel (extrapolated data included) is printed beside it.
         all_col = f"{q.get('metric')}_all"
@@ -319,8 +332,8 @@ def effect_words(c):
     side = "lower" if d >= 0 else "higher"
     ci_text = "no CI: fewer than 3 materials" if lo is None else \
         f"95% CI of the difference {lo:.3g} to {hi:.3g}"
-    return (f"{c['fit']}'s error is {side} than {c['baseline']}'s by {abs(d):.3g} on average "
-            f"({ci_text})")
+    return (f"{c['fit']}'s {c.get('what', 'error')} is {side} than {c['baseline']}'s by "
+            f"{abs(d):.3g} on average ({ci_text})")
 
 
 def sentence(rec, c):

@@ -93,5 +93,32 @@ TEST(StudyFile, BadFilesNameTheKey) {
   ExpectError("e7.toml", Replace(Base(), "\"ggx\", ", "\"gxx\", "), "unknown model 'gxx'");
 }
 
+// [study] baseline and compare (docs/studies.md, "Comparative answers"): the first model by
+// default, names checked against fit.models, a model [quick] drops falls back or drops its pair.
+TEST(StudyFile, BaselineAndComparisons) {
+  const StudySpec plain = LoadStudy(WriteStudy("f1.toml", Base()));
+  EXPECT_EQ(plain.baseline, "ggx");
+  EXPECT_TRUE(plain.comparisons.empty());
+  EXPECT_EQ(plain.ToJson()["baseline"], "ggx");
+  const std::string text =
+      Replace(Base("[quick]\nmodels = [\"ggx\"]\n"), "name = \"t\"\n",
+              "name = \"t\"\nbaseline = \"blinn-phong\"\ncompare = [[\"ggx\", \"blinn-phong\"]]\n");
+  const StudySpec s = LoadStudy(WriteStudy("f2.toml", text));
+  EXPECT_EQ(s.baseline, "blinn-phong");
+  ASSERT_EQ(s.comparisons.size(), 1u);
+  EXPECT_EQ(s.comparisons[0][0], "ggx");
+  EXPECT_EQ(s.ToJson()["compare"][0][1], "blinn-phong");
+  const StudySpec quick = LoadStudy(WriteStudy("f2.toml", text), true);
+  EXPECT_EQ(quick.baseline, "ggx");
+  EXPECT_TRUE(quick.comparisons.empty());
+  ExpectError("f3.toml", Replace(Base(), "name = \"t\"\n", "name = \"t\"\nbaseline = \"phong\"\n"),
+              "study.baseline: 'phong' is not one of fit.models");
+  ExpectError("f4.toml",
+              Replace(Base(), "name = \"t\"\n", "name = \"t\"\ncompare = [[\"ggx\", \"beckmann\"]]\n"),
+              "study.compare: 'beckmann' is not one of fit.models");
+  ExpectError("f5.toml", Replace(Base(), "name = \"t\"\n", "name = \"t\"\ncompare = [\"ggx\"]\n"),
+              "study.compare: expected a pair of model names");
+}
+
 }  // namespace
 }  // namespace shadefit::studies

@@ -284,6 +284,8 @@ nlohmann::json StudySpec::ToJson() const {
           {"metrics", {{"exposure_stops", metrics_exposure_stops}, {"ppd", metrics_ppd}}},
           {"probes", ProbeNamesJson(probes)},
           {"verdicts", verdicts},
+          {"baseline", baseline},
+          {"compare", comparisons},
           {"outputs", {{"previews", previews}, {"report", report}}}};
 }
 
@@ -338,7 +340,7 @@ toml::table ParseStudyFile(const std::string& path, const Reader& r, StudySpec* 
 void ReadStudyTable(const Reader& r, const toml::table& root, StudySpec* spec) {
   const toml::table* study = r.Table(root, "", "study");
   if (study == nullptr) r.Fail(nullptr, "study", "missing [study] table");
-  r.CheckKeys(*study, "study.", {"name", "description"});
+  r.CheckKeys(*study, "study.", {"name", "description", "baseline", "compare"});
   spec->name = r.String(*study, "study.", "name", fs::path(spec->path).stem().string());
   spec->description = r.String(*study, "study.", "description", "");
   if (spec->name.empty() || spec->name.find_first_of("/\\ ") != std::string::npos) {
@@ -751,6 +753,45 @@ void ReadOutputs(const Reader& r, const toml::table& root, StudySpec* spec) {
   }
 }
 
+// [study] baseline and compare, after the models are known: the fit every other is compared
+// with (default: the first model), and further pairs of models to compare (docs/studies.md,
+// "Comparative answers"). Each name must be one of the file's fit.models; under --quick a name
+// that [quick] dropped falls back to the first model (baseline) or drops its pair (compare).
+void ReadComparisons(const Reader& r, const toml::table& root, const toml::table& fit,
+                     StudySpec* spec) {
+  const toml::table& study = *r.Table(root, "", "study");
+  const std::vector<std::string> file_models = r.Strings(fit, "fit.", "models");
+  const auto known = [&](const std::string& m) {
+    return std::find(file_models.begin(), file_models.end(), m) != file_models.end();
+  };
+  const auto kept = [&](const std::string& m) {
+    return std::find(spec->models.begin(), spec->models.end(), m) != spec->models.end();
+  };
+  spec->baseline = spec->models.front();
+  if (study.contains("baseline")) {
+    const std::string b = r.String(study, "study.", "baseline", "");
+    if (!known(b)) r.Fail(study.get("baseline"), "study.baseline", "'" + b + "' is not one of fit.models");
+    if (kept(b)) spec->baseline = b;
+  }
+  const toml::node* n = study.get("compare");
+  if (n == nullptr) return;
+  const toml::array* pairs = n->as_array();
+  if (pairs == nullptr) r.Fail(n, "study.compare", "expected an array of [model, model] pairs");
+  for (const toml::node& e : *pairs) {
+    const toml::array* pair = e.as_array();
+    if (pair == nullptr || pair->size() != 2 || !(*pair)[0].is_string() ||
+        !(*pair)[1].is_string()) {
+      r.Fail(&e, "study.compare", "expected a pair of model names, [\"ggx\", \"beckmann\"]");
+    }
+    const std::string a = *(*pair)[0].value<std::string>(), b = *(*pair)[1].value<std::string>();
+    for (const std::string& m : {a, b}) {
+      if (!known(m)) r.Fail(&e, "study.compare", "'" + m + "' is not one of fit.models");
+    }
+    if (a == b) r.Fail(&e, "study.compare", "a model compared with itself");
+    if (kept(a) && kept(b)) spec->comparisons.push_back({a, b});
+  }
+}
+
 }  // namespace
 
 StudySpec LoadStudy(const std::string& path, bool quick) {
@@ -764,6 +805,7 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   ReadMeasured(r, root, base, q, &spec);
   ReadGroups(r, root, base, q, &spec);
   ReadFit(r, root, q, &spec);
+  ReadComparisons(r, root, *r.Table(root, "", "fit"), &spec);
   ReadMetrics(r, root, &spec);
   ReadProbes(r, root, q, &spec);
   ReadVerdicts(r, root, &spec);

@@ -2,6 +2,7 @@
 // tolerances the verdicts use (format in docs/studies.md).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -93,6 +94,10 @@ struct StudySpec {
   // probe and material). Off by default: the report draws every probe figure from the JSON.
   bool probe_plots = false;
   nlohmann::json verdicts;          // [verdicts] as JSON, read by the report.
+  // [study] baseline: the model every other fit is compared with in the report's comparative
+  // answers (per training set); [study] compare: more pairs of models to compare.
+  std::string baseline;
+  std::vector<std::array<std::string, 2>> comparisons;
   bool previews = true;             // Reference / fit / error PNGs per reference and fit.
   bool report = true;               // `study run` makes the report at the end.
 
