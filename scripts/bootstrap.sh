@@ -14,7 +14,6 @@ packages=(
   libceres-dev libopenimageio-dev openimageio-tools libopenexr-dev libglm-dev libopencv-dev libhdf5-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-matplotlib python3-skimage python3-scipy python3-statsmodels
   blender-data  # CC0 environment maps used by the environment-lit references, read by path
 )
@@ -23,6 +22,7 @@ packages=(
 # booktabs and geometry (texlive-latex-recommended; graphicx is in -base) for
 # StudyEndToEnd.LatexTablesCompile.
 test_packages=(
+  libgtest-dev libgmock-dev libbenchmark-dev  # the test suite and bench/
   blender
   texlive-latex-base texlive-latex-recommended
   chromium chromium-driver python3-selenium  # report_browser: index.html in headless Chromium
@@ -43,9 +43,19 @@ if [ ${#missing[@]} -gt 0 ]; then
     "${missing[@]}" >/dev/null
 fi
 
-echo "== building (Release) in build/"
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j"$(nproc)"
+# The main job builds what it runs: the shadefit executable (the report is Python). Test mode
+# builds everything: the tests, bench/ and the executable.
+if [ "$mode" = test ]; then
+  echo "== building (Release) in build/: everything"
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON \
+    -DSHADEFIT_BUILD_BENCH=ON >/dev/null
+  cmake --build build -j"$(nproc)"
+else
+  echo "== building (Release) in build/: the shadefit executable"
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=OFF \
+    -DSHADEFIT_BUILD_BENCH=OFF >/dev/null
+  cmake --build build -j"$(nproc)" --target shadefit
+fi
 
 if [ "$mode" = test ]; then
   echo "== running the test suite"
