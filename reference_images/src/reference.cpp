@@ -32,7 +32,57 @@ bool IsLinearFormat(const std::string& path) {
 // rounded saturated value after a camera's or encoder's tone curve.
 constexpr float kClippedCode = 254.0f / 255.0f;
 
+// The sidecar's "measured_domain" (MakeMeasuredReference, render_measured.h) into `ref`, whose
+// image is read: the domain file must be a 1-channel image of the same size with values in
+// [0, 1].
+void ReadMeasuredDomain(const nlohmann::json& domain, const fs::path& sidecar, Reference* ref) {
+  if (!domain.is_object()) throw Error(sidecar.string(), "measured_domain", "expected an object");
+  if (!domain.contains("file") || !domain["file"].is_string()) {
+    throw Error(sidecar.string(), "measured_domain.file", "missing or not a string");
+  }
+  if (!domain.contains("measured_share_max") || !domain["measured_share_max"].is_number() ||
+      !(domain["measured_share_max"].get<double>() >= 0.0 &&
+        domain["measured_share_max"].get<double>() <= 1.0)) {
+    throw Error(sidecar.string(), "measured_domain.measured_share_max",
+                "missing or not a number in [0, 1]");
+  }
+  fs::path path(domain["file"].get<std::string>());
+  if (path.is_relative()) path = sidecar.parent_path() / path;
+  const std::string file = path.lexically_normal().string();
+  if (!fs::is_regular_file(file)) {
+    throw Error(sidecar.string(), "measured_domain.file",
+                fmt::format("domain file '{}' does not exist", file));
+  }
+  Image share = ReadImage(file);
+  if (share.channels != 1) {
+    throw Error(file, "channels",
+                fmt::format("a measured domain has 1 channel, got {}", share.channels));
+  }
+  if (share.width != ref->image.width || share.height != ref->image.height) {
+    throw Error(file, "resolution",
+                fmt::format("domain is {}x{} but the reference {} is {}x{}", share.width,
+                            share.height, ref->image_path, ref->image.width, ref->image.height));
+  }
+  for (std::size_t i = 0; i < share.data.size(); ++i) {
+    const float v = share.data[i];
+    if (!(v >= 0.0f && v <= 1.0f)) {
+      throw Error(file, "pixels",
+                  fmt::format("share {} at ({}, {}) is not in [0, 1]", v, i % share.width,
+                              i / share.width));
+    }
+  }
+  ref->extrapolated_share = std::move(share);
+  ref->measured_share_max = domain["measured_share_max"].get<double>();
+  ref->domain_path = file;
+  ref->sha256["domain"] = Sha256File(file);
+}
+
 }  // namespace
+
+bool IsMeasuredPixel(const Reference& ref, int x, int y) {
+  return ref.extrapolated_share.empty() ||
+         ref.extrapolated_share.at(x, y, 0) <= ref.measured_share_max;
+}
 
 Reference LoadReference(const std::string& image_path, const std::string& scene_override,
                         const std::string& mask_path) {
@@ -91,6 +141,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
                   fmt::format("scene '{}' does not exist", scene_path.string()));
     }
     ref.scene_path = scene_path.lexically_normal().string();
+    if (meta.contains("measured_domain")) ReadMeasuredDomain(meta["measured_domain"], sidecar, &ref);
   }
   if (!fs::exists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
   ref.scene = LoadScene(ref.scene_path);

@@ -86,6 +86,23 @@ Vec3d SampleLobe(double alpha, const Vec3d& wo, double u1, double u2) {
   return h * (2.0 * Dot(wo, h)) - wo;
 }
 
+// BT.709 luminance: the weight of each channel in a pixel's extrapolated share.
+double Luminance(const Vec3d& c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+// Whether a light or sample direction wi makes f(wi, wo) depend on data beyond the measured
+// domain: it must reach the surface (both directions above the horizon, where Eval reads the
+// table at all) and lie beyond the limit.
+bool Extrapolated(const Vec3d& wi, const Vec3d& wo) {
+  return wi.z > 0 && wo.z > 0 && !InMeasuredDomain(wi, wo);
+}
+
+// The extrapolated share as the domain file stores it: 8-bit codes, share = code / 255.
+Image QuantiseShare(const Image& share) {
+  Image out = share;
+  for (float& v : out.data) v = std::round(std::clamp(v, 0.0f, 1.0f) * 255.0f) / 255.0f;
+  return out;
+}
+
 }  // namespace
 
 double EstimateLobeAlpha(const MeasuredBrdf& brdf) {
@@ -111,9 +128,13 @@ std::string SidecarPath(const std::string& exr_path) {
   return std::filesystem::path(exr_path).replace_extension(".json").string();
 }
 
+std::string DomainPath(const std::string& exr_path) {
+  return std::filesystem::path(exr_path).replace_extension(".domain.png").string();
+}
+
 Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer& g,
                      const RenderMeasuredOptions& options, Image* standard_error,
-                     RenderMeasuredStats* stats_out) {
+                     RenderMeasuredStats* stats_out, Image* extrapolated_share) {
   const auto start = std::chrono::steady_clock::now();
   RenderMeasuredStats stats;
   const std::vector<ShadingPoint> points = PrepareShading(scene, g, 0.0f);
@@ -144,6 +165,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
 
   Image out(g.width, g.height, 4);
   Image error(g.width, g.height, 3);
+  Image share(g.width, g.height, 1);
   // Background of uncovered pixels (and of partly covered ones, weighted by 1 - coverage).
   if (!scene.background.transparent) {
     for (int y = 0; y < g.height; ++y) {
@@ -168,11 +190,17 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
       Vec3d radiance{0, 0, 0};
       // Point and directional lights: exact. PrepareShading already dropped lights below the
       // surface or occluded; E is the irradiance at normal incidence, so the cosine is applied.
+      // One light beyond the measured domain makes the whole pixel extrapolated, whatever f is
+      // there (the share must not depend on values the table only extrapolates).
+      bool light_extrapolated = false;
       for (const PixelLight& light : sp.lights) {
         const Vec3d wi = frame.ToLocal(light.l);
         const Vec3d f = brdf.Eval(wi, wo);
         for (int c = 0; c < 3; ++c) radiance[c] += f[c] * light.irradiance[c] * wi.z;
+        const bool lit = light.irradiance.x > 0 || light.irradiance.y > 0 || light.irradiance.z > 0;
+        if (lit && Extrapolated(wi, wo)) light_extrapolated = true;
       }
+      double beyond_y = 0;  // Sum over samples of the luminance of the extrapolated ones.
       Vec3d se{0, 0, 0};
       if (n_samples > 0) {
         const Vec3d p{g.position.at(sp.x, sp.y, 0), g.position.at(sp.x, sp.y, 1),
@@ -181,6 +209,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
         // One MIS sample of a world direction. With equal sample counts the balance heuristic
         // (Veach 1997, eq. 9.13) weights a sample by its pdf over the sum of all techniques'
         // pdfs, so each technique's weighted estimate is f L cos / (p_env + p_cos [+ p_lobe]).
+        // Samples beyond the measured domain add their luminance to beyond_y.
         auto contribution = [&](const Vec3d& dir) -> Vec3d {
           const Vec3d wi = frame.ToLocal(dir);
           if (wi.z <= 0 || wo.z <= 0) return {0, 0, 0};
@@ -193,7 +222,9 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
           }
           const Vec3d f = brdf.Eval(wi, wo);
           const Vec3d l = distant.Radiance(dir);
-          return {f.x * l.x * wi.z / pdf, f.y * l.y * wi.z / pdf, f.z * l.z * wi.z / pdf};
+          const Vec3d c{f.x * l.x * wi.z / pdf, f.y * l.y * wi.z / pdf, f.z * l.z * wi.z / pdf};
+          if (Extrapolated(wi, wo)) beyond_y += Luminance(c);
+          return c;
         };
         // Welford running mean and variance of the per-pair estimate X_j (one sample of each
         // technique); the standard error of the mean is sqrt(var / N).
@@ -226,6 +257,12 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
         out.at(sp.x, sp.y, c) += static_cast<float>(radiance[c] * coverage);
         error.at(sp.x, sp.y, c) = static_cast<float>(se[c] * coverage);
       }
+      // The environment's extrapolated luminance (the mean of beyond_y over the sample sets)
+      // over the pixel's whole radiance; 0 for a pixel that reflects nothing.
+      const double total_y = Luminance(radiance);
+      const double env_share =
+          n_samples > 0 && total_y > 0 ? std::min(1.0, beyond_y / n_samples / total_y) : 0.0;
+      share.at(sp.x, sp.y, 0) = light_extrapolated ? 1.0f : static_cast<float>(env_share);
       out.at(sp.x, sp.y, 3) = scene.background.transparent ? coverage : 1.0f;
     }
   };
@@ -253,7 +290,11 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
     stats.relative_standard_error = mean_value > 0 ? mean_se / mean_value : 0.0;
   }
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const ShadingPoint& sp : points) {
+    if (share.at(sp.x, sp.y, 0) <= kExtrapolatedShareMax) ++stats.measured_pixels;
+  }
   if (standard_error) *standard_error = std::move(error);
+  if (extrapolated_share) *extrapolated_share = std::move(share);
   if (stats_out) *stats_out = stats;
   return out;
 }
@@ -276,10 +317,21 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
   const std::unique_ptr<MeasuredBrdf> brdf = LoadMeasuredBrdf(request.brdf_path);
   const Scene scene = LoadScene(request.scene_path);
   const GBuffer gbuffer = renderer.RenderGBuffer(scene);
-  Image noise;
+  Image noise, share;
   RenderMeasuredStats stats;
-  const Image image = RenderMeasured(*brdf, scene, gbuffer, request.options, &noise, &stats);
+  const Image image =
+      RenderMeasured(*brdf, scene, gbuffer, request.options, &noise, &stats, &share);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // The counts are of the share as the file stores it, so that a reader of the file agrees.
+  share = QuantiseShare(share);
+  stats.measured_pixels = 0;
+  for (int y = 0; y < gbuffer.height; ++y) {
+    for (int x = 0; x < gbuffer.width; ++x) {
+      if (gbuffer.Coverage(x, y) > 0 && share.at(x, y, 0) <= kExtrapolatedShareMax) {
+        ++stats.measured_pixels;
+      }
+    }
+  }
 
   nlohmann::json sidecar;
   sidecar["kind"] = "measured-brdf";
@@ -318,26 +370,43 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
   sidecar["threads"] = stats.threads;
   sidecar["render_seconds"] = stats.seconds;
   sidecar["pixel_value"] = "RGB radiance at the pixel centre x coverage; A = coverage";
+  const std::string domain_path = DomainPath(request.output);
+  nlohmann::json& domain = sidecar["measured_domain"];
+  domain["rule"] = kMeasuredDomainRule;
+  domain["theta_d_max_deg"] = kMeasuredThetaDMaxDeg;
+  domain["file"] = fs::path(domain_path).filename().string();  // relative to the sidecar
+  domain["value"] =
+      "8-bit grey, code / 255 = the share of the pixel's radiance (luminance) that depends on the "
+      "BRDF beyond theta_d_max_deg; 0 where no surface is seen";
+  domain["share"] = {
+      {"point_directional",
+       "exact: 1 when any light reaching the pixel is seen at theta_d beyond the limit, else 0 "
+       "(independent of the BRDF's values)"},
+      {"environment", "Monte Carlo: the share of the estimate's luminance from samples beyond "
+                      "the limit"}};
+  domain["measured_share_max"] = kExtrapolatedShareMax;
+  domain["counts"] = {{"covered", stats.shaded_pixels}, {"measured", stats.measured_pixels}};
 
   ImageMetadata meta{{"shadefit:kind", "measured-brdf"},
                      {"shadefit:brdf", fs::path(request.brdf_path).filename().string()},
                      {"shadefit:scene", scene.source_text},
                      {"shadefit:samples", std::to_string(stats.samples_per_technique)}};
   // Each write is atomic (temporary sibling + rename); when a later one fails, the earlier ones
-  // are removed, so a failure leaves none of the outputs.
+  // are removed, so a failure leaves none of the outputs. The sidecar, last, records the domain
+  // file's SHA-256, so that the study runner's hash of the sidecar covers the domain too.
   const std::string sidecar_path = SidecarPath(request.output);
-  WriteExr(request.output, image, meta);
-  try {
-    if (!request.noise_output.empty()) {
-      WriteExr(request.noise_output, noise, meta, {"R", "G", "B"});
-    }
-    WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n");
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(request.output, ec);
-    if (!request.noise_output.empty()) fs::remove(request.noise_output, ec);
-    throw;
+  std::vector<OutputWrite> writes;
+  writes.emplace_back(request.output, [&] { WriteExr(request.output, image, meta); });
+  if (!request.noise_output.empty()) {
+    writes.emplace_back(request.noise_output,
+                        [&] { WriteExr(request.noise_output, noise, meta, {"R", "G", "B"}); });
   }
+  writes.emplace_back(domain_path, [&] { WritePng8(domain_path, share); });
+  writes.emplace_back(sidecar_path, [&] {
+    domain["sha256"] = Sha256File(domain_path);
+    WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n");
+  });
+  WriteAllOrNothing(writes);
   return stats;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -51,7 +52,9 @@ json FitJobHeader(const RunContext& context, const Job& job, FitStatus status) {
 }
 
 // The training references, each subsampled to every stride-th pixel by a mask (the images are
-// never resampled; metrics still use every pixel).
+// never resampled; metrics still use every pixel). A measured reference trains on its measured
+// pixels only (refs::IsMeasuredPixel): a fit must not chase values its reference's BRDF only
+// extrapolates (docs/measured_and_imported.md, "The measured domain").
 fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const ReferenceGroup& g,
                              const std::vector<refs::Reference>& references) {
   fit::FitProblem problem;
@@ -60,11 +63,14 @@ fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const Referen
   for (std::size_t i = 0; i < references.size(); ++i) {
     if (!Trains(job, g.references[i].lighting)) continue;
     refs::Reference ref = references[i];
-    if (s.pixel_stride > 1) {
+    if (s.pixel_stride > 1 || !ref.extrapolated_share.empty()) {
+      const int stride = std::max(1, s.pixel_stride);
       Image mask(ref.image.width, ref.image.height, 1, 0.0f);
-      for (int y = 0; y < mask.height; y += s.pixel_stride) {
-        for (int x = 0; x < mask.width; x += s.pixel_stride) {
-          mask.at(x, y, 0) = ref.mask.empty() || ref.mask.at(x, y, 0) > 0.5f ? 1.f : 0.f;
+      for (int y = 0; y < mask.height; y += stride) {
+        for (int x = 0; x < mask.width; x += stride) {
+          const bool use = (ref.mask.empty() || ref.mask.at(x, y, 0) > 0.5f) &&
+                           refs::IsMeasuredPixel(ref, x, y);
+          mask.at(x, y, 0) = use ? 1.f : 0.f;
         }
       }
       ref.mask = std::move(mask);
@@ -122,6 +128,62 @@ Image CoverageMask(const Image& image) {
   return mask;
 }
 
+// The covered pixels that lie in the reference's measured domain (all of them without one).
+Image MeasuredMask(const refs::Reference& ref, const Image& covered) {
+  Image mask = covered;
+  for (int y = 0; y < mask.height; ++y) {
+    for (int x = 0; x < mask.width; ++x) {
+      if (!refs::IsMeasuredPixel(ref, x, y)) mask.at(x, y, 0) = 0.f;
+    }
+  }
+  return mask;
+}
+
+// The reference as the measured pass sees it: its covered pixels outside the measured domain
+// take the prediction's values. The mask leaves them out of every pooled number, but FLIP's
+// filters and feature detectors read the neighbourhood of each pixel they score, so the
+// extrapolated values would still reach measured pixels near the boundary; with the prediction
+// there, no number of the pass depends on extrapolated data.
+Image PatchedReference(const Image& ref_rgb, const Image& fit_rgb, const Image& covered,
+                       const Image& measured) {
+  Image out = ref_rgb;
+  for (int y = 0; y < out.height; ++y) {
+    for (int x = 0; x < out.width; ++x) {
+      if (covered.at(x, y, 0) > 0.5f && !(measured.at(x, y, 0) > 0.5f)) {
+        for (int c = 0; c < 3; ++c) out.at(x, y, c) = fit_rgb.at(x, y, c);
+      }
+    }
+  }
+  return out;
+}
+
+std::size_t CountSet(const Image& mask) {
+  return static_cast<std::size_t>(
+      std::count_if(mask.data.begin(), mask.data.end(), [](float v) { return v > 0.5f; }));
+}
+
+// The pixels of `mask` where the reference has any radiance: under a rim light every lit pixel
+// can be extrapolated while the unlit rest, 0 in every model too, is measured.
+std::size_t CountLit(const Image& mask, const Image& image) {
+  std::size_t n = 0;
+  for (int y = 0; y < mask.height; ++y) {
+    for (int x = 0; x < mask.width; ++x) {
+      if (mask.at(x, y, 0) > 0.5f &&
+          (image.at(x, y, 0) > 0 || image.at(x, y, 1) > 0 || image.at(x, y, 2) > 0)) {
+        ++n;
+      }
+    }
+  }
+  return n;
+}
+
+// The metrics of one mask: the report, or none with the reason (no pixel, or no SSIM window).
+struct MetricsPass {
+  std::optional<metrics::MetricsReport> report;
+  bool masked = true;  // false: taken over the whole frame (the coverage pass's fallback)
+  std::string why_none;
+};
+
 json MetricsSummary(const metrics::MetricsReport& m) {
   return {{"rmse", Num(m.rmse)},
           {"relative_rmse", Num(m.relative_rmse)},
@@ -135,9 +197,36 @@ json MetricsSummary(const metrics::MetricsReport& m) {
           {"flip_hdr_mean", Num(m.flip_hdr.mean)}};
 }
 
-// The reference's preview, the fit's and the error map (images/), named in `e` and `outputs`.
+// The same keys as MetricsSummary, every value null: a pass without numbers.
+json NullMetricsSummary() {
+  json j = MetricsSummary(metrics::MetricsReport{});
+  for (auto& [key, value] : j.items()) value = nullptr;
+  return j;
+}
+
+// The reference's preview with its extrapolated pixels (outside the measured domain) tinted
+// magenta, 60 % over the display value, so the viewer shows which pixels the metrics leave out.
+void WriteDomainPreview(const std::string& path, const refs::Reference& ref,
+                        const Image& covered, float exposure_stops) {
+  const float scale = std::exp2(exposure_stops);
+  Image display(ref.image.width, ref.image.height, 3);
+  for (int y = 0; y < display.height; ++y) {
+    for (int x = 0; x < display.width; ++x) {
+      const bool tint = covered.at(x, y, 0) > 0.5f && !refs::IsMeasuredPixel(ref, x, y);
+      for (int c = 0; c < 3; ++c) {
+        const float v = std::clamp(SrgbOetf(ref.image.at(x, y, c) * scale), 0.0f, 1.0f);
+        const float magenta = c == 1 ? 0.0f : 1.0f;
+        display.at(x, y, c) = tint ? 0.4f * v + 0.6f * magenta : v;
+      }
+    }
+  }
+  WritePng8(path, display);
+}
+
+// The reference's preview, the fit's and the error map (images/), named in `e` and `outputs`;
+// for a measured reference also its domain preview (images/<reference>.domain.png).
 void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpec& rs,
-                   const refs::Reference& ref, const Image& prediction,
+                   const refs::Reference& ref, const Image& prediction, const Image& covered,
                    const metrics::MetricsMaps& maps, json* e, json* outputs) {
   const StudySpec& spec = context.spec;
   const std::string ref_png = fmt::format("images/{}.reference.png", rs.name);
@@ -157,6 +246,40 @@ void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpe
   outputs->push_back(ref_png);
   outputs->push_back(fit_png);
   outputs->push_back(err_png);
+  if (ref.extrapolated_share.empty()) return;
+  const std::string domain_png = fmt::format("images/{}.domain.png", rs.name);
+  if (context.reference_previews == nullptr || context.reference_previews->First(domain_png)) {
+    WriteDomainPreview((dir / domain_png).string(), ref, covered, spec.metrics_exposure_stops);
+  }
+  (*e)["images"]["domain"] = domain_png;
+  outputs->push_back(domain_png);
+}
+
+// Every metric over `mask`. The covered pass (fallback_to_frame) keeps the runner's old rule:
+// MS-SSIM's coarsest scale can leave no window inside a small object's mask; then every metric
+// of this reference is taken over the whole frame (background is 0 in both) and the evaluation
+// says so; the mask is the reference's, so all fits of it are alike. The measured pass has no
+// such fallback (the frame holds the extrapolated pixels it leaves out): it has no numbers then.
+MetricsPass RunMetrics(const Image& ref_rgb, const Image& fit_rgb, const Image& mask,
+                       const metrics::MetricsParameters& mp, bool fallback_to_frame,
+                       metrics::MetricsMaps* maps) {
+  MetricsPass pass;
+  if (!fallback_to_frame && CountSet(mask) == 0) {
+    pass.why_none = "no covered pixel is measured";
+    return pass;
+  }
+  try {
+    pass.report = metrics::ComputeMetrics(ref_rgb, fit_rgb, &mask, mp, maps);
+  } catch (const metrics::NoSsimWindowInMaskError&) {
+    if (!fallback_to_frame) {
+      pass.why_none =
+          "the measured pixels hold no whole SSIM/MS-SSIM window (too few or too scattered)";
+      return pass;
+    }
+    pass.masked = false;
+    pass.report = metrics::ComputeMetrics(ref_rgb, fit_rgb, nullptr, mp, maps);
+  }
+  return pass;
 }
 
 // The fitted parameters render NaN or Inf under a reference's lighting (for example a lobe
@@ -195,33 +318,46 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
   if (FaultArmed("inf-render")) prediction.at(prediction.width / 2, prediction.height / 2, 0) =
       std::numeric_limits<float>::infinity();
   CheckFinite(prediction, ref.image, rs.name);
-  const Image mask = CoverageMask(ref.image);
+  // Two masks: every covered pixel, and those of them in the reference's measured domain (the
+  // same without a domain). "metrics" are the measured pixels', "metrics_all" every covered
+  // pixel's; the second pass runs only when the masks differ (metrics are costly).
+  const Image covered = CoverageMask(ref.image);
+  const Image measured = MeasuredMask(ref, covered);
+  const std::size_t covered_pixels = CountSet(covered), measured_pixels = CountSet(measured);
   metrics::MetricsParameters mp;
   mp.exposure_stops = spec.metrics_exposure_stops;
   mp.ppd = spec.metrics_ppd;
   mp.flip_reference_cache = context.flip_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
-  metrics::MetricsMaps maps;
-  metrics::MetricsReport m;
-  bool masked = true;
+  metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.
   const Image ref_rgb = ref.image.Channels(0, 3), fit_rgb = prediction.Channels(0, 3);
-  try {
-    m = metrics::ComputeMetrics(ref_rgb, fit_rgb, &mask, mp, &maps);
-  } catch (const metrics::NoSsimWindowInMaskError&) {
-    // MS-SSIM's coarsest scale can leave no window inside a small object's mask; then every
-    // metric of this reference is taken over the whole frame (background is 0 in both) and
-    // the evaluation says so. The mask is the reference's, so all fits of it are alike.
-    masked = false;
-    m = metrics::ComputeMetrics(ref_rgb, fit_rgb, nullptr, mp, &maps);
-  }
+  const MetricsPass all = RunMetrics(ref_rgb, fit_rgb, covered, mp, true, &maps);
+  const MetricsPass main =
+      measured_pixels == covered_pixels
+          ? all
+          : RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured,
+                       mp, false, nullptr);
   json e = {{"reference", rs.name},
             {"lighting", rs.lighting},
             {"split", SplitOf(spec, rs.lighting, job.train)},
             {"rmse_fitter", rmse},
-            {"metrics_masked", masked},
-            {"metrics", MetricsSummary(m)},
-            {"metrics_full", metrics::MetricsToJson(m)}};
-  if (spec.previews) WritePreviews(context, job, rs, ref, prediction, maps, &e, outputs);
+            {"metrics_pixels", ref.extrapolated_share.empty() ? "covered" : "covered and measured"},
+            {"covered_pixels", covered_pixels},
+            {"measured_pixels", measured_pixels},
+            {"lit_pixels", CountLit(covered, ref.image)},
+            {"measured_lit_pixels", CountLit(measured, ref.image)},
+            {"measured_fraction",
+             covered_pixels > 0 ? static_cast<double>(measured_pixels) / covered_pixels : 1.0},
+            {"metrics_masked", main.report ? json(main.masked) : json(nullptr)},
+            {"metrics", main.report ? MetricsSummary(*main.report) : NullMetricsSummary()},
+            {"metrics_all_masked", all.report ? json(all.masked) : json(nullptr)},
+            {"metrics_all", all.report ? MetricsSummary(*all.report) : NullMetricsSummary()},
+            {"metrics_full", main.report ? metrics::MetricsToJson(*main.report) : json(nullptr)}};
+  if (!main.report) e["metrics_none"] = main.why_none;
+  if (!all.report) e["metrics_all_none"] = all.why_none;
+  if (spec.previews) {
+    WritePreviews(context, job, rs, ref, prediction, covered, maps, &e, outputs);
+  }
   return e;
 }
 
@@ -300,7 +436,8 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
     // The previews of the references evaluated before it go too: a failed fit leaves no image
     // of its own (the reference previews are every fit's of the material, and stay).
     for (const json& o : outputs) {
-      if (o.get<std::string>().ends_with(".reference.png")) continue;
+      const std::string& name = o.get_ref<const std::string&>();
+      if (name.ends_with(".reference.png") || name.ends_with(".domain.png")) continue;
       std::error_code ec;
       std::filesystem::remove(context.paths.dir / o.get<std::string>(), ec);
     }

@@ -2,8 +2,10 @@
 // shadefit's measured renderer (reference_images/, docs/measured_and_imported.md), into
 // OUT/<study>/references/<material>-<lighting>.exr with its sidecar, then one reference group
 // per material. A reference is re-rendered only when its key changes: the SHA-256 of the BRDF
-// file(s), the scene's bytes, the sample count and the shadefit version. The renders are
-// deterministic (per-pixel seeds; the thread count does not change them).
+// file(s), the scene's bytes, the sample count, the shadefit version and the format of the
+// outputs (/2: the measured domain, <name>.domain.png, beside the image), or when one of its
+// files is missing. The renders are deterministic (per-pixel seeds; the thread count does not
+// change them).
 #include <fmt/core.h>
 
 #include <filesystem>
@@ -32,7 +34,7 @@ std::string ReadAll(const std::string& path) {
 }
 
 std::string ReferenceKey(const MeasuredSource& src, std::size_t material, std::size_t lighting) {
-  std::string key = "shadefit.measured-reference/1\n" + ShadefitVersion() + "\n";
+  std::string key = "shadefit.measured-reference/2\n" + ShadefitVersion() + "\n";
   for (const std::string& f : refs::MeasuredBrdfFiles(src.brdfs[material])) {
     key += Sha256File(f) + "\n";
   }
@@ -78,6 +80,7 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
         const std::string key = ReferenceKey(src, m, l);
         const fs::path key_path = dir / (ref.name + ".key");
         const bool cached = fs::exists(ref.image_path) && fs::exists(ref.sidecar_path) &&
+                            fs::exists(refs::DomainPath(ref.image_path)) &&
                             fs::exists(key_path) && ReadAll(key_path.string()) == key + "\n";
         if (cached) {
           ++summary.unchanged;

@@ -25,9 +25,17 @@ using json = nlohmann::json;
 
 namespace {
 
+// Each metric over the pixels "metrics" covers (a measured reference's covered AND measured
+// pixels; every covered pixel otherwise), then measured_fraction, then the same metrics over every
+// covered pixel as <metric>_all ("metrics_all"; equal to the first for references without a
+// measured domain). docs/measured_and_imported.md, "The measured domain".
 const std::vector<std::string> kMetricColumns = {
     "rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim", "ciede2000_mean",
     "flip_ldr_mean", "flip_hdr_mean"};
+
+std::string Cell(const json& v) {
+  return v.is_number() ? fmt::format("{:.9g}", v.get<double>()) : std::string();
+}
 
 std::string HostName() {
   char host[256] = {};
@@ -50,17 +58,21 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
   if (!HasFit(ParseFitStatus(status))) {  // No parameters: one row per reference, no metrics.
     for (const ReferenceSpec& r : context.spec.groups[job.group].references) {
       row_start(r.lighting, r.name, SplitOf(context.spec, r.lighting, job.train));
-      csv << std::string(kMetricColumns.size(), ',') << "\n";
+      // kMetricColumns, measured_fraction, the _all columns: all empty.
+      csv << std::string(2 * kMetricColumns.size() + 1, ',') << "\n";
     }
     return;
   }
   for (const json& e : j["evaluations"]) {
     row_start(e["lighting"].get<std::string>(), e["reference"].get<std::string>(),
               e["split"].get<std::string>());
-    for (const auto& c : kMetricColumns) {
-      const json& v = e["metrics"][c];
-      csv << "," << (v.is_null() ? std::string("") : fmt::format("{:.9g}", v.get<double>()));
-    }
+    // A job JSON from before the measured domain has no "metrics_all": its "metrics" were
+    // every covered pixel's.
+    const json& main = e.at("metrics");
+    const json& all = e.contains("metrics_all") ? e.at("metrics_all") : main;
+    for (const auto& c : kMetricColumns) csv << "," << Cell(main.value(c, json()));
+    csv << "," << Cell(e.value("measured_fraction", json(1.0)));
+    for (const auto& c : kMetricColumns) csv << "," << Cell(all.value(c, json()));
     csv << "\n";
   }
 }
@@ -118,6 +130,8 @@ void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs) {
   std::ostringstream csv;
   csv << "material,lighting,reference,label,model,train,split,converged,status";
   for (const auto& c : kMetricColumns) csv << "," << c;
+  csv << ",measured_fraction";
+  for (const auto& c : kMetricColumns) csv << "," << c << "_all";
   csv << "\n";
   for (const Job& job : jobs) {
     if (job.kind == Job::Kind::kFit) AppendResultRows(context, job, csv);

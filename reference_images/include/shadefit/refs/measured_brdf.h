@@ -40,6 +40,32 @@ HalfDiff ToHalfDiff(const Vec3d& wi, const Vec3d& wo);
 // The inverse for phi_h = 0 (isotropic BRDFs do not depend on it): returns wi, wo.
 void FromHalfDiff(double theta_h, double theta_d, double phi_d, Vec3d* wi, Vec3d* wo);
 
+// --- The measured domain -------------------------------------------------------------------------
+
+// MERL's gonioreflectometer did not reach difference angles theta_d beyond about 75 degrees: the
+// tables hold extrapolated values there (Matusik et al. 2003, sec. 5; Burley 2012, "Physically
+// Based Shading at Disney", sec. 5.1), and the Neural-BRDF networks, fitted to those tables,
+// inherit them. The one definition of the rule: the BRDF-space probes (probes/brdf_space.h) and
+// the measured renderer's per-pixel domain (render_measured.h) both take it from here.
+inline constexpr double kMeasuredThetaDMaxDeg = 75.0;
+// A quantity (a pixel, an albedo point) counts as measured while at most this share of it comes
+// from extrapolated data: the probes' extrapolated_point_fraction and the renderer's threshold.
+inline constexpr double kExtrapolatedShareMax = 0.01;
+// The rule and its source in words, as sidecars and probe notes record it.
+inline constexpr const char* kMeasuredDomainRule =
+    "f(wi, wo) is measured where theta_d <= 75 deg (Rusinkiewicz's difference angle, between wi "
+    "and the half vector); beyond it MERL's tables are extrapolated (Matusik et al. 2003, sec. 5; "
+    "Burley 2012, sec. 5.1), and Neural-BRDF networks fitted to them inherit the rule";
+
+// Whether f(wi, wo) of a MERL table or of a network fitted to one lies in the measured domain:
+// theta_d (ToHalfDiff) at most kMeasuredThetaDMaxDeg, with 1e-9 rad of slack so that MERL's own
+// 75-degree cells count as measured. Directions below the horizon are the caller's business
+// (Eval returns 0 there whatever the table holds).
+inline bool InMeasuredDomain(const Vec3d& wi, const Vec3d& wo) {
+  constexpr double kLimitRad = kMeasuredThetaDMaxDeg * 3.14159265358979323846 / 180.0;
+  return ToHalfDiff(wi, wo).theta_d <= kLimitRad + 1e-9;
+}
+
 // --- MERL .binary -------------------------------------------------------------------------------
 
 // Table sizes of the MERL format (Matusik et al. 2003): theta_h, theta_d, phi_d.

@@ -39,10 +39,21 @@ struct Reference {
   Encoding decoded_from = Encoding::kLinear;
   // Pixels with any channel >= clip_level (linear) are excluded: saturated LDR pixels.
   float clip_level = std::numeric_limits<float>::infinity();
+  // Measured references (sidecar "measured_domain", written by MakeMeasuredReference): per pixel,
+  // the share of its radiance that depends on the BRDF outside the region its data measured
+  // (1 channel, in [0, 1], the image's size; refs/render_measured.h). Empty for every other
+  // reference. A pixel is measured when its share is at most measured_share_max.
+  Image extrapolated_share;
+  double measured_share_max = 0.0;
+  std::string domain_path;  // "" when no domain.
   // SHA-256 (hex) of the bytes of every input file read, keyed by role: image, sidecar, scene,
-  // mask.
+  // mask, domain.
   std::map<std::string, std::string> sha256;
 };
+
+// Whether pixel (x, y) lies in the reference's measured domain: its extrapolated share is at most
+// measured_share_max; every pixel of a reference without a domain does.
+bool IsMeasuredPixel(const Reference& ref, int x, int y);
 
 // Reads a reference as the CLI does. The image: EXR/HDR are linear radiance; any other format
 // (PNG, JPEG, TIFF: display images) is decoded from sRGB, and pixels with a channel >= 254/255
@@ -50,8 +61,13 @@ struct Reference {
 // sidecar `<image path without extension>.json` field "scene_file" (or "scene" when it is a
 // string), resolved relative to the sidecar; its "encoding" (imports) sets decoded_from. Mask:
 // optional image, channel 0 > 0.5 = use.
+// Measured domain: the sidecar's "measured_domain" object, when present, names the domain file
+// ("file", relative to the sidecar; 1-channel image, value = extrapolated share) and the threshold
+// ("measured_share_max"); both are read into extrapolated_share and measured_share_max.
 // Throws shadefit::Error naming the file and field on missing files, bad JSON, a missing scene
-// field, or a size mismatch between image, scene resolution and mask.
+// field, a missing, unreadable or malformed domain file (field "measured_domain.file",
+// "resolution", "channels" or "pixels"), or a size mismatch between image, scene resolution and
+// mask.
 Reference LoadReference(const std::string& image_path, const std::string& scene_override = "",
                         const std::string& mask_path = "");
 

@@ -34,6 +34,9 @@ struct RenderMeasuredStats {
   int samples_per_technique = 0;  // 0 without one
   double lobe_alpha = 0;          // width of the GGX lobe technique; 0 = not used
   int shaded_pixels = 0;          // pixels with a G-buffer hit
+  // Shaded pixels whose extrapolated share is at most kExtrapolatedShareMax (measured_brdf.h);
+  // MakeMeasuredReference counts the share as its domain file stores it (steps of 1/255).
+  int measured_pixels = 0;
   // Mean over shaded pixels of the per-pixel standard error of the Monte Carlo estimate (RGB,
   // radiance units), and that mean divided by the mean shaded radiance. 0 without environment.
   double mean_standard_error[3] = {0, 0, 0};
@@ -47,14 +50,25 @@ struct RenderMeasuredStats {
 // GL renderer's output with a transparent film), A = coverage from the G-buffer. With an opaque
 // background, uncovered pixels get the background (colour or visible environment) weighted by
 // 1 - coverage. `standard_error` (optional) receives the per-pixel standard error, RGB.
+//
+// `extrapolated_share` (optional, 1 channel) receives, per pixel with a G-buffer hit, the share
+// of its radiance that depends on the BRDF outside its measured domain (InMeasuredDomain); 0
+// elsewhere. Point and directional lights, exact and independent of the BRDF's values: 1 when
+// any light that reaches the pixel (unshadowed, above the horizon of both directions, non-zero
+// irradiance) is seen at theta_d beyond the limit, else 0, so that nothing the table holds
+// beyond the limit can reach a pixel marked measured. Environment and uniform light: the share of
+// the Monte Carlo estimate's luminance (f L cos / pdf, BT.709 Y) that came from samples beyond
+// the limit, over the pixel's whole radiance.
 Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer& gbuffer,
                      const RenderMeasuredOptions& options, Image* standard_error = nullptr,
-                     RenderMeasuredStats* stats = nullptr);
+                     RenderMeasuredStats* stats = nullptr, Image* extrapolated_share = nullptr);
 
 // The whole `shadefit refs measured` command: loads the BRDF (.binary, or .h5 with its .json
 // beside it) and the scene, renders the G-buffer with `renderer`, shades, and writes `output`
-// (RGBA EXR) and its sidecar (output with extension .json). Everything is computed before
-// anything is written; each write is atomic, so a failure leaves no output file.
+// (RGBA EXR), its measured domain (DomainPath(output): the extrapolated share as an 8-bit grey
+// PNG, code = round(255 x share)) and its sidecar (output with extension .json, which records
+// the domain under "measured_domain"). Everything is computed before anything is written; each
+// write is atomic, and a failure removes what was written, so it leaves no output file.
 struct MeasuredReferenceRequest {
   std::string brdf_path;
   std::string scene_path;
@@ -72,5 +86,9 @@ double EstimateLobeAlpha(const MeasuredBrdf& brdf);
 
 // Sidecar path for an output EXR: the same name with extension .json.
 std::string SidecarPath(const std::string& exr_path);
+
+// Measured-domain path for an output EXR: "<stem>.domain.png" beside it (a name an `*.exr` glob
+// of a references folder does not pick up).
+std::string DomainPath(const std::string& exr_path);
 
 }  // namespace shadefit::refs

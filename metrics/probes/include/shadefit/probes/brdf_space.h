@@ -60,9 +60,11 @@ struct BrdfSpaceOptions {
   int model_strata_per_axis = 128;
 
   // --- Extrapolation.
-  double extrapolated_theta_d_deg = 75.0;     // MERL data beyond this theta_d is extrapolated.
-  double extrapolated_point_fraction = 0.01;  // An albedo point is marked extrapolated when
-                                              // more than this fraction of it comes from there.
+  // MERL data beyond this theta_d is extrapolated (refs/measured_brdf.h: the rule's one
+  // definition, shared with the measured renderer's per-pixel domain).
+  double extrapolated_theta_d_deg = refs::kMeasuredThetaDMaxDeg;
+  // An albedo point is marked extrapolated when more than this fraction of it comes from there.
+  double extrapolated_point_fraction = refs::kExtrapolatedShareMax;
 };
 
 // The three BRDF-space probes of `measured` (series "measured") and of every model (series
