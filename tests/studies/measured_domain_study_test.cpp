@@ -145,6 +145,8 @@ TEST(MeasuredDomainStudy, GarbageBeyondTheLimitMovesOnlyTheAllPixelMetrics) {
     EXPECT_EQ(ea["metrics"], eg["metrics"]) << lighting;
     EXPECT_EQ(ea["measured_fraction"], eg["measured_fraction"]) << lighting;
     EXPECT_EQ(ea["metrics_pixels"], "covered and measured");
+    // The numbers are pooled over the measured pixels, not over every covered one.
+    EXPECT_EQ(ea["metrics_full"]["valid_pixels"], ea["measured_pixels"]) << lighting;
     for (const auto& [key, value] : ea["metrics"].items()) {
       // PSNR of identical pixels (the rim light's measured ones, all unlit) is infinite: null.
       if (key == "psnr" && ea["metrics"]["rmse"] == 0.0) continue;
