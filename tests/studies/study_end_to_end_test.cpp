@@ -362,12 +362,17 @@ void ExpectReportContent(const fs::path& out, const std::vector<std::string>& ma
     matrix_rows += check_matrix_row(cells, "matrix.tex");
   }
 
-  // index.html: the tables before the detail tables are the matrix (first) and the verdicts (in
-  // the question sections, one table per phenomenon).
+  // index.html: the comparative answers open the page (sentences and their figures, no table);
+  // the tables before the detail tables are then the matrix (first) and the verdicts (in the
+  // question sections, one table per phenomenon).
   const std::string html = ReadText(report / "index.html");
   const std::size_t figures_at = html.find("<h2 id='details'>");
   ASSERT_NE(figures_at, std::string::npos);
-  EXPECT_LT(html.find("<table class='matrix'>"), html.find("<figure")) << "matrix not first";
+  const std::size_t answers_end = html.find("</section>", html.find("<section id='answers'>"));
+  ASSERT_NE(answers_end, std::string::npos) << "no answers section";
+  EXPECT_LT(answers_end, html.find("<table")) << "a table before the answers";
+  EXPECT_LT(html.find("<table class='matrix'>"), html.find("<figure", answers_end))
+      << "matrix not first after the answers";
   int html_verdicts = 0;
   for (const auto& cells : HtmlRows(html.substr(0, figures_at))) {
     matrix_rows += check_matrix_row(cells, "index.html");
