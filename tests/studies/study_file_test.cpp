@@ -120,5 +120,63 @@ TEST(StudyFile, BaselineAndComparisons) {
               "study.compare: expected a pair of model names");
 }
 
+// fit.fixed is checked against every listed model's parameter table when the file is loaded
+// (issue 33, item 1): a name one model lacks is an error with file, line and key, and the way out
+// is to write it per model; values out of a model's range fail the same way.
+TEST(StudyFile, FixedNamesAParameterOfEveryModel) {
+  // Base() lists ggx and blinn-phong; blinn-phong has no f0. The [fit] table's `fixed` is on
+  // line 10 of the file Base() writes.
+  const std::string bad = Base("fixed = [\"f0=0.04\"]\n");
+  try {
+    LoadStudy(WriteStudy("g1.toml", bad));
+    FAIL() << "no error for fit.fixed naming a parameter blinn-phong lacks";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("g1.toml:10: fit.fixed: 'f0' is not a parameter of model 'blinn-phong'"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("[fit.override.<model>]"), std::string::npos) << what;
+  }
+  // Written per model, it loads, and each model gets only its own list.
+  const StudySpec s = LoadStudy(WriteStudy(
+      "g2.toml", Base("fixed = [\"kd=0.5\"]\n[fit.override.ggx]\nfixed = [\"f0=0.04\"]\n")));
+  EXPECT_EQ(s.model_settings.at("ggx").fixed, std::vector<std::string>{"f0=0.04"});
+  EXPECT_EQ(s.model_settings.at("blinn-phong").fixed, std::vector<std::string>{"kd=0.5"});
+  // A per-model list is checked against its own model, and names its key.
+  ExpectError("g3.toml", Base("[fit.override.blinn-phong]\nfixed = [\"f0=0.04\"]\n"),
+              "fit.override.blinn-phong.fixed: 'f0' is not a parameter of model 'blinn-phong'");
+  ExpectError("g4.toml", Base("fixed = [\"kd=2\"]\n"),
+              "fit.fixed: model 'ggx': kd: value 2 outside [0, 1]");
+  ExpectError("g5.toml", Base("fixed = [\"roughnes=0.3\"]\n[fit.override.blinn-phong]\nfixed = []\n"),
+              "'roughnes' is not a parameter of model 'ggx' (did you mean 'roughness'?)");
+  // [quick] fixed replaces the list under --quick and is checked there.
+  try {
+    LoadStudy(WriteStudy("g6.toml", Base("[quick]\nfixed = [\"shininess=10\"]\n")), true);
+    FAIL() << "no error for quick.fixed naming a parameter ggx lacks";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("quick.fixed: 'shininess' is not a parameter of model 'ggx'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// The shipped photograph template loads with any list of models (it keeps f0 per model).
+TEST(StudyFile, PhotoTemplateFixedIsPerModel) {
+  std::ifstream in(std::string(SHADEFIT_SOURCE_DIR) + "/studies/photo_set_template.toml");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  // Point its images at the shipped gold renders, train on key, and list models without f0.
+  std::string t = Replace(text, "refs/sphere-*.exr", kRefs + "/gold-*.exr");
+  t = Replace(t, "\"sphere\"", "\"gold\"");
+  t = Replace(t, "[[\"L0\", \"L3\", \"L4\", \"L7\"]]", "[[\"key\", \"rim\"]]");
+  const std::size_t from = t.find("models = [");
+  t.replace(from, t.find('\n', from) - from,
+            "models = [\"blinn-phong\", \"blinn-phong-normalized\", \"ggx\", \"beckmann\", "
+            "\"cook-torrance\"]");
+  const StudySpec s = LoadStudy(WriteStudy("photo_set.toml", t));
+  EXPECT_EQ(s.models.size(), 5u);
+  EXPECT_TRUE(s.model_settings.at("blinn-phong").fixed.empty());
+}
+
 }  // namespace
 }  // namespace shadefit::studies

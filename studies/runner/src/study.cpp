@@ -525,6 +525,45 @@ void ReadGroups(const Reader& r, const toml::table& root, const fs::path& base,
   }
 }
 
+// A model's `fixed` values, checked against its parameter table when the file is loaded (the
+// fitter would reject them only when the job runs, after the other models' fits). `key` and
+// `array` say where the list came from: fit.fixed (every model), fit.override.<model>.fixed or
+// quick.fixed. A name the model lacks, written for every model, is answered with the way to
+// write it for some: [fit.override.<model>] (docs/studies.md, "Fit").
+void CheckFixed(const Reader& r, const std::string& model_name, const FitSettings& s,
+                const std::string& key, const toml::node* array) {
+  const ModelInfo& model = FindModel(model_name);
+  const toml::array* a = array != nullptr ? array->as_array() : nullptr;
+  for (std::size_t i = 0; i < s.fixed.size(); ++i) {
+    const std::string& assignment = s.fixed[i];
+    const toml::node* where = a != nullptr && i < a->size() ? a->get(i) : array;
+    const std::string name = assignment.substr(0, assignment.find('='));
+    if (model.Find(name) == nullptr) {
+      std::vector<std::string> names;
+      std::string having;
+      for (const ParamSpec& p : model.params) names.push_back(p.name);
+      for (const ModelInfo& m : AllModels()) {
+        if (m.Find(name) != nullptr) having += (having.empty() ? "" : ", ") + m.name;
+      }
+      const bool for_every_model = key.rfind("fit.override.", 0) != 0;
+      // A parameter of other models is no typo: no "did you mean" for it.
+      std::string advice = having.empty() ? DidYouMean(name, names) : "";
+      if (for_every_model) {
+        advice += " (write it under [fit.override.<model>]" +
+                  (having.empty() ? std::string() : "; models that have it: " + having) + ")";
+      }
+      r.Fail(where, key,
+             fmt::format("'{}' is not a parameter of model '{}'{}", name, model.name, advice));
+    }
+    try {
+      std::vector<double> params = DefaultParams(model);
+      SetParamFromString(model, assignment, "", &params);
+    } catch (const Error& e) {
+      r.Fail(where, key, fmt::format("model '{}': {}", model.name, e.what()));
+    }
+  }
+}
+
 // [fit] models and their settings: the defaults, [fit.override.<model>], then [quick].
 void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q,
                    StudySpec* spec) {
@@ -555,12 +594,26 @@ void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q
   }
   for (const std::string& m : spec->models) {
     FitSettings s = defaults;
+    // Where this model's `fixed` list comes from: the last table that sets it.
+    std::string fixed_key = "fit.fixed";
+    const toml::node* fixed_node = fit.get("fixed");
     if (overrides != nullptr) {
       if (const toml::table* o = r.Table(*overrides, "fit.override.", m)) {
         ReadFitSettings(r, *o, "fit.override." + m + ".", &s);
+        if (o->contains("fixed")) {
+          fixed_key = "fit.override." + m + ".fixed";
+          fixed_node = o->get("fixed");
+        }
       }
     }
-    if (qt != nullptr) ReadFitSettings(r, *qt, "quick.", &s);
+    if (qt != nullptr) {
+      ReadFitSettings(r, *qt, "quick.", &s);
+      if (qt->contains("fixed")) {
+        fixed_key = "quick.fixed";
+        fixed_node = qt->get("fixed");
+      }
+    }
+    CheckFixed(r, m, s, fixed_key, fixed_node);
     spec->model_settings[m] = s;
   }
 }

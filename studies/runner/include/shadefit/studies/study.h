@@ -44,7 +44,10 @@ struct FitSettings {
   // still computed on every pixel. The subsample is a mask, so the images are never resampled.
   int pixel_stride = 1;
   int environment_samples = 0;  // GL path: override the scenes' environment samples (0 = keep).
-  std::vector<std::string> fixed;  // "name=value", held constant.
+  // "name=value", held constant. Checked against each model's parameter table when the file is
+  // loaded: [fit] fixed applies to every model, so it may name only parameters every listed
+  // model has; a parameter some models lack goes under [fit.override.<model>].
+  std::vector<std::string> fixed;
   // "as-imported" (the references' own decoding) | "fit": choose sRGB, linear or a fitted gamma
   // on the training references (fit/encoding_search.h) and decode every reference with it.
   std::string encoding = "as-imported";
@@ -111,8 +114,9 @@ struct StudySpec {
 };
 
 // Reads and checks a study file. `quick`: apply its [quick] table. Throws shadefit::Error
-// "<file>: <key>: <problem>" on unknown keys, wrong types, unknown models or probes, globs that
-// match nothing and training lightings a group lacks.
+// "<file>:<line>: <key>: <problem>" on unknown keys, wrong types, unknown models or probes, a
+// `fixed` value a model lacks or holds out of range, globs that match nothing and training
+// lightings a group lacks.
 StudySpec LoadStudy(const std::string& path, bool quick = false);
 
 // The measured BRDF file of a [[measured]] material; "" for a material of a [[group]].
