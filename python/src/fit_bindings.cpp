@@ -1,0 +1,269 @@
+// fit and fit_brdf: the fitter (fit::Fit, fit::FitBrdfSpace) on references given as files or
+// arrays, its result as a dict of plain values and arrays (python/shadefit/__init__.py wraps it
+// in FitResult).
+//
+// Links: shadefit::fit, shadefit::refs.
+#include <fmt/format.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common.h"
+#include "shadefit/fit/brdf_space.h"
+#include "shadefit/fit/fitter.h"
+#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/refs/reference.h"
+#include "shadefit/render/error.h"
+
+namespace shadefit::python {
+namespace {
+
+// One reference as __init__.py normalises it: a dict with "image" (a path or an array), "scene_path"
+// / "scene_text" (one may be set; a path image reads its sidecar's scene otherwise), "mask" (a
+// path, an array or None) and "name".
+struct RefArg {
+  std::string image_path, scene_path, scene_text, scene_name, mask_path, name;
+  Image image, mask;
+};
+
+RefArg RefFromPy(py::handle h, std::size_t index) {
+  const py::dict d = py::reinterpret_borrow<py::dict>(h);
+  const std::string what = fmt::format("references[{}]", index);
+  RefArg r;
+  const py::object image = d["image"];
+  if (py::isinstance<py::str>(image)) {
+    r.image_path = image.cast<std::string>();
+  } else {
+    r.image = ArrayToImage(image, what, {3, 4});
+  }
+  r.scene_path = d["scene_path"].cast<std::string>();
+  r.scene_text = d["scene_text"].cast<std::string>();
+  r.scene_name = d["scene_name"].cast<std::string>();
+  r.name = d["name"].cast<std::string>();
+  const py::object mask = d["mask"];
+  if (py::isinstance<py::str>(mask)) {
+    r.mask_path = mask.cast<std::string>();
+  } else if (!mask.is_none()) {
+    r.mask = MaskToImage(mask, what + ".mask");
+  }
+  if (r.image_path.empty() && r.scene_path.empty() && r.scene_text.empty()) {
+    throw Error("", what, "an array reference needs its scene (path, TOML text or dict)");
+  }
+  return r;
+}
+
+// The reference as the CLI's LoadReference makes it, or in memory from an array.
+refs::Reference MakeReference(RefArg& a, std::size_t index) {
+  if (!a.image_path.empty()) {
+    if (!a.scene_text.empty()) {
+      throw Error(a.image_path, "scene", "a reference read from a file takes a scene path, not text");
+    }
+    refs::Reference r = refs::LoadReference(a.image_path, a.scene_path, a.mask_path);
+    if (!a.mask.empty()) r.mask = std::move(a.mask);
+    if (!a.name.empty()) r.name = a.name;
+    return r;
+  }
+  refs::Reference r;
+  r.name = a.name.empty() ? fmt::format("ref{}", index) : a.name;
+  r.scene = SceneFromArgs(a.scene_path, a.scene_text, a.scene_name);
+  r.scene_path = a.scene_path;
+  r.image = std::move(a.image);
+  if (!a.mask_path.empty()) {
+    r.mask = ReadImage(a.mask_path);
+    r.mask_path = a.mask_path;
+  } else {
+    r.mask = std::move(a.mask);
+  }
+  if (r.image.width != r.scene.camera.width || r.image.height != r.scene.camera.height_px) {
+    throw Error(r.name, "image",
+                fmt::format("{} x {} pixels, but the scene renders {} x {}", r.image.width,
+                            r.image.height, r.scene.camera.width, r.scene.camera.height_px));
+  }
+  if (!r.mask.empty() && (r.mask.width != r.image.width || r.mask.height != r.image.height)) {
+    throw Error(r.name, "mask", fmt::format("{} x {} pixels, the image has {} x {}", r.mask.width,
+                                            r.mask.height, r.image.width, r.image.height));
+  }
+  return r;
+}
+
+// Every stride-th pixel in x and y of the reference's own mask: the study runner's pixel_stride
+// (studies/runner/src/fit_job.cpp, FitProblemOf), a mask, no resampling.
+void ApplyStride(refs::Reference* ref, int stride) {
+  if (stride <= 1) return;
+  Image mask(ref->image.width, ref->image.height, 1, 0.0f);
+  for (int y = 0; y < mask.height; y += stride) {
+    for (int x = 0; x < mask.width; x += stride) {
+      const bool use = ref->mask.empty() || ref->mask.at(x, y, 0) > 0.5f;
+      mask.at(x, y, 0) = use ? 1.f : 0.f;
+    }
+  }
+  ref->mask = std::move(mask);
+}
+
+template <typename T>
+T Get(const py::dict& o, const char* key, T fallback) {
+  return o.contains(key) && !o[key].is_none() ? o[key].cast<T>() : fallback;
+}
+
+// The CLI's option checks (studies/cli/fit_command.cpp), named by the keyword.
+fit::FitOptions OptionsFromPy(const py::dict& o) {
+  fit::FitOptions f;
+  f.loss = fit::ParseLoss(Get<std::string>(o, "loss", "l2"));
+  f.loss_scale = Get<double>(o, "loss_scale", 0.0);
+  f.starts = Get<int>(o, "starts", f.starts);
+  f.seed = Get<std::uint64_t>(o, "seed", 1);
+  f.exposure = fit::ParseExposure(Get<std::string>(o, "exposure", "fixed"));
+  f.path = fit::ParsePath(Get<std::string>(o, "path", "auto"));
+  f.max_iterations = Get<int>(o, "max_iterations", f.max_iterations);
+  f.num_threads = Get<int>(o, "threads", f.num_threads);
+  f.environment_samples = Get<int>(o, "env_samples", 0);
+  f.environment_pixels = Get<int>(o, "env_pixels", f.environment_pixels);
+  f.environment_twin_samples = Get<int>(o, "env_twin_samples", f.environment_twin_samples);
+  f.environment_rounds = Get<int>(o, "env_rounds", f.environment_rounds);
+  f.central_differences = Get<bool>(o, "central_differences", false);
+  f.solver = fit::ParseSolver(Get<std::string>(o, "solver", "auto"), "solver");
+  f.render_outputs = Get<bool>(o, "render_outputs", true);
+  f.compute_covariance = Get<bool>(o, "covariance", true);
+  if (f.starts < 1) throw Error("", "starts", "must be >= 1");
+  if (f.max_iterations < 1) throw Error("", "max_iterations", "must be >= 1");
+  if (f.num_threads < 1) throw Error("", "threads", "must be >= 1");
+  if (f.environment_samples < 0) throw Error("", "env_samples", "must be >= 0");
+  if (f.environment_pixels < 16) throw Error("", "env_pixels", "must be >= 16");
+  if (f.environment_twin_samples < 1) throw Error("", "env_twin_samples", "must be >= 1");
+  if (f.environment_rounds < 0) throw Error("", "env_rounds", "must be >= 0");
+  if (!(f.loss_scale >= 0) || !std::isfinite(f.loss_scale)) {
+    throw Error("", "loss_scale", fmt::format("{} is not a finite number >= 0", f.loss_scale));
+  }
+  return f;
+}
+
+py::dict ResultToPy(fit::FitResult&& r) {
+  py::dict d;
+  d["json"] = JsonToPy(fit::FitResultToJson(r));
+  d["model"] = r.model;
+  d["loss"] = fit::LossName(r.loss);
+  d["path"] = fit::PathName(r.path);
+  d["solver"] = r.solver_name;
+  d["exposure"] = r.exposure;
+  d["exposure_std_error"] = r.exposure_std_error;
+  d["exposure_free"] = r.exposure_free;
+  d["initial_cost"] = r.initial_cost;
+  d["final_cost"] = r.final_cost;
+  d["rmse"] = r.rmse;
+  d["iterations"] = r.iterations;
+  d["termination"] = r.termination;
+  d["converged"] = r.converged;
+  d["solver_message"] = r.solver_message;
+  d["seconds"] = r.seconds;
+  d["starts_reached_best"] = r.starts_reached_best;
+  d["covariance_status"] = r.covariance_status;
+  d["values"] = py::array_t<double>(static_cast<py::ssize_t>(r.values.size()), r.values.data());
+  py::list estimates;
+  for (const fit::ParameterEstimate& p : r.parameters) {
+    py::dict e;
+    e["name"] = p.name;
+    e["value"] = p.value;
+    e["std_error"] = p.std_error;
+    e["fixed"] = p.fixed;
+    e["undetermined"] = p.undetermined;
+    e["at_bound"] = p.at_bound;
+    e["spread_min"] = p.spread_min;
+    e["spread_max"] = p.spread_max;
+    e["spread_std"] = p.spread_std;
+    estimates.append(e);
+  }
+  d["estimates"] = estimates;
+  py::list starts;
+  for (const fit::StartResult& s : r.start_results) {
+    py::dict e;
+    e["start"] = s.start;
+    e["params"] = s.params;
+    e["exposure"] = s.exposure;
+    e["initial_cost"] = s.initial_cost;
+    e["final_cost"] = s.final_cost;
+    e["iterations"] = s.iterations;
+    e["termination"] = s.termination;
+    e["converged"] = s.converged;
+    e["reached_best"] = s.reached_best;
+    e["coarse_cost"] = s.coarse_cost;
+    e["polished"] = s.polished;
+    starts.append(e);
+  }
+  d["starts"] = starts;
+  py::list refs;
+  for (fit::ReferenceResult& rr : r.references) {
+    py::dict e;
+    e["name"] = rr.name;
+    e["pixels"] = rr.pixels;
+    e["rmse"] = rr.rmse;
+    e["prediction"] = rr.prediction.empty() ? py::object(py::none())
+                                            : py::object(ImageToArray(std::move(rr.prediction)));
+    e["abs_error"] = rr.abs_error.empty() ? py::object(py::none())
+                                          : py::object(ImageToArray(std::move(rr.abs_error)));
+    refs.append(e);
+  }
+  d["references"] = refs;
+  return d;
+}
+
+py::dict FitArrays(py::list references, const std::string& model, std::vector<std::string> fixed,
+                   py::dict options) {
+  FindModel(model);  // Unknown model: fail before reading anything (the CLI's order).
+  fit::FitOptions o = OptionsFromPy(options);
+  const int stride = Get<int>(options, "pixel_stride", 1);
+  if (stride < 1) throw Error("", "pixel_stride", "must be >= 1");
+  if (references.empty()) throw Error("", "references", "at least one reference");
+  std::vector<RefArg> args;
+  for (std::size_t i = 0; i < references.size(); ++i) args.push_back(RefFromPy(references[i], i));
+  fit::FitResult result;
+  {
+    py::gil_scoped_release no_gil;
+    fit::FitProblem problem;
+    problem.model = model;
+    problem.fixed = std::move(fixed);
+    for (std::size_t i = 0; i < args.size(); ++i) {
+      problem.references.push_back(MakeReference(args[i], i));
+      ApplyStride(&problem.references.back(), stride);
+    }
+    result = SharedGl::With([&](Renderer& renderer, GlContext&) {
+      o.renderer = &renderer;
+      return fit::Fit(problem, o);
+    });
+  }
+  return ResultToPy(std::move(result));
+}
+
+py::dict FitBrdf(const std::string& path, const std::string& model, std::vector<std::string> fixed,
+                 std::vector<int> cells, double max_theta, py::dict options) {
+  FindModel(model);
+  fit::FitOptions o = OptionsFromPy(options);
+  fit::BrdfSpaceSampling sampling;
+  if (cells.size() != 3) throw Error("", "cells", "three counts: theta_h, theta_d, phi_d");
+  sampling.theta_h_cells = cells[0];
+  sampling.theta_d_cells = cells[1];
+  sampling.phi_d_cells = cells[2];
+  sampling.max_theta_deg = max_theta;
+  fit::ValidateBrdfSpaceSampling(sampling, "");
+  fit::CheckBrdfSpaceOptions(o);
+  fit::FitResult result;
+  {
+    py::gil_scoped_release no_gil;
+    const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(path);
+    result = fit::FitBrdfSpace(model, fixed, fit::SampleBrdfSpace(*brdf, sampling), o);
+  }
+  return ResultToPy(std::move(result));
+}
+
+}  // namespace
+
+void RegisterFit(py::module_& m) {
+  m.def("fit", &FitArrays, py::arg("references"), py::arg("model"), py::arg("fixed"),
+        py::arg("options"));
+  m.def("fit_brdf", &FitBrdf, py::arg("path"), py::arg("model"), py::arg("fixed"),
+        py::arg("cells"), py::arg("max_theta"), py::arg("options"));
+}
+
+}  // namespace shadefit::python
