@@ -15,6 +15,7 @@ packages=(
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev
   python3 python3-numpy python3-matplotlib python3-skimage python3-scipy python3-statsmodels
+  python3-dev pybind11-dev  # the Python module `import shadefit` (docs/python.md)
   blender-data  # CC0 environment maps used by the environment-lit references, read by path
 )
 # Test mode also installs what the suite needs to run every test rather than skip it:
@@ -28,6 +29,7 @@ test_packages=(
   chromium chromium-driver python3-selenium  # report_browser: index.html in headless Chromium
   slurm-wlm munge  # slurm_cluster_test: a one-node Slurm cluster on localhost (docs/cluster.md)
   clang libclang-rt-dev  # scripts/fuzz-check.sh: libFuzzer harnesses of tests/fuzz (docs/inputs.md)
+  python3-pytest python3-nbclient python3-nbformat python3-ipykernel  # tests/python, the notebook
 )
 [ "$mode" = test ] && packages+=("${test_packages[@]}")
 sudo=""
@@ -43,19 +45,28 @@ if [ ${#missing[@]} -gt 0 ]; then
     "${missing[@]}" >/dev/null
 fi
 
-# The main job builds what it runs: the shadefit executable (the report is Python). Test mode
-# builds everything: the tests, bench/ and the executable.
+# The main job builds what it runs: the shadefit executable and the Python module (the report is
+# Python). Test mode builds everything: the tests, bench/, the executable and the module.
 if [ "$mode" = test ]; then
   echo "== building (Release) in build/: everything"
   cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=ON \
     -DSHADEFIT_BUILD_BENCH=ON >/dev/null
   cmake --build build -j"$(nproc)"
 else
-  echo "== building (Release) in build/: the shadefit executable"
+  echo "== building (Release) in build/: the shadefit executable and the Python module"
   cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=OFF \
     -DSHADEFIT_BUILD_BENCH=OFF >/dev/null
-  cmake --build build -j"$(nproc)" --target shadefit
+  cmake --build build -j"$(nproc)" --target shadefit shadefit_python
 fi
+
+# `import shadefit` for /usr/bin/python3: one .pth file in its site-packages names build/python,
+# where the build puts the package (docs/python.md says why it is used in place, not copied).
+site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])')
+$sudo mkdir -p "$site"
+echo "$(pwd)/build/python" | $sudo tee "$site/shadefit.pth" >/dev/null
+/usr/bin/python3 -c 'import shadefit' ||
+  { echo "bootstrap: error: /usr/bin/python3 cannot import shadefit from $(pwd)/build/python" >&2; exit 1; }
+echo "== /usr/bin/python3: import shadefit -> $(pwd)/build/python ($site/shadefit.pth)"
 
 if [ "$mode" = test ]; then
   echo "== running the test suite"
