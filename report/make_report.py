@@ -35,7 +35,10 @@ METRIC_COLUMNS = [
     ("ciede2000_mean", "$\\Delta E_{00}$", "{:.3f}"),
     ("flip_ldr_mean", "LDR-FLIP", "{:.4f}"),
     ("flip_hdr_mean", "HDR-FLIP", "{:.4f}"),
+    ("delta_e_itp_mean", "$\\Delta E_{ITP}$", "{:.3f}"),
 ]
+# Columns a results.csv may lack (written by a shadefit older than the metric): shown empty.
+OPTIONAL_METRICS = {"delta_e_itp_mean"}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -68,7 +71,7 @@ def need(obj, field, path, kind, where=""):
 
 
 RESULT_COLUMNS = ["material", "lighting", "label", "split", "converged"] + \
-    [c[0] for c in METRIC_COLUMNS]
+    [c[0] for c in METRIC_COLUMNS if c[0] not in OPTIONAL_METRICS]
 
 
 def check_study(study, path):
@@ -297,7 +300,8 @@ def write_table(out_dir, name, columns, rows, caption, numeric_from=1, keep=None
     split into parts that repeat the first `keep` columns (default: the non-numeric ones) where
     it is wider than the page."""
     os.makedirs(out_dir, exist_ok=True)
-    plain_cols = [c.replace("$\\Delta E_{00}$", "dE00") for c in columns]
+    plain_cols = [c.replace("$\\Delta E_{00}$", "dE00").replace("$\\Delta E_{ITP}$", "dE_ITP")
+                  for c in columns]
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(plain_cols)
@@ -330,7 +334,7 @@ def metrics_table(study, rows):
     out = []
     for r in rows:
         out.append([r["material"], r["lighting"], r["label"], r["split"]]
-                   + [fmt(to_float(r[k]), f) for k, _, f in METRIC_COLUMNS]
+                   + [fmt(to_float(r.get(k)), f) for k, _, f in METRIC_COLUMNS]
                    + ["yes" if r["converged"] == "1" else "NO"])
     return cols, out
 

@@ -435,23 +435,23 @@ void ExpectReportContent(const fs::path& out, const std::vector<std::string>& ma
   const Column columns[] = {{"rmse", 0, 5.01e-4},          {"relative_rmse", 5.01e-4, 0},
                             {"psnr", 5.01e-3, 0},          {"ssim", 5.01e-5, 0},
                             {"ciede2000_mean", 5.01e-4, 0}, {"flip_ldr_mean", 5.01e-5, 0},
-                            {"flip_hdr_mean", 5.01e-5, 0}};
+                            {"flip_hdr_mean", 5.01e-5, 0}, {"delta_e_itp_mean", 5.01e-4, 0}};
   const auto tex_rows = LatexRows(report / "tables/metrics.tex");
   ASSERT_EQ(tex_rows.size(), rows.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const auto& t = tex_rows[i];
     const auto& r = rows[i];
-    ASSERT_EQ(t.size(), 12u) << i;
+    ASSERT_EQ(t.size(), 13u) << i;
     EXPECT_EQ(t[0], r.at("material"));
     EXPECT_EQ(t[1], r.at("lighting"));
     EXPECT_EQ(t[2], r.at("label"));
     EXPECT_EQ(t[3], r.at("split"));
-    for (int c = 0; c < 7; ++c) {
+    for (int c = 0; c < 8; ++c) {
       const double want = std::stod(r.at(columns[c].key));
       EXPECT_NEAR(std::stod(t[4 + c]), want, columns[c].abs_tol + columns[c].rel_tol * std::abs(want))
           << r.at("reference") << " " << r.at("label") << " " << columns[c].key;
     }
-    EXPECT_EQ(t[11], r.at("converged") == "1" ? "yes" : "NO");
+    EXPECT_EQ(t[12], r.at("converged") == "1" ? "yes" : "NO");
   }
 }
 

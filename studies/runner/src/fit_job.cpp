@@ -194,7 +194,8 @@ json MetricsSummary(const metrics::MetricsReport& m) {
           {"ms_ssim", Num(m.ms_ssim.value)},
           {"ciede2000_mean", Num(m.ciede2000.mean)},
           {"flip_ldr_mean", Num(m.flip_ldr.mean)},
-          {"flip_hdr_mean", Num(m.flip_hdr.mean)}};
+          {"flip_hdr_mean", Num(m.flip_hdr.mean)},
+          {"delta_e_itp_mean", Num(m.delta_e_itp.mean)}};
 }
 
 // The same keys as MetricsSummary, every value null: a pass without numbers.

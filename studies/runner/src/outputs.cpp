@@ -31,7 +31,7 @@ namespace {
 // measured domain). docs/measured_and_imported.md, "The measured domain".
 const std::vector<std::string> kMetricColumns = {
     "rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim", "ciede2000_mean",
-    "flip_ldr_mean", "flip_hdr_mean"};
+    "flip_ldr_mean", "flip_hdr_mean", "delta_e_itp_mean"};
 
 std::string Cell(const json& v) {
   return v.is_number() ? fmt::format("{:.9g}", v.get<double>()) : std::string();
