@@ -36,6 +36,18 @@ METRIC_NAMES = {"rmse": "RMSE", "relative_rmse": "relative RMSE", "log_rmse": "l
                 "ciede2000_mean": "mean CIEDE2000", "flip_ldr_mean": "mean LDR-FLIP",
                 "flip_hdr_mean": "mean HDR-FLIP", "de_itp_mean": "mean dE_ITP"}
 
+# How well each image metric agrees with people judging renders of BRDF approximations against
+# the measured material: Spearman rho with the human distance and its 95% bootstrap CI over the
+# 57 (material, approximation) pairs of Lavoue, Bonneel, Farrugia, Soler 2021 that
+# ../shared/brdf-data holds, as measured by bench/human_agreement.py on 2026-12-04
+# (docs/metrics.md, "Human agreement"; rerun it to update these).
+HUMAN_AGREEMENT = {"relative_rmse": (0.62, 0.35, 0.79), "ms_ssim": (0.62, 0.41, 0.76),
+                   "rmse": (0.55, 0.23, 0.73), "ssim": (0.53, 0.25, 0.70),
+                   "psnr": (0.47, 0.13, 0.71), "ciede2000_mean": (0.52, 0.15, 0.76),
+                   "delta_e_itp_mean": (0.54, 0.24, 0.72), "flip_ldr_mean": (0.34, -0.06, 0.63),
+                   "flip_hdr_mean": (0.54, 0.27, 0.71), "log_rmse": (0.35, -0.02, 0.61),
+                   "mae": (0.20, -0.19, 0.52)}
+
 # The metric of the default questions of a study without metric verdicts (item 5 of the issue):
 # relative RMSE is scale-free, so materials of any albedo weigh alike.
 DEFAULT_METRIC = "relative_rmse"
@@ -374,6 +386,12 @@ def answer_lines(records):
     lines = []
     for rec in records:
         lines.append(f"- **{question_title(rec)}**" + (" (default question)" if rec["default"] else ""))
+        agree = HUMAN_AGREEMENT.get(rec.get("metric")) if rec["source"] == "metrics" else None
+        if agree:
+            lines.append(f"  - Judged by {METRIC_NAMES.get(rec['metric'], rec['metric'])}, which "
+                         f"agrees with human judgments of BRDF approximations at Spearman rho = "
+                         f"{agree[0]:.2f} (95% CI {agree[1]:.2f} to {agree[2]:.2f}; Lavoue et al. "
+                         f"2021 data, docs/metrics.md \"Human agreement\")")
         if rec["n_a"] and not rec["comparisons"]:
             lines.append(f"  - n/a: {rec['n_a'][0]}")
             continue

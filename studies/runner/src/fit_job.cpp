@@ -333,11 +333,19 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
   metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.
   const Image ref_rgb = ref.image.Channels(0, 3), fit_rgb = prediction.Channels(0, 3);
   const MetricsPass all = RunMetrics(ref_rgb, fit_rgb, covered, mp, true, &maps);
-  const MetricsPass main =
-      measured_pixels == covered_pixels
-          ? all
-          : RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured,
-                       mp, false, nullptr);
+  const std::size_t lit_pixels = CountLit(covered, ref.image),
+                    measured_lit_pixels = CountLit(measured, ref.image);
+  MetricsPass main;
+  if (measured_pixels == covered_pixels) {
+    main = all;
+  } else if (lit_pixels > 0 && measured_lit_pixels == 0) {
+    // Only unlit pixels are measured (the rim light: every lit pixel is seen beyond the limit):
+    // they compare 0 with 0, which says nothing about the material. No numbers, and why.
+    main.why_none = "no lit pixel is measured (every lit pixel depends on extrapolated data)";
+  } else {
+    main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured, mp,
+                      false, nullptr);
+  }
   json e = {{"reference", rs.name},
             {"lighting", rs.lighting},
             {"split", SplitOf(spec, rs.lighting, job.train)},
@@ -345,8 +353,8 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
             {"metrics_pixels", ref.extrapolated_share.empty() ? "covered" : "covered and measured"},
             {"covered_pixels", covered_pixels},
             {"measured_pixels", measured_pixels},
-            {"lit_pixels", CountLit(covered, ref.image)},
-            {"measured_lit_pixels", CountLit(measured, ref.image)},
+            {"lit_pixels", lit_pixels},
+            {"measured_lit_pixels", measured_lit_pixels},
             {"measured_fraction",
              covered_pixels > 0 ? static_cast<double>(measured_pixels) / covered_pixels : 1.0},
             {"metrics_masked", main.report ? json(main.masked) : json(nullptr)},
