@@ -44,6 +44,9 @@ def test_render_equals_the_cli_render(cli, out):
     assert image.shape[2] == 4
     # The same program on the same device: equal to float precision, channel by channel.
     np.testing.assert_allclose(image, from_cli, rtol=0, atol=1e-6)
+    # And against the file as the C++ side reads it (read_image shares the array conversion
+    # with render; the metrics read the path themselves): a swapped or shifted view fails here.
+    assert shadefit.metrics(str(exr), image)["linear"]["rmse"] < 1e-6
     assert image[..., 0].max() > 0 and not np.array_equal(image[..., 0], image[..., 2])
 
 
