@@ -261,6 +261,16 @@ def viewer_html(material, study, fits, rows, labels):
             rel = metric_of(rows, material, light, l, "relative_rmse")
             desc = f"{l} ({e.get('split', '')}): LDR-FLIP {fmt_num(flip)}, rel. RMSE {fmt_num(rel)}"
             panes.append((l, e.get("images", {}).get("fit"), desc))
+        # A measured reference's domain (docs/measured_and_imported.md, "The measured domain"),
+        # last, so the keys 1-9 still pick the fits.
+        e0 = evals[have[0]].get(light, {})
+        if first.get("domain"):
+            frac = e0.get("measured_fraction")
+            share = f"{100 * frac:.1f}% of the covered pixels measured" if frac is not None else ""
+            panes.append(("measured domain", first["domain"],
+                          "measured domain: magenta pixels depend on the BRDF beyond theta_d = 75 "
+                          "deg, where MERL did not measure, and are left out of the metrics"
+                          + (f" ({share})" if share else "")))
         stack, thumbs, errors = [], [], []
         for i, (name, src, desc) in enumerate(panes):
             if not src:

@@ -12,7 +12,8 @@ result files with known answers, written here:
   the verdicts, the matrix and summary.md, and is never judged;
 - a study without [verdicts] still answers image closeness and new lighting, first in
   summary.md and index.html;
-- all-pixel metric columns (measured references) are compared beside the measured-pixel ones.
+- all-pixel metric columns (measured references) are compared beside the measured-pixel ones,
+  and the viewer shows each reference's measured domain.
 
     compare_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -42,6 +43,12 @@ def write_json(path, obj):
         json.dump(obj, f, indent=1)
 
 
+def write_png(path):
+    import matplotlib.image as mpimg
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    mpimg.imsave(path, np.full((8, 8, 3), 0.5))
+
+
 def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=None):
     """A study of two fits ("blinn-phong" baseline, "ggx") trained on "key", tested on "rim":
     `errors[label][i]` is material i's relative RMSE under both lightings (and LDR-FLIP = half
@@ -61,7 +68,13 @@ def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=
             evaluations = []
             for l in ("key", "rim"):
                 split = "train" if l == "key" else "test"
-                evaluations.append({"lighting": l, "split": split, "images": {}})
+                images = {}
+                if measured:  # The viewer shows the measured domain beside the fits.
+                    images = {k: f"images/{m}-{l}.{k}.png" for k in ("reference", "fit", "domain")}
+                    for rel in images.values():
+                        write_png(os.path.join(d, rel))
+                evaluations.append({"lighting": l, "split": split, "images": images,
+                                    "measured_fraction": 0.5})
                 e = errors[f["label"]][i]
                 row = {"material": m, "lighting": l, "label": f["label"], "split": split,
                        "converged": "1", "rmse": f"{e / 10:.17g}", "relative_rmse": f"{e:.17g}",
@@ -217,6 +230,8 @@ def main(argv):
     check("| fresnel |" in matrix and "n/a" in matrix.split("| fresnel |", 1)[1].split("\n")[0],
           "measured: the matrix row of fresnel is not n/a")
     check("n/a: the image-space Fresnel probe" in page, "measured: index.html gives no reason")
+    check("images/material-00-rim.domain.png" in page and "50.0% of the covered pixels measured"
+          in page, "measured: the viewer does not show the measured domain")
     # The all-pixel numbers beside the measured-pixel ones.
     img = question(comp, "image")
     check(abs(img["comparisons"][0]["effect"] - 2) < 1e-9, "measured: measured-pixel ratio")
