@@ -88,9 +88,21 @@ nlohmann::json FitResultToJson(const FitResult& r) {
       {"seed", r.seed},
       {"reached_best", r.starts_reached_best},
       {"tolerance", "final_cost <= best + 1e-6 best + 1e-12 * cost of a black prediction"},
-      {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed"},
+      {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed; starts 2 and 3 take the lobe width from the broad and middle strata"},
       {"coarse_to_fine", r.coarse_to_fine},
       {"results", starts}};
+  // The best other basin: a start that ended above the best cost (on every pixel), with its cost
+  // relative to the best, so that a study can flag an optimum that is not clearly separated.
+  if (r.second_basin_start >= 0) {
+    const StartResult& s = r.start_results[r.second_basin_start];
+    j["starts"]["second_basin"] = {
+        {"start", r.second_basin_start},
+        {"cost", num(r.second_basin_cost)},
+        {"cost_ratio", num(r.second_basin_cost / r.final_cost)},
+        {"params", s.params}};
+  } else {
+    j["starts"]["second_basin"] = nullptr;
+  }
   j["covariance"] = {{"status", r.covariance_status}, {"method", r.covariance_method}};
   j["evaluations"] = {{"model_renders", r.renders},
                       {"gbuffer_renders", r.gbuffer_renders},

@@ -105,6 +105,14 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
     if (sr.reached_best) reached.push_back(s);
   }
   result->starts_reached_best = static_cast<int>(reached.size());
+  for (int s = 0; s < static_cast<int>(result->start_results.size()); ++s) {
+    const StartResult& sr = result->start_results[s];
+    if (sr.reached_best || !std::isfinite(sr.final_cost)) continue;
+    if (result->second_basin_start < 0 || sr.final_cost < result->second_basin_cost) {
+      result->second_basin_start = s;
+      result->second_basin_cost = sr.final_cost;
+    }
+  }
 
   const int n = param.size();
   result->parameters.resize(n);

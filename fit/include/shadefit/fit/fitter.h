@@ -192,6 +192,11 @@ struct FitResult {
   int starts = 1;
   std::uint64_t seed = 1;
   int starts_reached_best = 0;
+  // The best end point among the starts that did not reach the best cost and were solved on every
+  // pixel (another basin): -1 when every such start reached the best. A study flags a fit whose
+  // second basin costs little more than its best (the optimum is not clearly separated).
+  int second_basin_start = -1;
+  double second_basin_cost = std::numeric_limits<double>::quiet_NaN();
   bool coarse_to_fine = false;      // Whether the coarse stage ran.
   std::vector<StartResult> start_results;
   std::string covariance_status;    // "ok", "rank deficient", "failed: ...", "skipped".

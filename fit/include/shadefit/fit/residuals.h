@@ -90,9 +90,12 @@ class Parametrization {
   // Start s (internal): s = 0 the table defaults; s >= 1 the s-th point of a Halton sequence
   // (bases 2, 3, 5, ...) over the free entries' start boxes, shifted modulo 1 by a vector drawn
   // from `seed` (Cranley-Patterson rotation) so that seeds give different, deterministic sets.
+  // Starts 2 and 3 then take the lobe width from fixed strata, broad first (StartWidth).
   std::vector<double> Start(int s, std::uint64_t seed) const;
 
  private:
+  void StartWidth(int s, const std::vector<double>& shifts, std::vector<double>* u) const;
+
   const ModelInfo* model_;
   std::vector<EntryMap> entries_;
 };
