@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 
 #include "shadefit/render/error.h"
 #include "shadefit/render/files.h"
@@ -64,7 +66,175 @@ Vec3d MirrorDirectionAt(const SphereEstimate& ball, const Camera& camera, double
   return Normalize(n * (2.0 * Dot(n, v)) - v);
 }
 
+// The template's text plus one directional light towards `to_light` (world, unit), preceded by
+// `comment` (lines without '#'); checked by the scene parser. A grey irradiance is written as
+// one number, a coloured one as [r, g, b].
+std::string SceneWithLight(const Scene& tmpl, const std::string& comment, const Vec3d& to_light,
+                           const Vec3d& irradiance, const std::string& scene_path) {
+  std::string text = tmpl.source_text;
+  if (!text.empty() && text.back() != '\n') text += '\n';
+  text += "\n";
+  std::size_t start = 0;
+  while (start < comment.size()) {
+    const std::size_t end = std::min(comment.find('\n', start), comment.size());
+    text += "# " + comment.substr(start, end - start) + "\n";
+    start = end + 1;
+  }
+  const std::string value =
+      irradiance.x == irradiance.y && irradiance.y == irradiance.z
+          ? fmt::format("{:.9g}", irradiance.x)
+          : fmt::format("[{:.9g}, {:.9g}, {:.9g}]", irradiance.x, irradiance.y, irradiance.z);
+  text += fmt::format(
+      "[[lights]]\ntype = \"directional\"\ndirection = [{:.9g}, {:.9g}, {:.9g}]\n"
+      "irradiance = {}\n",
+      -to_light.x, -to_light.y, -to_light.z, value);
+  ParseScene(text, scene_path);  // Throws on anything the template got wrong.
+  return text;
+}
+
+// The template (no lights allowed) and the output folder (a file there is an error; a missing
+// folder is created when the scenes are written).
+Scene LoadLightlessTemplate(const std::string& path, const std::string& output_dir) {
+  if (output_dir.empty()) throw Error("", "output", "no output folder given");
+  if (fs::exists(output_dir) && !fs::is_directory(output_dir)) {
+    throw Error(output_dir, "output", "exists and is not a folder");
+  }
+  if (!fs::exists(path)) throw Error(path, "scene-template", "file not found");
+  Scene tmpl = LoadScene(path);
+  if (!tmpl.lights.empty()) {
+    throw Error(path, "lights",
+                fmt::format("the template has {} light(s); it must have none (one directional "
+                            "light per photograph is added)",
+                            tmpl.lights.size()));
+  }
+  return tmpl;
+}
+
+// Writes every scene, then the summary: all of them or none (render/files.h). The output folder
+// is created first when missing, and removed again when nothing could be written into it.
+void WriteScenesAndSummary(const std::string& output_dir, const std::vector<std::string>& paths,
+                           const std::vector<std::string>& texts, const std::string& summary_path,
+                           const nlohmann::json& summary) {
+  const bool created = !fs::exists(output_dir);
+  std::error_code ec;
+  if (created && !fs::create_directories(output_dir, ec)) {
+    throw Error(output_dir, "output", "cannot create the folder: " + ec.message());
+  }
+  std::vector<OutputWrite> writes;
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    writes.push_back({paths[i], [&, i] { WriteTextAtomic(paths[i], texts[i]); }});
+  }
+  writes.push_back(
+      {summary_path, [&] { WriteTextAtomic(summary_path, summary.dump(1) + "\n"); }});
+  try {
+    WriteAllOrNothing(writes);
+  } catch (...) {
+    if (created) fs::remove(output_dir, ec);  // Only when empty.
+    throw;
+  }
+}
+
+// One line of a data set's text file: the numbers on it (spaces, tabs or commas between them);
+// blank and '#' lines give none and are skipped by the caller.
+struct NumberLine {
+  int line = 0;  // 1-based.
+  std::vector<double> values;
+};
+
+std::vector<NumberLine> ReadNumberLines(const std::string& path, const std::string& field) {
+  if (!fs::exists(path)) throw Error(path, field, "file not found");
+  std::ifstream in(path);
+  if (!in) throw Error(path, field, "cannot read the file");
+  std::vector<NumberLine> out;
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    std::replace(text.begin(), text.end(), ',', ' ');
+    std::replace(text.begin(), text.end(), '\t', ' ');
+    std::istringstream ss(text);
+    std::string word;
+    NumberLine n{line, {}};
+    while (ss >> word) {
+      if (n.values.empty() && word[0] == '#') break;
+      std::size_t used = 0;
+      double v = 0.0;
+      try {
+        v = std::stod(word, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != word.size() || !std::isfinite(v)) {
+        throw Error(fmt::format("{}:{}", path, line), field,
+                    fmt::format("'{}' is not a finite number", word));
+      }
+      n.values.push_back(v);
+    }
+    if (!n.values.empty()) out.push_back(std::move(n));
+  }
+  if (out.empty()) throw Error(path, field, "no line with numbers");
+  return out;
+}
+
+std::vector<std::string> ReadNames(const std::string& path) {
+  if (!fs::exists(path)) throw Error(path, "names", "file not found");
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    const std::size_t a = text.find_first_not_of(" \t\r");
+    if (a == std::string::npos || text[a] == '#') continue;
+    const std::size_t b = text.find_last_not_of(" \t\r");
+    const std::string name = fs::path(text.substr(a, b - a + 1)).stem().string();
+    if (name.empty() || name.find_first_of("/\\ ") != std::string::npos) {
+      throw Error(fmt::format("{}:{}", path, line), "names",
+                  fmt::format("'{}' is no lighting name", text));
+    }
+    if (!seen.insert(name).second) {
+      throw Error(fmt::format("{}:{}", path, line), "names",
+                  fmt::format("lighting '{}' listed twice", name));
+    }
+    out.push_back(name);
+  }
+  return out;
+}
+
 }  // namespace
+
+Vec3d AxisMapping::ToCamera(const Vec3d& file) const {
+  const double f[3] = {file.x, file.y, file.z};
+  return {sign[0] * f[axis[0]], sign[1] * f[axis[1]], sign[2] * f[axis[2]]};
+}
+
+AxisMapping ParseAxisMapping(const std::string& text) {
+  AxisMapping m;
+  m.text = text;
+  std::istringstream ss(text);
+  std::string item;
+  int i = 0;
+  bool used[3] = {false, false, false};
+  const auto bad = [&] {
+    return Error("", "axes",
+                 fmt::format("'{}' is not three signed axes, each of x, y, z once (camera x, y, "
+                             "z in the file's axes, e.g. x,-y,-z)",
+                             text));
+  };
+  while (std::getline(ss, item, ',')) {
+    item.erase(std::remove(item.begin(), item.end(), ' '), item.end());
+    if (i >= 3 || item.empty()) throw bad();
+    double sign = 1.0;
+    if (item[0] == '-' || item[0] == '+') {
+      sign = item[0] == '-' ? -1.0 : 1.0;
+      item.erase(0, 1);
+    }
+    if (item.size() != 1 || item[0] < 'x' || item[0] > 'z' || used[item[0] - 'x']) throw bad();
+    used[item[0] - 'x'] = true;
+    m.axis[i] = item[0] - 'x';
+    m.sign[i] = sign;
+    ++i;
+  }
+  if (i != 3) throw bad();
+  return m;
+}
 
 Vec3d MirrorBallLight(const SphereEstimate& ball, const Camera& camera) {
   if (ball.highlight_pixels.empty()) {
@@ -82,21 +252,10 @@ Vec3d MirrorBallLight(const SphereEstimate& ball, const Camera& camera) {
 std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibrationOptions& o) {
   // --- Validate the request before reading any image.
   if (o.ball_paths.empty()) throw Error("", "ball", "no mirror-ball photograph given");
-  if (o.output_dir.empty() || !fs::is_directory(o.output_dir)) {
-    throw Error(o.output_dir, "output", "output directory does not exist");
-  }
   if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
     throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
   }
-  if (!fs::exists(o.scene_template))
-    throw Error(o.scene_template, "scene-template", "file not found");
-  const Scene tmpl = LoadScene(o.scene_template);
-  if (!tmpl.lights.empty()) {
-    throw Error(o.scene_template, "lights",
-                fmt::format("the template has {} light(s); it must have none (one directional "
-                            "light per ball photograph is added)",
-                            tmpl.lights.size()));
-  }
+  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
   const std::string stem = fs::path(o.scene_template).stem().string();
   std::vector<CalibratedLight> out;
   std::set<std::string> lightings;
@@ -146,21 +305,18 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
                              "mirror direction of the view about the ball normal at the "
                              "highlight centroid"},
                             {"lights", nlohmann::json::array()}};
+  std::vector<std::string> paths;
   for (const CalibratedLight& c : out) {
     const SphereEstimate& b = c.ball;
-    std::string text = tmpl.source_text;
-    if (!text.empty() && text.back() != '\n') text += '\n';
-    text += fmt::format(
-        "\n# Written by `shadefit refs lights` from {}: ball at ({:.2f}, {:.2f}) px, radius "
-        "{:.2f} px ({}),\n# highlight at ({:.2f}, {:.2f}) px; towards the light ({:.6f}, "
-        "{:.6f}, {:.6f}).\n"
-        "[[lights]]\ntype = \"directional\"\ndirection = [{:.9g}, {:.9g}, {:.9g}]\n"
-        "irradiance = {:.9g}\n",
+    const std::string comment = fmt::format(
+        "Written by `shadefit refs lights` from {}: ball at ({:.2f}, {:.2f}) px, radius "
+        "{:.2f} px ({}),\nhighlight at ({:.2f}, {:.2f}) px; towards the light ({:.6f}, "
+        "{:.6f}, {:.6f}).",
         fs::path(c.ball_path).filename().string(), b.center_x, b.center_y, b.radius, b.found_by,
-        b.highlight_x, b.highlight_y, c.to_light.x, c.to_light.y, c.to_light.z, -c.to_light.x,
-        -c.to_light.y, -c.to_light.z, o.irradiance);
-    ParseScene(text, c.scene_path);  // Throws on anything the template got wrong.
-    texts.push_back(text);
+        b.highlight_x, b.highlight_y, c.to_light.x, c.to_light.y, c.to_light.z);
+    texts.push_back(SceneWithLight(tmpl, comment, c.to_light,
+                                   {o.irradiance, o.irradiance, o.irradiance}, c.scene_path));
+    paths.push_back(c.scene_path);
     summary["lights"].push_back({{"ball", fs::absolute(c.ball_path).string()},
                                  {"ball_sha256", Sha256File(c.ball_path)},
                                  {"lighting", c.lighting},
@@ -174,15 +330,131 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
                                  {"to_light", {c.to_light.x, c.to_light.y, c.to_light.z}}});
   }
 
-  // --- Write: every scene, then the summary; all of them or none (render/files.h).
-  std::vector<OutputWrite> writes;
+  const std::string summary_path = (fs::path(o.output_dir) / (stem + "-lights.json")).string();
+  WriteScenesAndSummary(o.output_dir, paths, texts, summary_path, summary);
+  return out;
+}
+
+std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOptions& o) {
+  // --- Validate the request and read every file before writing anything.
+  if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
+    throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
+  }
+  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
+  const std::vector<NumberLine> dirs = ReadNumberLines(o.directions_path, "directions");
+  const bool six = dirs.front().values.size() == 6;
+  for (const NumberLine& d : dirs) {
+    if (d.values.size() != (six ? 6u : 3u)) {
+      throw Error(fmt::format("{}:{}", o.directions_path, d.line), "directions",
+                  fmt::format("{} numbers; every line has x y z{} (as the first line)",
+                              d.values.size(), six ? " r g b" : ""));
+    }
+  }
+  if (six && !o.intensities_path.empty()) {
+    throw Error(o.intensities_path, "intensities",
+                fmt::format("{} already gives each light's intensity (6 columns)",
+                            o.directions_path));
+  }
+  std::vector<NumberLine> intensities;
+  if (!o.intensities_path.empty()) {
+    intensities = ReadNumberLines(o.intensities_path, "intensities");
+    if (intensities.size() != dirs.size()) {
+      throw Error(o.intensities_path, "intensities",
+                  fmt::format("{} lights, {} has {}", intensities.size(), o.directions_path,
+                              dirs.size()));
+    }
+  }
+  std::vector<std::string> names;
+  if (!o.names_path.empty()) {
+    names = ReadNames(o.names_path);
+    if (names.size() != dirs.size()) {
+      throw Error(o.names_path, "names",
+                  fmt::format("{} names, {} has {} lights", names.size(), o.directions_path,
+                              dirs.size()));
+    }
+  } else {
+    for (std::size_t i = 0; i < dirs.size(); ++i) names.push_back(fmt::format("L{}", i));
+  }
+
+  // --- Every light: the file's direction in the camera frame, then in the world.
+  Vec3d right, up, forward;
+  tmpl.camera.Basis(&right, &up, &forward);
+  const std::string stem = fs::path(o.scene_template).stem().string();
+  std::vector<PublishedLight> out;
+  std::vector<Vec3d> file_dirs;
+  bool any_facing_camera = false;
+  for (std::size_t i = 0; i < dirs.size(); ++i) {
+    const std::vector<double>& v = dirs[i].values;
+    const std::string where = fmt::format("{}:{}", o.directions_path, dirs[i].line);
+    const Vec3d file{v[0], v[1], v[2]};
+    if (!(Length(file) > 1e-9)) throw Error(where, "directions", "a zero direction");
+    const Vec3d cam = o.axes.ToCamera(file) * (1.0 / Length(file));
+    any_facing_camera = any_facing_camera || cam.z > 0.0;
+    PublishedLight l;
+    l.lighting = names[i];
+    l.scene_path = (fs::path(o.output_dir) / (stem + "-" + l.lighting + ".toml")).string();
+    l.to_light = Normalize(right * cam.x + up * cam.y - forward * cam.z);
+    Vec3d rgb{1, 1, 1};
+    if (six) rgb = {v[3], v[4], v[5]};
+    if (!intensities.empty()) {
+      const NumberLine& n = intensities[i];
+      if (n.values.size() != 1 && n.values.size() != 3) {
+        throw Error(fmt::format("{}:{}", o.intensities_path, n.line), "intensities",
+                    fmt::format("{} numbers; expected r g b (or one for a grey light)",
+                                n.values.size()));
+      }
+      rgb = n.values.size() == 1 ? Vec3d{n.values[0], n.values[0], n.values[0]}
+                                 : Vec3d{n.values[0], n.values[1], n.values[2]};
+    }
+    if (!(rgb.x >= 0 && rgb.y >= 0 && rgb.z >= 0) || !(rgb.x + rgb.y + rgb.z > 0)) {
+      throw Error(six ? where : fmt::format("{}:{}", o.intensities_path, intensities[i].line),
+                  "intensities", "an intensity must be >= 0 in every channel and > 0 in one");
+    }
+    l.irradiance = rgb * o.irradiance;
+    out.push_back(l);
+    file_dirs.push_back(file);
+  }
+  // Photographs see the lit side: with every light behind the object the mapping is wrong.
+  if (!any_facing_camera) {
+    throw Error(o.directions_path, "axes",
+                fmt::format("with --axes {} every light points away from the camera (camera z "
+                            "<= 0): is the data set's z into the scene (then -z)?",
+                            o.axes.text));
+  }
+
+  // --- Scenes and the summary, as the mirror-ball path writes them.
+  std::vector<std::string> paths, texts;
+  nlohmann::json summary = {{"generator", "shadefit refs lights"},
+                            {"scene_template", fs::absolute(o.scene_template).string()},
+                            {"method", "published light directions and intensities"},
+                            {"directions", fs::absolute(o.directions_path).string()},
+                            {"directions_sha256", Sha256File(o.directions_path)},
+                            {"axes", o.axes.text},
+                            {"irradiance", o.irradiance},
+                            {"lights", nlohmann::json::array()}};
+  if (!o.intensities_path.empty()) {
+    summary["intensities"] = fs::absolute(o.intensities_path).string();
+    summary["intensities_sha256"] = Sha256File(o.intensities_path);
+  }
   for (std::size_t i = 0; i < out.size(); ++i) {
-    writes.push_back({out[i].scene_path, [&, i] { WriteTextAtomic(out[i].scene_path, texts[i]); }});
+    const PublishedLight& l = out[i];
+    const Vec3d& f = file_dirs[i];
+    const std::string comment = fmt::format(
+        "Written by `shadefit refs lights` from {} line {} ({}, {}, {}) with --axes {};\n"
+        "towards the light ({:.6f}, {:.6f}, {:.6f}).",
+        fs::path(o.directions_path).filename().string(), dirs[i].line, f.x, f.y, f.z,
+        o.axes.text, l.to_light.x, l.to_light.y, l.to_light.z);
+    texts.push_back(SceneWithLight(tmpl, comment, l.to_light, l.irradiance, l.scene_path));
+    paths.push_back(l.scene_path);
+    summary["lights"].push_back({{"lighting", l.lighting},
+                                 {"scene", fs::path(l.scene_path).filename().string()},
+                                 {"line", dirs[i].line},
+                                 {"file_direction", {f.x, f.y, f.z}},
+                                 {"to_light", {l.to_light.x, l.to_light.y, l.to_light.z}},
+                                 {"irradiance", {l.irradiance.x, l.irradiance.y, l.irradiance.z}}});
   }
   const std::string summary_path = (fs::path(o.output_dir) / (stem + "-lights.json")).string();
-  writes.push_back(
-      {summary_path, [&] { WriteTextAtomic(summary_path, summary.dump(1) + "\n"); }});
-  WriteAllOrNothing(writes);
+  WriteScenesAndSummary(o.output_dir, paths, texts, summary_path, summary);
   return out;
 }
 

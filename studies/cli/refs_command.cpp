@@ -1,7 +1,8 @@
 // refs: make reference images that are not plain model renders.
 //   refs measured  a measured BRDF (MERL .binary or Neural-BRDF .h5 + .json) over a scene
 //   refs import    a photograph or published image, with validity mask and counts
-//   refs lights    directional lights from mirror-ball photographs, one scene per light
+//   refs lights    directional lights from mirror-ball photographs or a data set's published
+//                  directions and intensities, one scene per light
 //   refs cycles    the Cycles references, through Blender (reference_images/cycles/gen.py)
 #include <fmt/format.h>
 #include <spawn.h>
@@ -136,25 +137,64 @@ void AddImport(CLI::App& refs) {
 void AddLights(CLI::App& refs) {
   auto* cmd = refs.add_subcommand(
       "lights",
-      "Directional lights from photographs of a mirror ball (one per light, same camera): "
-      "writes one scene per light from a template");
+      "Directional lights, one scene per light from a template: from photographs of a mirror "
+      "ball (--ball, one per light, same camera), or from a data set's published light "
+      "directions and intensities (--directions)");
   auto opt = std::make_shared<refs::LightCalibrationOptions>();
+  auto pub = std::make_shared<refs::PublishedLightsOptions>();
   auto encoding = std::make_shared<std::string>("auto");
-  cmd->add_option("--ball", opt->ball_paths,
-                  "Photograph of the mirror ball under one light (repeat; 'ball-<lighting>.png' "
-                  "names the lighting)")
-      ->required();
-  cmd->add_option("--mask", opt->mask_path, "The ball's disc (non-zero = ball), for every photo");
+  auto axes = std::make_shared<std::string>("x,y,z");
+  auto* ball = cmd->add_option("--ball", opt->ball_paths,
+                               "Photograph of the mirror ball under one light (repeat; "
+                               "'ball-<lighting>.png' names the lighting)");
+  cmd->add_option("--mask", opt->mask_path, "The ball's disc (non-zero = ball), for every photo")
+      ->needs(ball);
   cmd->add_option("--encoding", *encoding, "auto | srgb | linear (of the ball photographs)")
-      ->check(CLI::IsMember({"auto", "srgb", "linear"}));
+      ->check(CLI::IsMember({"auto", "srgb", "linear"}))
+      ->needs(ball);
+  auto* directions = cmd->add_option(
+      "--directions", pub->directions_path,
+      "Text file of published light directions, one light per line: x y z from the object "
+      "towards the light (normalised), or x y z r g b with its RGB intensity");
+  cmd->add_option("--intensities", pub->intensities_path,
+                  "Text file of per-light RGB intensities (r g b per line, same order), which "
+                  "scale the irradiance")
+      ->needs(directions);
+  cmd->add_option("--names", pub->names_path,
+                  "Text file of lighting names, one per line, same order (a file name gives its "
+                  "stem: 001.png -> 001); default L0, L1, ...")
+      ->needs(directions);
+  cmd->add_option("--axes", *axes,
+                  "The data set's axes as camera x,y,z (camera: x right, y up, z towards the "
+                  "viewer): x,-y,-z for y down the picture and z into the scene")
+      ->needs(directions);
+  ball->excludes(directions);
   cmd->add_option("--scene-template", opt->scene_template,
                   "Scene of the object's photographs without lights (camera, objects)")
       ->required();
-  cmd->add_option("--irradiance", opt->irradiance, "Irradiance of each light (exposure is fitted)");
+  cmd->add_option("--irradiance", opt->irradiance,
+                  "Irradiance of each light, times its intensity (exposure is fitted)");
   cmd->add_option("-o,--output", opt->output_dir,
-                  "Output folder: <template stem>-<lighting>.toml per light, <stem>-lights.json")
+                  "Output folder (created when missing): <template stem>-<lighting>.toml per "
+                  "light, <stem>-lights.json")
       ->required();
-  cmd->callback([opt, encoding] {
+  cmd->callback([opt, pub, encoding, axes] {
+    if (opt->ball_paths.empty() && pub->directions_path.empty()) {
+      throw Error("", "lights", "give --ball photographs or a --directions file");
+    }
+    if (!pub->directions_path.empty()) {
+      pub->axes = refs::ParseAxisMapping(*axes);
+      pub->scene_template = opt->scene_template;
+      pub->output_dir = opt->output_dir;
+      pub->irradiance = opt->irradiance;
+      for (const refs::PublishedLight& l : refs::LightsFromPublishedFiles(*pub)) {
+        fmt::print("{}: towards the light ({:.5f}, {:.5f}, {:.5f}), irradiance ({:.5g}, {:.5g}, "
+                   "{:.5g}) -> {}\n",
+                   l.lighting, l.to_light.x, l.to_light.y, l.to_light.z, l.irradiance.x,
+                   l.irradiance.y, l.irradiance.z, l.scene_path);
+      }
+      return;
+    }
     opt->encoding = refs::ParseEncoding(*encoding);
     const std::vector<refs::CalibratedLight> lights = refs::CalibrateLightsFromMirrorBall(*opt);
     for (const refs::CalibratedLight& c : lights) {

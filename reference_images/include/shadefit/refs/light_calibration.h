@@ -47,8 +47,59 @@ Vec3d MirrorBallLight(const SphereEstimate& ball, const Camera& camera);
 
 // The whole `shadefit refs lights` command: reads every input, finds each ball and highlight,
 // then writes one scene per light (the template's text plus one directional light) and a JSON
-// summary, each atomically; a failure leaves no output file. Throws shadefit::Error naming the
-// file and field (a ball with no highlight: field "highlight").
+// summary, each atomically; a failure leaves no output file (the output folder is created when
+// missing). Throws shadefit::Error naming the file and field (a ball with no highlight: field
+// "highlight").
 std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibrationOptions& options);
+
+// --- Lights from a published data set (photometric-stereo sets ship their calibration).
+
+// How a data set's axes map onto the camera frame (+x right in the picture, +y up, +z towards
+// the viewer: OpenGL's eye space, the frame of Camera::Basis with forward = -z). Entry i says
+// which axis of the file, and with which sign, is the camera's axis i: "x,-y,-z" for a data set
+// whose y points down the picture and whose z points into the scene.
+struct AxisMapping {
+  int axis[3] = {0, 1, 2};        // File axis (0 x, 1 y, 2 z) of camera x, y, z.
+  double sign[3] = {1, 1, 1};
+  std::string text = "x,y,z";     // As given, for the summary.
+
+  Vec3d ToCamera(const Vec3d& file) const;
+};
+// Parses "x,-y,-z" (three signed axes, each of x, y, z once); throws shadefit::Error on field
+// "axes" otherwise.
+AxisMapping ParseAxisMapping(const std::string& text);
+
+struct PublishedLightsOptions {
+  // One light per line (blank lines and lines starting with '#' skipped): "x y z", the direction
+  // from the object towards the light in the data set's axes (any length: normalised), or
+  // "x y z r g b" with the light's RGB intensity after it. Commas may separate the numbers.
+  std::string directions_path;
+  // Optional: one line per light, "r g b" (or one number for a grey light), the same order.
+  // Not with a 6-column directions file.
+  std::string intensities_path;
+  // Optional: one lighting name per line, the same order: a file name keeps its stem after the
+  // last '/' ("data/001.png" -> "001"). Default: L0, L1, ... in file order.
+  std::string names_path;
+  AxisMapping axes;
+  std::string scene_template;  // As for the mirror ball: camera and objects, no light.
+  std::string output_dir;      // Created when missing.
+  // The irradiance of each light is irradiance x its intensity (1 without intensities): the
+  // photographs' exposure is fitted, so only the ratios between lights and channels matter.
+  double irradiance = 1.0;
+};
+
+struct PublishedLight {
+  std::string lighting;
+  std::string scene_path;  // Written.
+  Vec3d to_light;          // World, unit: from the surface towards the light.
+  Vec3d irradiance;        // RGB.
+};
+
+// `shadefit refs lights --directions`: the same scenes and summary as the mirror-ball path,
+// from the data set's own files. Throws shadefit::Error "<file>:<line>: <field>: <problem>" on a
+// malformed line, a zero direction, a light pointing away from the camera (behind the object's
+// visible side), negative or non-finite intensities and files of different lengths; a failure
+// leaves no output file.
+std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOptions& options);
 
 }  // namespace shadefit::refs
