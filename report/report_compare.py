@@ -23,7 +23,8 @@ from statsmodels.stats.multitest import multipletests
 
 BOOTSTRAP_RESAMPLES = 10000
 BOOTSTRAP_SEED = 20261204  # Fixed: a rerun of the report writes the same numbers.
-SIGN_TEST_BELOW = 10       # Fewer non-tied materials than this: the exact sign test.
+SIGN_TEST_BELOW = 6        # Fewer non-tied materials than this: the exact sign test (the
+                           # exact signed-rank test cannot reach p < 0.05 below 6 pairs).
 MIN_MATERIALS_FOR_CI = 3   # Two materials give no meaningful interval.
 
 # Image metrics whose larger value is better: their error is 1 - value (SSIM family) or the
@@ -331,7 +332,10 @@ def effect_words(c):
     lo, hi = c["ci"]
     if c["mode"] == "ratio":
         r = c["effect"]
-        if r >= 1:
+        if 0.995 <= r <= 1.005:
+            words = "within 0.5% of"
+            ci = None if lo is None else (lo, hi)
+        elif r >= 1:
             words = f"{fmt_effect(r)}x smaller than"
             ci = None if lo is None else (lo, hi)
         else:
@@ -339,11 +343,16 @@ def effect_words(c):
             ci = None if lo is None else (1 / hi, 1 / lo)
         ci_text = "no CI: fewer than 3 materials" if ci is None else \
             f"95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
+        if words == "within 0.5% of":
+            ci_text = "no CI: fewer than 3 materials" if ci is None else \
+                f"ratio 95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
         return f"{c['fit']}'s error is {words} {c['baseline']}'s ({ci_text})"
     d = c["effect"]
     side = "lower" if d >= 0 else "higher"
+    # The interval in the sentence's own direction: of how much lower (or higher).
+    lo_s, hi_s = (lo, hi) if d >= 0 else (None if hi is None else -hi, None if lo is None else -lo)
     ci_text = "no CI: fewer than 3 materials" if lo is None else \
-        f"95% CI of the difference {lo:.3g} to {hi:.3g}"
+        f"95% CI {lo_s:.3g} to {hi_s:.3g}"
     return (f"{c['fit']}'s {c.get('what', 'error')} is {side} than {c['baseline']}'s by "
             f"{abs(d):.3g} on average ({ci_text})")
 
