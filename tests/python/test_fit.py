@@ -105,3 +105,30 @@ def test_wrong_arrays_are_refused():
         shadefit.fit((np.ascontiguousarray(image[:, :128]), SCENE), "ggx")
     with pytest.raises(TypeError, match=r"references\[0\]: unknown key"):
         shadefit.fit({"image": image, "scene": SCENE, "sceen": 1}, "ggx")
+
+
+def test_fit_releases_the_gil_and_reuses_the_context():
+    # While a fit runs on another thread, this thread keeps running Python: the longest pause
+    # between its steps is a small share of the fit's time (holding the GIL, it is all of it).
+    import threading
+    import time
+    done = threading.Event()
+    seconds = []
+
+    def work():
+        start = time.monotonic()
+        for _ in range(3):
+            shadefit.fit(REF, "blinn-phong", render_outputs=False, **OPTIONS)
+        seconds.append(time.monotonic() - start)
+        done.set()
+
+    thread = threading.Thread(target=work)
+    thread.start()
+    last, longest = time.monotonic(), 0.0
+    while not done.is_set():
+        time.sleep(0.001)
+        now = time.monotonic()
+        longest, last = max(longest, now - last), now
+    thread.join()
+    assert seconds and longest < 0.25 * seconds[0], (longest, seconds)
+    assert shadefit._shadefit.gl_contexts_created() == 1
