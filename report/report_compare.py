@@ -8,7 +8,7 @@ errors (geometric mean of the per-material ratios; a mean difference where an er
 with a bootstrap 95% confidence interval over materials, on how many materials each fit is
 closer, and a paired test (Wilcoxon signed-rank; an exact sign test when fewer than
 SIGN_TEST_BELOW materials differ) whose p-values are corrected with Holm's step-down method over
-every test of the study. The statistics are scipy's and statsmodels' (Debian python3-scipy,
+the study's questions (one family per compared pair). The statistics are scipy's and statsmodels' (Debian python3-scipy,
 python3-statsmodels); nothing here is a hand-written statistic.
 
 Called by make_report.py; reads only the records make_report.py hands it.
@@ -270,7 +270,7 @@ def compare_pair(errors, materials, label, base, mode):
 
 
 def compare_study(study, rows, summary, to_float):
-    """Every question's comparisons, Holm-corrected over all of the study's tests. Returns a
+    """Every question's comparisons, Holm-corrected per pair over the questions. Returns a
     list of question records: {name, question, default, metric?, mode, errors, na, comparisons,
     all_pixels?}."""
     materials = [g["material"] for g in study["groups"]]
@@ -302,11 +302,17 @@ def compare_study(study, rows, summary, to_float):
                 rec["all_pixels"] = [c for c in (compare_pair(all_errors, materials, l, b, mode)
                                                  for l, b in pairs) if c is not None]
         records.append(rec)
-    tests = [c for r in records for c in r["comparisons"]]
-    if tests:
+    # Holm across the study's questions: one family per compared pair (a sentence is one pair
+    # on one question; the family is every question the study asks of that pair).
+    families = {}
+    for r in records:
+        for c in r["comparisons"]:
+            families.setdefault((c["fit"], c["baseline"]), []).append(c)
+    for tests in families.values():
         adjusted = multipletests([c["p"] for c in tests], method="holm")[1]
         for c, p in zip(tests, adjusted):
             c["p_holm"] = float(p)
+            c["holm_family"] = len(tests)
     return records
 
 
@@ -351,6 +357,8 @@ def effect_words(c):
     side = "lower" if d >= 0 else "higher"
     # The interval in the sentence's own direction: of how much lower (or higher).
     lo_s, hi_s = (lo, hi) if d >= 0 else (None if hi is None else -hi, None if lo is None else -lo)
+    if lo_s is not None:
+        lo_s, hi_s = lo_s + 0.0, hi_s + 0.0  # never "-0"
     ci_text = "no CI: fewer than 3 materials" if lo is None else \
         f"95% CI {lo_s:.3g} to {hi_s:.3g}"
     return (f"{c['fit']}'s {c.get('what', 'error')} is {side} than {c['baseline']}'s by "
@@ -444,14 +452,15 @@ def comparison_table(records, fmt):
 
 def method_text(records):
     """How the answers are computed, in one paragraph (summary.md and index.html)."""
-    tests = sum(len(r["comparisons"]) for r in records)
+    questions = sum(1 for r in records if r["comparisons"])
     return ("Every fit is compared with the baseline fit of its training set over the "
             "materials, from each material's continuous error (an image metric's mean over the "
             "lightings of the split; a probe's largest error over the question's quantities): "
             "the error ratio is the geometric mean of the per-material ratios (a mean "
             "difference where an error can be 0) with a bootstrap 95% confidence interval over "
             "materials; p is a paired Wilcoxon signed-rank test (an exact sign test below "
-            f"{SIGN_TEST_BELOW} materials), Holm-corrected over the study's {tests} tests. The "
+            f"{SIGN_TEST_BELOW} materials), Holm-corrected for each pair over the study's "
+            f"{questions} questions. The "
             "pass counts at fixed tolerances follow as a secondary table. Rules: "
             "docs/studies.md, \"Comparative answers\".")
 
@@ -466,6 +475,6 @@ def to_json(records):
                        "test": f"Wilcoxon signed-rank (scipy.stats.wilcoxon, zeros dropped); "
                                f"exact sign test (scipy.stats.binomtest) below "
                                f"{SIGN_TEST_BELOW} untied materials",
-                       "correction": "Holm over every test of the study "
-                                     "(statsmodels multipletests)"},
+                       "correction": "Holm over the study's questions, one family per compared "
+                                     "pair (statsmodels multipletests)"},
             "questions": records}
