@@ -23,6 +23,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import report_charts  # noqa: E402
+import data_floor  # noqa: E402
 import report_compare  # noqa: E402
 import report_figures  # noqa: E402
 import report_page  # noqa: E402
@@ -841,6 +842,20 @@ def make_report(study_dir):
                     "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
         write_text(os.path.join(report_dir, "ngan2005.json"), json.dumps(ngan, indent=1))
     summary_md = summary_markdown(study, summary, matrix, provenance, comparisons)
+    # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs):
+    # right after the comparative answers, each fit's test error next to the floor's.
+    floor_lines = []
+    floor = data_floor.compute_floor(study_dir, study, fits)
+    if floor is not None:
+        write_text(os.path.join(report_dir, "floor.json"), json.dumps(floor, indent=1))
+        tables["floor"] = data_floor.floor_table(floor)
+        write_table(table_dir, "floor", *tables["floor"],
+                    "Data floor: each fit's mean test relative RMSE next to the best isotropic "
+                    "BRDF's (tabulated f(theta_h, theta_d), no model)", 3)
+        floor_lines = data_floor.floor_sentences(floor)
+        block = "### Data floor\n\n" + "".join(f"- {l}\n" for l in floor_lines) + "\n"
+        summary_md = summary_md.replace("\n## Within tolerance (secondary)",
+                                        "\n" + block + "## Within tolerance (secondary)", 1)
     enc_rows = encoding_table(fits)
     if enc_rows[1]:
         tables["encoding"] = enc_rows
@@ -857,7 +872,7 @@ def make_report(study_dir):
             for c in ngan["correlations"])
     write_text(os.path.join(report_dir, "summary.md"), summary_md)
     report_page.write_index(report_dir, study, tables, figures, provenance, summary, rows, fits,
-                            charts, write_text, comparisons)
+                            charts, write_text, comparisons, floor_lines)
     write_latex_document(report_dir, tables, figures + charts)
     return os.path.join(report_dir, "index.html")
 

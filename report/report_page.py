@@ -199,9 +199,9 @@ def matrix_html(study, summary, labels):
     return "\n".join(out)
 
 
-def answers_html(comparisons, figures):
+def answers_html(comparisons, figures, floor_lines=()):
     """The comparative answers, first on the page: how they are computed, then per question its
-    sentences and its figure."""
+    sentences and its figure; then the data floor's sentences (report/data_floor.py), if any."""
     out = ["<section id='answers'><h2>Answers</h2>",
            f"<p class='method'>{esc(report_compare.method_text(comparisons))}</p>"]
     by_question = {f.get("question"): f for f in figures if f.get("kind") == "comparison"}
@@ -217,6 +217,10 @@ def answers_html(comparisons, figures):
         f = by_question.get(rec["name"])
         if f is not None:
             out.append(figure_html(f))
+    if floor_lines:
+        out.append("<h3 id='data-floor'>Data floor</h3><ul class='answers'>")
+        out += [f"<li>{esc(line)}</li>" for line in floor_lines]
+        out.append("</ul>")
     out.append("</section>")
     return "\n".join(out)
 
@@ -306,7 +310,7 @@ def viewer_html(material, study, fits, rows, labels):
 
 
 def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
-                write_text, comparisons=()):
+                write_text, comparisons=(), floor_lines=()):
     labels = [f["label"] for f in study["fits"]]
     materials = [g["material"] for g in study["groups"]]
     verdicts = study.get("verdicts", {})
@@ -329,7 +333,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              "</head><body>",
              f"<h1>{esc(study['name'])}</h1><p>{esc(study.get('description', ''))}</p>",
              "".join(nav)]
-    parts.append(answers_html(comparisons, figures))
+    parts.append(answers_html(comparisons, figures, floor_lines))
     parts += ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
               "are within the study's fixed tolerance, out of those judged, per question and "
               "fit. Every number is computed from the result files (rules: docs/studies.md). A "

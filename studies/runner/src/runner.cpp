@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fit_status.h"
+#include "geometry_outputs.h"
 #include "job_graph.h"
 #include "job_kinds.h"
 #include "outputs.h"
@@ -409,6 +410,14 @@ void StudyRun::WriteStudyOutputs(bool complete) {
   }
   internal::WriteResultsCsv(context_, jobs_);
   internal::WriteTimingsCsv(context_, jobs_);
+  if (internal::WritesGeometry(spec_)) {
+    // The data floor's geometry (report/data_floor.py): one G-buffer per reference, on a context
+    // of its own (the workers' are gone; a merge never had one).
+    GlContext gl;
+    gl.MakeCurrent();
+    Renderer renderer(gl);
+    internal::WriteGeometry(context_, renderer);
+  }
   internal::WriteProvenance(context_, jobs_, hashes_, GlRendererForProvenance());
 }
 

@@ -286,7 +286,9 @@ nlohmann::json StudySpec::ToJson() const {
           {"verdicts", verdicts},
           {"baseline", baseline},
           {"compare", comparisons},
-          {"outputs", {{"previews", previews}, {"report", report}}}};
+          {"outputs", {{"previews", previews},
+                       {"report", report},
+                       {"floor", floor.has_value() ? nlohmann::json(*floor) : nlohmann::json()}}}};
 }
 
 namespace {
@@ -800,9 +802,10 @@ void ReadVerdicts(const Reader& r, const toml::table& root, StudySpec* spec) {
 // [outputs]
 void ReadOutputs(const Reader& r, const toml::table& root, StudySpec* spec) {
   if (const toml::table* o = r.Table(root, "", "outputs")) {
-    r.CheckKeys(*o, "outputs.", {"previews", "report"});
+    r.CheckKeys(*o, "outputs.", {"previews", "report", "floor"});
     spec->previews = r.Bool(*o, "outputs.", "previews", true);
     spec->report = r.Bool(*o, "outputs.", "report", true);
+    if (o->contains("floor")) spec->floor = r.Bool(*o, "outputs.", "floor", false);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,9 @@ struct StudySpec {
   std::vector<std::array<std::string, 2>> comparisons;
   bool previews = true;             // Reference / fit / error PNGs per reference and fit.
   bool report = true;               // `study run` makes the report at the end.
+  // [outputs] floor: write geometry/ for the report's data floor (studies/runner/src/
+  // geometry_outputs.h). Unset: on when any fit has a free exposure (photographs).
+  std::optional<bool> floor;
 
   // Label of a fit in outputs: the model name when the study has one training set, else
   // "<model>@<lighting>+<lighting>".
