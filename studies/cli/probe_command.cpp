@@ -116,12 +116,6 @@ probes::ModelUnderTest TruthFromSidecar(const std::string& image_path) {
   return m;
 }
 
-// "gold-mirror75" -> "mirror75": the text after the last '-'.
-std::string LightingOf(const std::string& name) {
-  const auto dash = name.rfind('-');
-  return dash == std::string::npos ? name : name.substr(dash + 1);
-}
-
 // --model (with --set) and every --fit, in that order.
 std::vector<probes::ModelUnderTest> ModelsOf(const ProbeCliOptions& o) {
   std::vector<probes::ModelUnderTest> models;
@@ -166,26 +160,7 @@ void Run(const ProbeCliOptions& o) {
   probes::ProbeInputs in;
   in.renderer = &renderer;
   for (const std::string& path : o.refs) {
-    refs::Reference fr = refs::LoadReference(path);
-    probes::ProbeReference r;
-    r.name = fr.name;
-    r.lighting = LightingOf(fr.name);
-    r.scene = fr.scene;
-    r.gbuffer = renderer.RenderGBuffer(r.scene);
-    r.image = std::move(fr.image);
-    if (r.image.channels == 3) {  // No alpha in the file: coverage from the G-buffer.
-      Image rgba(r.image.width, r.image.height, 4);
-      for (int y = 0; y < rgba.height; ++y) {
-        for (int x = 0; x < rgba.width; ++x) {
-          for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = r.image.at(x, y, c);
-          if (x < r.gbuffer.width && y < r.gbuffer.height) {
-            rgba.at(x, y, 3) = r.gbuffer.Coverage(x, y);
-          }
-        }
-      }
-      r.image = std::move(rgba);
-    }
-    in.references.push_back(std::move(r));
+    in.references.push_back(probes::LoadProbeReference(path, renderer));
   }
   in.models = ModelsOf(o);
   if (o.truth_from_sidecar) {

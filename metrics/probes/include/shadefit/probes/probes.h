@@ -35,6 +35,13 @@ struct ProbeReference {  // one image of the material under one lighting
   GBuffer gbuffer;  // from Renderer::RenderGBuffer(scene)
 };
 
+// "gold-mirror75" -> "mirror75": the text after a reference name's last '-'.
+std::string LightingOfReference(const std::string& name);
+
+// A reference read with refs::LoadReference, its G-buffer rendered, and an RGB image given the
+// G-buffer's coverage as alpha. Throws shadefit::Error naming the file and field.
+ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer);
+
 struct ModelUnderTest {                 // a model with parameters: a fit, or the truth
   std::string label;                    // "ggx", "blinn-phong", "truth", ...
   std::string model;                    // name from `shadefit models`
