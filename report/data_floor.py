@@ -22,7 +22,7 @@ pixel_metrics.cpp, eps = 0.01), D holds second differences along both axes of th
 s = trace(A'A) / trace(D'D) makes lambda unitless. lambda is chosen from LAMBDAS by
 leave-one-lighting-out over the training lightings. With 512 unknowns per channel the problem is
 solved on its normal equations: R = chol(A'A + lambda s D'D), then min ||R f - R^-T A'I|| with
-f >= 0 (scipy.optimize.lsq_linear, BVLS), which has the same minimiser.
+f >= 0 (scipy.optimize.nnls), which has the same minimiser.
 
 Evaluated like any fit: relative RMSE over every covered pixel of each reference (RGB pooled),
 training and test lightings alike; the floor of a training set is the mean over its test
@@ -37,7 +37,7 @@ import numpy as np
 from scipy import sparse
 
 H_BINS, D_BINS = 32, 16
-LAMBDAS = (1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
+LAMBDAS = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
 RELATIVE_EPSILON = 0.01  # metrics::PixelMetricParameters::relative_epsilon
 FIXED_COLUMNS = 13       # x y coverage train r g b nx ny nz vx vy vz (geometry/index.json)
 LIGHT_COLUMNS = 6        # lx ly lz Er Eg Eb
@@ -144,13 +144,15 @@ def smoothness_matrix():
 
 def solve(gram, rhs, dtd, lam):
     """The non-negative minimiser of f'Gf - 2 f'r + lambda s f'D'Df (see the module text)."""
-    from scipy.optimize import lsq_linear
+    from scipy.optimize import nnls
     s = np.trace(gram) / np.trace(dtd) if np.trace(gram) > 0 else 1.0
     m = gram + lam * s * dtd
     m += np.eye(m.shape[0]) * 1e-10 * max(np.trace(m) / m.shape[0], 1e-30)  # keeps chol defined
     r = np.linalg.cholesky(m).T                      # m = R'R
     c = np.linalg.solve(r.T, rhs)                    # R'c = A'I
-    return lsq_linear(r, c, bounds=(0.0, np.inf), method="bvls").x
+    # Lawson-Hanson (scipy's nnls, Fortran): the same minimiser as lsq_linear's BVLS to 1e-10
+    # here, 40 times faster (0.15 s against 6.5 s for 512 unknowns; BVLS loops in Python).
+    return nnls(r, c, maxiter=50 * r.shape[1])[0]
 
 
 def fit_tables(refs, dtd, lam):
@@ -229,17 +231,24 @@ def compute_floor(study_dir, study, fits):
         by_material.setdefault(e["material"], []).append(e)
     out["skipped"] = skipped
     for material in sorted(by_material):
-        refs = [Reference(os.path.join(study_dir, e["file"]), e) for e in by_material[material]]
+        entries = by_material[material]
+
+        def load(e):
+            return Reference(os.path.join(study_dir, e["file"]), e)
         for train in study.get("training_sets", []):
-            train_refs = [r for r in refs if r.lighting in train]
-            tests = [r for r in refs if r.lighting not in train
-                     and (not test_only or r.lighting in test_only)]
+            # The training references stay in memory; every other one is read, scored and
+            # dropped (a 612 x 512 photograph's design matrices take ~25 MB).
+            train_refs = [load(e) for e in entries if e["lighting"] in train]
+            test_lightings = [e["lighting"] for e in entries if e["lighting"] not in train
+                              and (not test_only or e["lighting"] in test_only)]
             if not train_refs or not any(r.train.any() for r in train_refs):
                 continue
             lam, scores = choose_lambda(train_refs, dtd)
             tables = fit_tables(train_refs, dtd, lam)
-            per = {r.lighting: r.relative_rmse(tables) for r in refs}
-            test_lightings = [r.lighting for r in tests]
+            per = {r.lighting: r.relative_rmse(tables) for r in train_refs}
+            for e in entries:
+                if e["lighting"] not in per:
+                    per[e["lighting"]] = load(e).relative_rmse(tables)
             rec = {"material": material, "train": list(train), "lambda": lam,
                    "loo_sse": {f"{k:g}": v for k, v in scores.items()},
                    "train_relative_rmse": mean([per[r.lighting] for r in train_refs]),
@@ -284,7 +293,10 @@ def floor_sentences(floor):
                 parts.append(f"{f['label']} is {-d:.2f} points below the floor "
                              f"({pct(f['test_relative_rmse'])}; the table's grid and smoothing "
                              f"cost more than the model's error)")
-        lines.append(head + (" " + "; ".join(parts) + "; the rest is the setup." if parts else ""))
+        above = any(f["points_above_floor"] is not None and f["points_above_floor"] >= 0
+                    for f in rec["fits"])
+        tail = "; the rest is the setup." if above else "."
+        lines.append(head + (" " + "; ".join(parts) + tail if parts else ""))
     for s in floor.get("skipped", []):
         lines.append(f"{s['reference']}: not in the floor ({s['why']}).")
     return lines
