@@ -47,6 +47,43 @@ class FloorInputError(Exception):
     """A geometry file the floor cannot use; the message names it."""
 
 
+def srgb_oetf(x):
+    x = np.clip(x, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def redecode(values, decoded_from, decoding):
+    """`values` decoded as a fit with encoding = "fit" chose (fit/src/encoding_search.cpp,
+    Redecode): back to the stored values by the import's decoding (sRGB or linear), then decoded
+    by `decoding` ({"chosen": "srgb" | "linear" | "gamma", "gamma": g}); None keeps them."""
+    if decoding is None:
+        return values
+    stored = srgb_oetf(values) if decoded_from == "srgb" else values
+    v = np.clip(stored, 0.0, 1.0)
+    chosen = decoding.get("chosen")
+    if chosen == "srgb":
+        return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
+    if chosen == "gamma":
+        return np.power(v, float(decoding["gamma"]))
+    return v
+
+
+def chosen_decoding(study, fits, material, train):
+    """The decoding the study's baseline fit (else the first fit) of this material and training
+    set chose with encoding = "fit", as {"chosen", "gamma", "label"}; None when it kept the
+    import's: the floor is scored in the same values as that fit."""
+    cands = [(label, f) for (m, label), f in sorted(fits.items())
+             if m == material and list(f.get("train", [])) == list(train)]
+    base = study.get("baseline")
+    cands.sort(key=lambda lf: lf[1].get("model") != base)
+    for label, f in cands:
+        enc = f.get("encoding")
+        if isinstance(enc, dict) and enc.get("chosen"):
+            return {"chosen": enc["chosen"], "gamma": enc.get("gamma"), "label": label}
+        return None
+    return None
+
+
 def table_weights(n, v, l):
     """(index, weight) of the 4 table nodes of each (n, v, l) triple (arrays of shape (m, 3)),
     and the cosine n.l: bilinear in (sqrt(theta_h / (pi/2)), theta_d / (pi/2))."""
@@ -70,7 +107,7 @@ class Reference:
     """One reference's rows: values (P, 3), train flags (P,), and its design matrix (P, K) per
     channel, K = H_BINS * D_BINS."""
 
-    def __init__(self, path, entry):
+    def __init__(self, path, entry, decoding=None):
         try:
             data = np.load(path)
         except (OSError, ValueError) as e:
@@ -81,7 +118,7 @@ class Reference:
                                   f"{FIXED_COLUMNS + LIGHT_COLUMNS * slots})")
         data = data.astype(np.float64)
         self.lighting = entry["lighting"]
-        self.values = data[:, 4:7]
+        self.values = redecode(data[:, 4:7], entry.get("decoded_from", "linear"), decoding)
         self.train = data[:, 3] > 0.5
         coverage = data[:, 2]
         n, v = data[:, 7:10], data[:, 10:13]
@@ -233,9 +270,11 @@ def compute_floor(study_dir, study, fits):
     for material in sorted(by_material):
         entries = by_material[material]
 
-        def load(e):
-            return Reference(os.path.join(study_dir, e["file"]), e)
         for train in study.get("training_sets", []):
+            decoding = chosen_decoding(study, fits, material, train)
+
+            def load(e):
+                return Reference(os.path.join(study_dir, e["file"]), e, decoding)
             # The training references stay in memory; every other one is read, scored and
             # dropped (a 612 x 512 photograph's design matrices take ~25 MB).
             train_refs = [load(e) for e in entries if e["lighting"] in train]
@@ -250,6 +289,7 @@ def compute_floor(study_dir, study, fits):
                 if e["lighting"] not in per:
                     per[e["lighting"]] = load(e).relative_rmse(tables)
             rec = {"material": material, "train": list(train), "lambda": lam,
+                   "decoding": decoding,
                    "loo_sse": {f"{k:g}": v for k, v in scores.items()},
                    "train_relative_rmse": mean([per[r.lighting] for r in train_refs]),
                    "test_relative_rmse": mean([per[l] for l in test_lightings]),
@@ -280,7 +320,12 @@ def floor_sentences(floor):
         head = (f"{rec['material']} (trained on {'+'.join(rec['train'])}): the best isotropic "
                 f"BRDF these photographs support (tabulated f(theta_h, theta_d), no model) has "
                 f"a test relative RMSE of {pct(rec['test_relative_rmse'])} "
-                f"(training {pct(rec['train_relative_rmse'])}).")
+                f"(training {pct(rec['train_relative_rmse'])})")
+        dec = rec.get("decoding")
+        if dec:
+            how = dec["chosen"] + (f" {dec['gamma']:.3f}" if dec.get("gamma") else "")
+            head += f", in the decoding {dec['label']} chose ({how})"
+        head += "."
         parts = []
         for f in rec["fits"]:
             d = f["points_above_floor"]

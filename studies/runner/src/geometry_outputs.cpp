@@ -135,7 +135,12 @@ void WriteGeometry(const RunContext& context, Renderer& renderer) {
   for (const ReferenceGroup& group : context.spec.groups) {
     for (const ReferenceSpec& rs : group.references) {
       const refs::Reference ref = refs::LoadReference(rs.image_path);
-      json e = {{"reference", rs.name}, {"material", group.material}, {"lighting", rs.lighting}};
+      // decoded_from: how the values were decoded from the stored ones (sRGB or linear), so that
+      // the floor can take the decoding a fit with encoding = "fit" chose instead.
+      json e = {{"reference", rs.name},
+                {"material", group.material},
+                {"lighting", rs.lighting},
+                {"decoded_from", refs::EncodingName(ref.decoded_from)}};
       json lights = json::array();
       for (const Light& l : ref.scene.lights) lights.push_back(LightJson(l));
       e["lights"] = lights;
