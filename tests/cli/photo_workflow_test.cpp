@@ -433,6 +433,13 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   std::ostringstream hss;
   hss << html.rdbuf();
   EXPECT_NE(hss.str().find("the fit chose the encoding <b>gamma 2."), std::string::npos);
+  // The template's free exposure turns on the data floor (docs/measured_and_imported.md, "Data
+  // floor"): its sentence, in the decoding the fit chose, is under the answers of both pages.
+  for (const std::string& page : {mss.str(), hss.str()}) {
+    EXPECT_NE(page.find("Data floor"), std::string::npos);
+    EXPECT_NE(page.find("in the decoding ggx chose (gamma 2."), std::string::npos);
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "photo_set" / "report" / "floor.json"));
 }
 
 // The same search on a set stored as sRGB (two lights, the true scenes, `shadefit fit`): sRGB
