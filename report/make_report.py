@@ -528,6 +528,12 @@ def summary_markdown(study, summary, matrix, provenance, comparisons):
              f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
              "## Answers", "", report_compare.method_text(comparisons), ""]
     lines += report_compare.answer_lines(comparisons)
+    hcols, hrows = report_compare.human_agreement_table(comparisons)
+    lines += ["", "### Image metrics against human judgments", "",
+              f"Spearman rho of each metric with the human distance over "
+              f"{report_compare.HUMAN_AGREEMENT_SOURCE}.", "",
+              "| " + " | ".join(hcols) + " |", "|---|---:|---:|---|"]
+    lines += ["| " + " | ".join(r) + " |" for r in hrows]
     lines += ["", "## Within tolerance (secondary)", "",
               "Materials whose numbers are within the study's fixed tolerance, out of those "
               "judged.", ""]

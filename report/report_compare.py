@@ -35,7 +35,7 @@ HIGHER_IS_BETTER_DB = {"psnr"}
 METRIC_NAMES = {"rmse": "RMSE", "relative_rmse": "relative RMSE", "log_rmse": "log RMSE",
                 "mae": "MAE", "psnr": "PSNR", "ssim": "SSIM", "ms_ssim": "MS-SSIM",
                 "ciede2000_mean": "mean CIEDE2000", "flip_ldr_mean": "mean LDR-FLIP",
-                "flip_hdr_mean": "mean HDR-FLIP", "de_itp_mean": "mean dE_ITP"}
+                "flip_hdr_mean": "mean HDR-FLIP", "delta_e_itp_mean": "mean dE_ITP"}
 
 # How well each image metric agrees with people judging renders of BRDF approximations against
 # the measured material: Spearman rho with the human distance and its 95% bootstrap CI over the
@@ -396,6 +396,24 @@ def error_label(rec):
     if rec["mode"] == "difference":
         return "excess over the bound"
     return "largest relative error"
+
+
+def human_agreement_table(records):
+    """(columns, rows): how well each image metric of the study's questions, and every other one
+    measured, agrees with human judgments (HUMAN_AGREEMENT), best first; the metrics the study's
+    questions judge by are marked."""
+    used = {r["metric"] for r in records if r["source"] == "metrics"}
+    cols = ["metric", "Spearman rho with human distance", "95% CI", "judges a question here"]
+    rows = [[METRIC_NAMES.get(m, m), f"{v[0]:.2f}", f"{v[1]:.2f} to {v[2]:.2f}",
+             "yes" if m in used else ""]
+            for m, v in sorted(HUMAN_AGREEMENT.items(), key=lambda kv: -kv[1][0])]
+    return cols, rows
+
+
+HUMAN_AGREEMENT_SOURCE = ("57 (material, approximation) pairs of Lavoue, Bonneel, Farrugia, "
+                          "Soler 2021 (Ngan 2005's Blinn-Phong, Ward and Lafortune fits of 19 "
+                          "MERL materials), rendered by shadefit under blender-data's interior "
+                          "map; bench/human_agreement.py, docs/metrics.md \"Human agreement\"")
 
 
 def answer_lines(records):

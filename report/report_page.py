@@ -339,6 +339,12 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
               "fit. Every number is computed from the result files (rules: docs/studies.md). A "
               "cell links to its evidence.</p>",
               matrix_html(study, summary, labels)]
+    # Why the image questions judge by their metric: each metric against human judgments.
+    hcols, hrows = report_compare.human_agreement_table(comparisons)
+    parts.append("<h3 id='human-agreement'>Image metrics against human judgments</h3>"
+                 f"<p class='method'>Spearman rho of each metric with the human distance over "
+                 f"{esc(report_compare.HUMAN_AGREEMENT_SOURCE)}.</p>"
+                 + html_table((hcols, hrows), cls="agreement"))
     # Photographs whose encoding was fitted (fit.encoding = "fit"): which one won, in words.
     if "encoding" in tables:
         chosen = [r for r in tables["encoding"][1] if r[5] == "yes"]

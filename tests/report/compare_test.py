@@ -151,6 +151,11 @@ def main(argv):
     check("id='answers'" in page and page.index("id='answers'") < page.index("id='verdicts'"),
           "2x: index.html does not open with the answers")
     check("2x smaller than blinn-phong" in page, "2x: index.html: no sentence")
+    # The human-agreement table of the metrics, with the judging metric marked, in both pages.
+    check("| relative RMSE | 0.62 | 0.35 to 0.79 | yes |" in md,
+          "2x: summary.md has no human-agreement row for relative RMSE")
+    check("id='human-agreement'" in page and "Lavoue" in page,
+          "2x: index.html has no human-agreement table")
     figs = json.load(open(os.path.join(d, "report", "figures.json"), encoding="utf-8"))
     check(any(f.get("kind") == "comparison" and f.get("question") == "image" for f in figs),
           "2x: no comparison figure for the image question")
