@@ -333,47 +333,43 @@ def fmt_effect(v):
     return f"{v:.3g}" if abs(v) < 1000 else f"{v:.0f}"
 
 
-def effect_words(c):
-    """'2.3x smaller than blinn-phong's (95% CI 1.8-3.0)' and the like."""
+def effect_parts(c):
+    """('2.3x smaller than blinn-phong's', '95% CI 1.8-3.0') and the like: how the fit's error
+    stands to the baseline's, and its interval in the same direction."""
     lo, hi = c["ci"]
+    none = "no CI: fewer than 3 materials"
     if c["mode"] == "ratio":
         r = c["effect"]
+        prefix, ci = "", (lo, hi)
         if 0.995 <= r <= 1.005:
-            words = "within 0.5% of"
-            ci = None if lo is None else (lo, hi)
+            words, prefix = "within 0.5% of", "ratio "
         elif r >= 1:
             words = f"{fmt_effect(r)}x smaller than"
-            ci = None if lo is None else (lo, hi)
         else:
-            words = f"{fmt_effect(1 / r)}x larger than"
-            ci = None if lo is None else (1 / hi, 1 / lo)
-        ci_text = "no CI: fewer than 3 materials" if ci is None else \
-            f"95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
-        if words == "within 0.5% of":
-            ci_text = "no CI: fewer than 3 materials" if ci is None else \
-                f"ratio 95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
-        return f"{c['fit']}'s error is {words} {c['baseline']}'s ({ci_text})"
+            words, ci = f"{fmt_effect(1 / r)}x larger than", (None, None) if lo is None else (1 / hi, 1 / lo)
+        ci_text = none if ci[0] is None else f"{prefix}95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
+        return f"{words} {c['baseline']}'s", ci_text
     d = c["effect"]
-    side = "lower" if d >= 0 else "higher"
     # The interval in the sentence's own direction: of how much lower (or higher).
     lo_s, hi_s = (lo, hi) if d >= 0 else (None if hi is None else -hi, None if lo is None else -lo)
-    if lo_s is not None:
-        lo_s, hi_s = lo_s + 0.0, hi_s + 0.0  # never "-0"
-    ci_text = "no CI: fewer than 3 materials" if lo is None else \
-        f"95% CI {lo_s:.3g} to {hi_s:.3g}"
-    return (f"{c['fit']}'s {c.get('what', 'error')} is {side} than {c['baseline']}'s by "
-            f"{abs(d):.3g} on average ({ci_text})")
+    ci_text = none if lo is None else f"95% CI {lo_s + 0.0:.3g} to {hi_s + 0.0:.3g}"  # no "-0"
+    side = "lower" if d >= 0 else "higher"
+    return f"{side} than {c['baseline']}'s by {abs(d):.3g} on average", ci_text
+
+
+def effect_words(c):
+    """'ggx's error is 2.3x smaller than blinn-phong's (95% CI 1.8-3.0)' and the like."""
+    relation, ci_text = effect_parts(c)
+    return f"{c['fit']}'s {c.get('what', 'error')} is {relation} ({ci_text})"
 
 
 def sentence(rec, c):
     if c["test"] == "all tied":
-        return (f"{c['fit']}'s error equals {c['baseline']}'s on every one of the {c['n']} "
-                f"materials (p = 1)")
-    p = c.get("p_holm", c["p"])
-    test = {"Wilcoxon": "Wilcoxon", "sign test": "exact sign test",
-            "all tied": "all tied"}[c["test"]]
+        return (f"{c['fit']}'s {c.get('what', 'error')} equals {c['baseline']}'s on every one of "
+                f"the {c['n']} materials (p = 1)")
+    test = {"Wilcoxon": "Wilcoxon", "sign test": "exact sign test"}[c["test"]]
     return (f"{effect_words(c)}; {c['fit']} is closer on {c['closer']} of {c['n']} materials "
-            f"({test} p = {fmt_p(p)}, Holm)")
+            f"({test} p = {fmt_p(c.get('p_holm', c['p']))}, Holm)")
 
 
 def question_title(rec):
@@ -438,7 +434,7 @@ def answer_lines(records):
             a = alls.get((c["fit"], c["baseline"]))
             if a is not None:
                 extra = (f" [all pixels, extrapolated data included: "
-                         f"{effect_words(a).split(' (')[0].split('error is ')[1]}, closer on "
+                         f"{effect_parts(a)[0]}, closer on "
                          f"{a['closer']} of {a['n']}]")
             lines.append(f"  - {sentence(rec, c)}.{extra}")
         if rec["n_a"]:
