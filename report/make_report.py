@@ -521,7 +521,7 @@ def not_valid_reasons(summary, name):
     return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
 
 
-def summary_markdown(study, summary, matrix, provenance, comparisons):
+def summary_markdown(study, summary, matrix, provenance, comparisons, floor_lines=()):
     labels = labels_of(study)
     lines = [f"# {study['name']}", "", study.get("description", ""), "",
              f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
@@ -534,6 +534,8 @@ def summary_markdown(study, summary, matrix, provenance, comparisons):
               f"{report_compare.HUMAN_AGREEMENT_SOURCE}.", "",
               "| " + " | ".join(hcols) + " |", "|---|---:|---:|---|"]
     lines += ["| " + " | ".join(r) + " |" for r in hrows]
+    if floor_lines:
+        lines += ["", "### Data floor", ""] + [f"- {l}" for l in floor_lines]
     lines += ["", "## Within tolerance (secondary)", "",
               "Materials whose numbers are within the study's fixed tolerance, out of those "
               "judged.", ""]
@@ -847,7 +849,6 @@ def make_report(study_dir):
         write_table(table_dir, "ngan2005_spearman", corr_cols, corr_rows,
                     "Rank correlation of our fitted lobe widths with Ngan et al. 2005 (Spearman)", 3)
         write_text(os.path.join(report_dir, "ngan2005.json"), json.dumps(ngan, indent=1))
-    summary_md = summary_markdown(study, summary, matrix, provenance, comparisons)
     # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs):
     # right after the comparative answers, each fit's test error next to the floor's.
     floor_lines = []
@@ -859,9 +860,7 @@ def make_report(study_dir):
                     "Data floor: each fit's mean test relative RMSE next to the best isotropic "
                     "BRDF's (tabulated f(theta_h, theta_d), no model)", 3)
         floor_lines = data_floor.floor_sentences(floor)
-        block = "### Data floor\n\n" + "".join(f"- {l}\n" for l in floor_lines) + "\n"
-        summary_md = summary_md.replace("\n## Within tolerance (secondary)",
-                                        "\n" + block + "## Within tolerance (secondary)", 1)
+    summary_md = summary_markdown(study, summary, matrix, provenance, comparisons, floor_lines)
     enc_rows = encoding_table(fits)
     if enc_rows[1]:
         tables["encoding"] = enc_rows
