@@ -9,13 +9,17 @@
 # success, failure and Ctrl-C alike.
 #
 #   bash scripts/fresh-machine-check.sh [--rev REV] [--shared DIR] [--no-cache] [--keep]
-#                                       [--reuse-pass]
+#                                       [--reuse-pass] [--has-pass] [--logs DIR]
 #
 #   --rev REV      commit to clone (default HEAD; uncommitted changes are not part of a check)
 #   --reuse-pass   skip the check when one passed on this machine for the same install inputs
 #                  (bootstrap.sh, check-skips.py, this script, every CMakeLists.txt and cmake/
 #                  file, the CI skip list, at REV); .ci/run uses it (docs/testing.md says what
 #                  that costs)
+#   --has-pass     only say whether such a pass is recorded (exit 0) or not (exit 1); .ci/run
+#                  asks before choosing where to run the README's test command
+#   --logs DIR     copy the two commands' output (main.log, test.log: together one full build's
+#                  log, for scripts/check-warnings.sh) to DIR, on success and failure alike
 #   --shared DIR   the folder that sits beside the clone as ../shared (default: ../shared)
 #   --no-cache     build the base root afresh instead of reusing the cached minbase tarball
 #   --keep         leave the root in place afterwards (for debugging; prints where)
@@ -36,6 +40,8 @@ shared="$repo/../shared"
 use_cache=1
 keep=0
 reuse_pass=0
+has_pass=0
+logs_dir=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --rev) rev=${2:?--rev needs a commit}; shift 2 ;;
@@ -43,7 +49,9 @@ while [ $# -gt 0 ]; do
     --no-cache) use_cache=0; shift ;;
     --keep) keep=1; shift ;;
     --reuse-pass) reuse_pass=1; shift ;;
-    -h | --help) sed -n '2,25p' "$0"; exit 0 ;;
+    --has-pass) has_pass=1; shift ;;
+    --logs) logs_dir=${2:?--logs needs a folder}; shift 2 ;;
+    -h | --help) sed -n '2,31p' "$0"; exit 0 ;;
     *) die "unknown option '$1' (see --help)" ;;
   esac
 done
@@ -58,6 +66,14 @@ pass_key=$(git -C "$repo" ls-tree -r "$rev" -- scripts/bootstrap.sh scripts/chec
              scripts/fresh-machine-check.sh \
              cmake tests/ci-allowed-skips.txt $(git -C "$repo" ls-tree -r --name-only "$rev" |
              grep -E '(^|/)CMakeLists\.txt$') | sha256sum | cut -c1-16)
+if [ "$has_pass" = 1 ]; then
+  if [ -f "$pass_dir/$pass_key" ]; then
+    say "passed before on this machine for these install inputs ($(cat "$pass_dir/$pass_key"))"
+    exit 0
+  fi
+  say "no pass recorded on this machine for these install inputs"
+  exit 1
+fi
 if [ "$reuse_pass" = 1 ] && [ -f "$pass_dir/$pass_key" ]; then
   say "passed before on this machine for these install inputs ($(cat "$pass_dir/$pass_key")); skipped"
   say "(run without --reuse-pass to check again)"
@@ -89,6 +105,10 @@ cleanup() {
   local rc=$?
   trap - EXIT INT TERM
   local m
+  if [ -n "$logs_dir" ]; then
+    mkdir -p "$logs_dir"
+    for m in main.log test.log; do [ -f "$work/$m" ] && cp "$work/$m" "$logs_dir/$m"; done
+  fi
   for ((i = ${#mounted[@]} - 1; i >= 0; i--)); do
     m=${mounted[$i]}
     umount -R "$m" 2>/dev/null || umount -lR "$m" 2>/dev/null || true
