@@ -1,5 +1,5 @@
 #!/bin/bash
-# The measurements of BENCHMARKS.md, "Fitter (issue 11 items 1-3)": every shipped point-lit
+# The measurements of BENCHMARKS.md, "Fitter: iterations and starts": every shipped point-lit
 # Cycles reference and the MERL materials under the key light (rendered here from
 # ../shared/brdf-data when it is present), fitted with the staged Ceres solve (before) and the
 # bounded LM (after), one start, the default starts and 16 starts. Writes TSVs (bench/fit_table.py

@@ -3,7 +3,7 @@
 tab-separated row per reference: name, model, final cost, iterations, solve seconds (the solves
 alone, `solver.solve_seconds`), Fit() seconds, termination.
 
-Used for BENCHMARKS.md ("Fitter (issue 11 items 1-3)") and to write
+Used for BENCHMARKS.md ("Fitter: iterations and starts") and to write
 tests/fit/data/stored_costs.tsv (`--solver ceres` at the defaults of 28afb69: one start).
 
 Usage: /usr/bin/python3 bench/fit_table.py [--model ggx] [--shadefit build/studies/shadefit]

@@ -2,9 +2,9 @@
 //
 // Why a module: OpenImageIO 2.4 (Debian 12) pulls in 261 shared libraries (OpenCV's video I/O,
 // FFmpeg, GDAL, DCMTK, ...). Linked into shadefit they cost every process about 0.2 s of dynamic
-// linking before main() runs, more than a whole fit (BENCHMARKS.md, "GL frames and whole-process
-// fit"). Plain RGB(A) EXR files, what fits read, go through OpenEXR directly (image.cpp); every
-// other format and every write goes through here, with OpenImageIO's behaviour unchanged.
+// linking before main() runs, more than a whole fit (docs/rendering.md, "Start-up"). Plain
+// RGB(A) EXR files, what fits read, go through OpenEXR directly (image.cpp); every other format
+// and every write goes through here, with OpenImageIO's behaviour unchanged.
 //
 // Private to render/: one function table, the module's only exported symbol. Both sides are
 // built by this project with one compiler, so C++ types cross the boundary; no exception does.

@@ -143,7 +143,7 @@ TEST(PolishTest, ContinuesTheCoarseTrustRegion) {
 // gold-mirror60 46 iterations), curved kd-f0-roughness valleys where the joint Gauss-Newton step
 // of the bounded LM did (black-glossy-rim 154, black-glossy-camera 138, silver-mirror-camera 96;
 // the scipy peer: 357 evaluations on the first); variable projection makes those
-// one-dimensional (BENCHMARKS.md).
+// one-dimensional (BENCHMARKS.md at ea6bddd, in git).
 std::vector<std::string> PointLitReferences() {
   std::vector<std::string> names;
   for (const auto& entry : fs::directory_iterator(CyclesDir())) {

@@ -10,8 +10,8 @@ namespace shadefit::fit {
 // ~4096-pixel subsample and only those within 1% of the best are polished on all pixels, so
 // extra starts cost about a coarse fit each. 4, not 1: one start can end in a KKT point of the
 // box, not the optimum (measured, bounded LM, one start: black-glossy-mirror85 stops with every
-// specular scale on its floor at cost 3.7e6 against 1.5; BENCHMARKS.md, "Fitter (issue 11 items
-// 1-3)"), and the issue's MERL materials that stopped at the roughness floor with one start were
+// specular scale on its floor at cost 3.7e6 against 1.5; BENCHMARKS.md at 26b8abd, in git), and
+// the issue's MERL materials that stopped at the roughness floor with one start were
 // found with 4.
 inline constexpr int kDefaultStarts = 4;
 inline constexpr int kDefaultMaxIterations = 100;  // Per start.
