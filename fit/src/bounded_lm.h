@@ -23,9 +23,11 @@
 #pragma once
 
 #include <memory>
-#include <string>
+#include <string_view>
 #include <vector>
 
+#include "box_coordinates.h"
+#include "model_structure.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/gbuffer.h"
@@ -45,7 +47,7 @@ enum class JetLayout { kPerRow, kPerEntry };
 
 // The dot products of every lit sample of a problem's points, computed by the first pass over
 // the problem and reused by the next ones (every start, the polish and its start cost, the
-// uncertainty); bounded_lm.cpp. Shared by copies of the problem, and recomputed when its spans
+// uncertainty); lm_geometry.cpp. Shared by copies of the problem, and recomputed when its spans
 // differ from those it was computed for.
 struct GeometryCache;
 std::shared_ptr<GeometryCache> NewGeometryCache();
@@ -73,24 +75,6 @@ inline bool ProjectionApplies(Loss loss, bool exposure_free) {
   return loss == Loss::kL2 && !exposure_free;
 }
 
-// Whether every output channel of the model depends on the same channel of its colour rows
-// only (kd.r acts on red alone, ...): true for every model that does not mix its colours.
-bool ChannelSeparable(ModelId model);
-
-// The table row each of the model's three terms (Diffuse, Fresnel, Lobe; models.h) reads, -1
-// for none; `single` is false when one of them reads two rows or more. Where every term reads
-// one row at most (ggx: kd, f0, roughness), the Jacobian pass shades each term with a one-slot
-// Jet and adds its derivative into that row's slot.
-struct TermRows {
-  bool single = false;
-  int diffuse = -1, fresnel = -1, lobe = -1;
-};
-const TermRows& RowsOfTerms(ModelId model);
-
-// Per flattened entry: whether the model's radiance is affine in it, jointly with the other
-// entries marked (ggx: kd and f0; not roughness).
-std::vector<bool> LinearEntries(ModelId model);
-
 struct BoundedLmOptions {
   int max_iterations = 100;
   double function_tolerance = 1e-9;   // |delta cost| <= tol * cost on an accepted step.
@@ -99,27 +83,36 @@ struct BoundedLmOptions {
   // > 0: the trust radius to start from (a polish continues where the coarse solve's region
   // ended, MultiStart); else kInitialRadiusFactor x |D y|.
   double initial_radius = 0;
+  bool trace = false;  // One line per step on stdout (SHADEFIT_FIT_TRACE, multistart.cpp).
 };
+
+// Why a solve stopped: Ceres' termination type and message in one value.
+enum class LmTermination {
+  kMaxIterations,
+  kGradientTolerance,       // max |y - P(y - g)| <= gradient_tolerance.
+  kEveryUnknownOnBound,     // Every unknown held on a bound, gradient outwards: a KKT point.
+  kTrustRegionTolerance,    // The trust radius fell below the parameter tolerance.
+  kParameterTolerance,      // The projected step fell below it.
+  kPredictedReduction,      // The Gauss-Newton step predicts less than the function tolerance.
+  kFunctionTolerance,       // An accepted step gained less than it.
+  kNonFiniteStart,          // Non-finite cost at the start point: the solve failed.
+  kNonFiniteJacobian,       // Non-finite normal equations at an accepted point.
+};
+// The message a solve's record carries ("gradient tolerance reached", ...).
+std::string_view LmTerminationMessage(LmTermination termination);
 
 struct BoundedLmSummary {
   double initial_cost = 0, final_cost = 0;
   int iterations = 0;  // Steps computed, accepted or not (as Ceres counts them).
-  bool converged = false;
-  bool failed = false;  // Non-finite cost at the start point.
-  std::string message;
+  LmTermination termination = LmTermination::kMaxIterations;
   long residual_evaluations = 0, jacobian_evaluations = 0;
   double final_radius = 0;  // The trust radius at the end (0 when it failed at the start).
+
+  // A tolerance was met (Ceres' CONVERGENCE).
+  bool converged() const;
+  // No step was possible (Ceres' FAILURE).
+  bool failed() const { return termination == LmTermination::kNonFiniteStart; }
 };
-
-// Box coordinates y of internal u (fixed entries: their u, unused) and back.
-std::vector<double> BoxOfInternal(const Parametrization& param, const std::vector<double>& u);
-std::vector<double> InternalOfBox(const Parametrization& param, const std::vector<double>& y);
-
-// d y_i / d u_i of entry i at internal u (0 for fixed entries): the chain factor from the
-// bounded LM's coordinates to the sine transform's.
-double BoxDerivative(const Parametrization& param, int i, double u);
-// d y_i / d s_i, s = sin u the fraction of the box: finite on the bounds too.
-double FractionDerivative(const Parametrization& param, int i, double u);
 
 // 0.5 * sum r^2 at (y, e); NaN when a residual is not finite.
 double BoundedLmCost(const BoundedLmProblem& problem, const std::vector<double>& y, double e);
@@ -143,7 +136,7 @@ bool BoundedLmShiftedNormalEquations(const BoundedLmProblem& problem, const std:
                                      double e, const std::vector<double>& delta, double* cost,
                                      std::vector<double>* g, std::vector<double>* h);
 
-// Minimises from (y, e); leaves the end point there.
+// Minimises from (y, e); leaves the end point there (bounded_lm.cpp: the minimiser's steps).
 BoundedLmSummary SolveBoundedLm(const BoundedLmProblem& problem, const BoundedLmOptions& options,
                                 std::vector<double>* y, double* e);
 

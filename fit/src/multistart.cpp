@@ -11,8 +11,11 @@
 namespace shadefit::fit::internal {
 namespace {
 
-// SHADEFIT_FIT_TRACE=1 prints Ceres' per-iteration table and, after each iteration, the natural
-// parameters (debugging aid).
+// SHADEFIT_FIT_TRACE=1 (a debugging aid, read here only): the Ceres path prints its
+// per-iteration table and, after each iteration, the natural parameters; the bounded LM one line
+// per step (BoundedLmOptions::trace).
+bool TraceRequested() { return std::getenv("SHADEFIT_FIT_TRACE") != nullptr; }
+
 class TraceCallback : public ceres::IterationCallback {
  public:
   TraceCallback(const std::vector<double>* u, const Parametrization* param)
@@ -40,7 +43,7 @@ ceres::Solver::Options SolverOptions(const FitOptions& options, int threads,
   solver_options.gradient_tolerance = options.gradient_tolerance;
   solver_options.parameter_tolerance = options.parameter_tolerance;
   solver_options.num_threads = threads;
-  const bool trace = std::getenv("SHADEFIT_FIT_TRACE") != nullptr;
+  const bool trace = TraceRequested();
   solver_options.logging_type = trace ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = trace;
   if (trace) {
@@ -88,6 +91,7 @@ BoundedLmOptions LmOptions(const FitOptions& options) {
   o.function_tolerance = options.function_tolerance;
   o.gradient_tolerance = options.gradient_tolerance;
   o.parameter_tolerance = options.parameter_tolerance;
+  o.trace = TraceRequested();
   return o;
 }
 
@@ -182,10 +186,10 @@ Outcome MultiStart::SolveFrom(bool coarse, double initial_radius) {
     p_.log_exposure[0] = e;
     o.initial_cost = s.initial_cost;
     o.final_cost = s.final_cost;
-    o.termination = s.failed      ? ceres::FAILURE
-                    : s.converged ? ceres::CONVERGENCE
-                                  : ceres::NO_CONVERGENCE;
-    o.message = s.message;
+    o.termination = s.failed()      ? ceres::FAILURE
+                    : s.converged() ? ceres::CONVERGENCE
+                                    : ceres::NO_CONVERGENCE;
+    o.message = std::string(LmTerminationMessage(s.termination));
     o.iterations = s.iterations;
     return o;
   }

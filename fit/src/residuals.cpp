@@ -39,9 +39,9 @@ constexpr bool kBroadLobeStarts = true;
 
 }  // namespace
 
-bool FittedInLogSpace(const ParamSpec& spec) {
-  // Besides the table's log rows (shininess, classic ks), two kinds of rows that act
-  // multiplicatively on the image are fitted in log space:
+LogSpace LogSpaceOf(const ParamSpec& spec) {
+  // The sine path: besides the table's log rows (shininess, classic ks), two kinds of rows that
+  // act multiplicatively on the image are fitted in log space:
   //  - roughness: the lobe's peak scales like 1 / alpha^2 = 1 / roughness^4, so the image
   //    responds to relative, not absolute, changes; a step in log space means the same at 0.05
   //    as at 0.9 and Gauss-Newton stops overshooting to the lower bound;
@@ -50,7 +50,17 @@ bool FittedInLogSpace(const ParamSpec& spec) {
   //    roughness (or shininess) derivative vanishes and the fit is stranded (measured on the
   //    synthetic GGX recovery set: 60 iterations or a wrong minimum; in log space: ~20).
   // The model tables mark those rows kMultiplicative (render/models/<name>.glsl).
-  return spec.log_scale || (spec.roles & kMultiplicative) != 0;
+  // The bounded LM holds its bounds by an active set instead, so a specular scale on its floor
+  // is released as soon as its gradient turns, and the image is linear in f0 and in the
+  // normalised ks (Schlick's F, the lobe's scale): in p the Gauss-Newton model of them is
+  // exact, in log p it is not, and a valley along f0 and kd was followed at ~1% per step
+  // (black-glossy-rim: cost 0.13 after 200 iterations in log f0). So it keeps only the widths
+  // (roughness: the peak goes as 1 / roughness^4) and the table's log rows (shininess, classic
+  // ks, spanning decades) in log space.
+  LogSpace out;
+  out.sine = spec.log_scale || (spec.roles & kMultiplicative) != 0;
+  out.bounded_lm = out.sine && (spec.log_scale || (spec.roles & kWidthParam) != 0);
+  return out;
 }
 
 double LogFloor(const ParamSpec& spec) {
@@ -74,7 +84,9 @@ Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::
     const ParamSpec& spec = model.SpecOfEntry(i);
     EntryMap e;
     e.name = model.EntryName(i);
-    e.log = FittedInLogSpace(spec);
+    const LogSpace log_space = LogSpaceOf(spec);
+    e.log = log_space.sine;
+    e.lm_log = log_space.bounded_lm;
     if (e.log) {
       e.lower = std::log(LogFloor(spec));
       e.upper = std::log(spec.max);

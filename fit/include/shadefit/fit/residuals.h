@@ -35,7 +35,13 @@ namespace shadefit::fit {
 //   other rows: y = p in [min, max] (colours [0, 1], metallic, ior, ...).
 struct EntryMap {
   std::string name;
+  // Coordinates of the two solvers, both set by one rule (LogSpaceOf, residuals.cpp): the sine
+  // path works on log p where `log` (lower and upper are then logs); the bounded LM on log p
+  // where `lm_log` (a subset of `log`), else on p itself, which for a `log` entry lies in
+  // [exp(lower), exp(upper)] (LmLinearOfLog).
   bool log = false;
+  bool lm_log = false;
+  bool LmLinearOfLog() const { return log && !lm_log; }
   double lower = 0, upper = 1;              // Box of y (p or log p).
   double start_lower = 0, start_upper = 1;  // Box the multi-start samples y from.
   double default_u = 0;
@@ -43,8 +49,13 @@ struct EntryMap {
   double fixed_value = 0;                   // Natural units; used instead of u when fixed.
 };
 
-// log_scale rows, roughness and specular scales (see residuals.cpp for why).
-bool FittedInLogSpace(const ParamSpec& spec);
+// Which solver works on log p for a row (residuals.cpp says why): the sine path for log_scale
+// rows, roughness and specular scales; the bounded LM for log_scale rows and widths only.
+struct LogSpace {
+  bool sine = false;
+  bool bounded_lm = false;
+};
+LogSpace LogSpaceOf(const ParamSpec& spec);
 
 // Log rows whose table minimum is 0 get a natural floor (log(0) is -inf): classic ks 1e-6;
 // f0 and normalised ks 1e-4 (no real material has F0 below 0.02; 1e-4 is "no specular").

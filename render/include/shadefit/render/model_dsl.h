@@ -41,7 +41,7 @@ inline constexpr unsigned kSpecularParam = 1u << 1;  // 1 makes the specular ter
 inline constexpr unsigned kWidthParam = 1u << 2;     // The lobe width (roughness, shininess).
 inline constexpr unsigned kLogScale = 1u << 3;       // Spans decades: fitted in log space.
 // Acts multiplicatively on the image (a lobe width, a specular scale): fitted in log space
-// although its range is linear (fit/src/residuals.cpp, FittedInLogSpace, says why).
+// although its range is linear (fit/src/residuals.cpp, LogSpaceOf, says why).
 inline constexpr unsigned kMultiplicative = 1u << 4;
 
 // One row of a model's parameter table (as the `[type name min max default]` blocks of the Disney
