@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Whether two runs of a study found the same things: compares every result file of BEFORE and
+# AFTER (two output folders of `shadefit study run`, e.g. from two builds, to check that a
+# restructuring changed no result; docs/solver.md). Left out, as in the determinism tests: what
+# records when, where or how a run ran (study.log, provenance.json, timings.csv, shards/, the
+# jobs' .timing.json, the references' .key cache keys, which hash the build). In the other
+# files, lines naming the output folder are compared with it replaced, and lines that carry a
+# build's version, a duration, or a hash over files that hold one (a reference's sidecar records
+# its render time) are left out. Prints each differing file;
+# exits 1 if there is one.
+#   bash scripts/same-results.sh BEFORE AFTER
+set -euo pipefail
+a=${1:?usage: same-results.sh BEFORE AFTER}
+b=${2:?usage: same-results.sh BEFORE AFTER}
+for d in "$a" "$b"; do [ -d "$d" ] || { echo "same-results: error: $d: not a folder" >&2; exit 2; }; done
+a=$(cd "$a" && pwd); b=$(cd "$b" && pwd)
+not_results='(^|/)(study\.log|provenance\.json|timings\.csv)$|(^|/)shards/|\.timing\.json$|\.key$'
+normalise() {
+  sed -e "s#$2#OUT#g" "$1" |
+    grep -Ev 'shadefit_version|git_revision|version&quot;: &quot;[0-9]|shadefit [0-9]+\.[0-9]+\.[0-9]+\+|_seconds"|"sha256"|"hash"' || true
+}
+differ=0 compared=0
+while IFS= read -r rel; do
+  compared=$((compared + 1))
+  if [ ! -f "$b/$rel" ]; then echo "only in $a: $rel"; differ=$((differ + 1)); continue; fi
+  case "$rel" in
+    *.json | *.csv | *.md | *.tex | *.html | *.tsv | *.txt | *.toml)
+      cmp -s <(normalise "$a/$rel" "$a") <(normalise "$b/$rel" "$b") ||
+        { echo "differs: $rel"; differ=$((differ + 1)); } ;;
+    *) cmp -s "$a/$rel" "$b/$rel" || { echo "differs: $rel"; differ=$((differ + 1)); } ;;
+  esac
+done < <(cd "$a" && find . -type f ! -name '.*' | sed 's|^\./||' | grep -Ev "$not_results" | sort)
+while IFS= read -r rel; do
+  [ -f "$a/$rel" ] || { echo "only in $b: $rel"; differ=$((differ + 1)); }
+done < <(cd "$b" && find . -type f ! -name '.*' | sed 's|^\./||' | grep -Ev "$not_results" | sort)
+echo "same-results: $compared files compared, $differ differ"
+[ "$differ" -eq 0 ]
