@@ -74,7 +74,7 @@ def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=
                     for rel in images.values():
                         write_png(os.path.join(d, rel))
                 evaluations.append({"lighting": l, "split": split, "images": images,
-                                    "measured_fraction": 0.5})
+                                    "metrics": {}, "measured_fraction": 0.5})
                 e = errors[f["label"]][i]
                 row = {"material": m, "lighting": l, "label": f["label"], "split": split,
                        "converged": "1", "rmse": f"{e / 10:.17g}", "relative_rmse": f"{e:.17g}",
@@ -85,7 +85,10 @@ def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=
                 rows.append(row)
             write_json(os.path.join(d, "jobs", f"fit.{m}.{f['model']}.key.json"),
                        {"kind": "fit", "material": m, "label": f["label"], "model": f["model"],
-                        "parameters": [{"name": "kd", "value": 0.2, "std_error": 0.01}],
+                        "train": f["train"],
+                        "parameters": [{"name": "kd", "value": 0.2, "std_error": 0.01,
+                                        "fixed": False, "at_bound": False,
+                                        "undetermined": False}],
                         "evaluations": evaluations, "exposure": 0.0, "converged": True,
                         "termination": "CONVERGENCE"})
     with open(os.path.join(d, "results.csv"), "w", newline="", encoding="utf-8") as fh:

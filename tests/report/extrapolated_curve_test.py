@@ -14,7 +14,7 @@ import sys
 
 def main(argv):
     sys.path.insert(0, argv[1])
-    import report_figures as rf  # noqa: E402
+    import report_probe_figures as rf  # noqa: E402
 
     xs = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 80.0, 85.0]
     ys = [1.0, 1.02, 1.1, 1.3, 1.9, 3.2, 4.1, 5.0]

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Image grids that fit the data (issue 33, item 4; docs/studies.md, "Report"): a photograph set
 of 612 x 512 frames under 40 lightings, written here as result files (previews and job records,
-fixed values), drawn by report_figures.image_grid. The grid must
+fixed values), drawn by report_grids.image_grid. The grid must
 - be one figure under 3000 px tall (at most GRID_MAX_ROWS rows: the training lightings and the
   test lightings with the lowest and the highest error, which the test knows from its own numbers),
 - keep the pixel aspect ratio: the ball, a disc in every frame, is round in the PNG (its width
@@ -106,14 +106,14 @@ def discs(png, colour, tol=0.12):
     return out
 
 
-def check(report_figures, out, name, labels, fit_ground, min_fill):
+def check(report_grids, out, name, labels, fit_ground, min_fill):
     """Draws the grid of one synthetic set; returns its problems."""
     import matplotlib.image as mpimg
     d = os.path.join(out, name)
     shutil.rmtree(d, ignore_errors=True)
     study, fits, tests = write_set(d, labels, fit_ground)
     manifest = []
-    report_figures.image_grid(d, study, fits, "ball", os.path.join(d, "figures"), manifest)
+    report_grids.image_grid(d, study, fits, "ball", os.path.join(d, "figures"), manifest)
     failures = []
     if len(manifest) != 1:
         return [f"{len(manifest)} grid figures, want 1"]
@@ -124,8 +124,8 @@ def check(report_figures, out, name, labels, fit_ground, min_fill):
     if height >= 3000:
         failures.append(f"the grid is {height} px tall, want under 3000")
     rows = fig["lightings"]
-    if len(rows) > report_figures.GRID_MAX_ROWS:
-        failures.append(f"{len(rows)} rows, want at most {report_figures.GRID_MAX_ROWS}")
+    if len(rows) > report_grids.GRID_MAX_ROWS:
+        failures.append(f"{len(rows)} rows, want at most {report_grids.GRID_MAX_ROWS}")
     missing = [l for l in TRAIN if l not in rows]
     if missing:
         failures.append(f"training lightings {missing} not in the grid")
@@ -170,14 +170,14 @@ def check(report_figures, out, name, labels, fit_ground, min_fill):
 def main(argv):
     report_src, out = argv[1], os.path.abspath(argv[2])
     sys.path.insert(0, report_src)
-    import report_figures  # noqa: E402
+    import report_grids  # noqa: E402
     # The ball alone (fits rendered over black): cropped to it, two fits.
-    failures = check(report_figures, out, "ball", LABELS, 0.0, 0.8)
+    failures = check(report_grids, out, "ball", LABELS, 0.0, 0.8)
     # A backdrop filling the frame (a plane would): the whole 612 x 512 frame is the object, so
     # only the aspect ratio keeps the disc round (a square tile draws it 0.84 as wide as tall);
     # one fit, whose wide columns would make 12 rows 3900 px tall without the page's limit. The
     # disc spans 220 of 612 px: 0.36 of the tile.
-    failures += check(report_figures, out, "backdrop", LABELS[:1], 0.1, 0.3)
+    failures += check(report_grids, out, "backdrop", LABELS[:1], 0.1, 0.3)
     for f in failures:
         print("FAILED: " + f)
     return 1 if failures else 0

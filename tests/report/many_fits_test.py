@@ -105,7 +105,7 @@ def write_study(d, shape):
                 base = os.path.join("images", f"{m}-{l}.{f['label']}")
                 write_png(os.path.join(d, base + ".png"), 0.6)
                 write_png(os.path.join(d, base + ".error.png"), 0.3)
-                evaluations.append({"lighting": l, "split": split, "images": {
+                evaluations.append({"lighting": l, "split": split, "metrics": {}, "images": {
                     "reference": f"images/{m}-ref.png", "fit": base + ".png",
                     "error": base + ".error.png", "error_scale": 0.05}})
                 rows.append({"material": m, "lighting": l, "label": f["label"], "split": split,
@@ -115,15 +115,17 @@ def write_study(d, shape):
                              "flip_ldr_mean": f"{rng.uniform(0.01, 0.6):.4f}",
                              "flip_hdr_mean": "0.2"})
             axes = CHART_AXES.get(f["model"])
-            params = [{"name": "kd", "value": 0.2, "std_error": 0.01}]
+            flags = {"fixed": False, "at_bound": False, "undetermined": False}
+            params = [{"name": "kd", "value": 0.2, "std_error": 0.01, **flags}]
             if axes:
                 # Some fits beyond the chart's range: they are marked at its edge.
                 for (name, values, _) in axes:
                     v = float(rng.uniform(values[0], values[-1] * 1.3))
-                    params.append({"name": name, "value": v, "std_error": 0.01})
+                    params.append({"name": name, "value": v, "std_error": 0.01, **flags})
             write_json(os.path.join(d, "jobs", f"fit.{m}.{f['model']}.{'+'.join(f['train'])}.json"),
                        {"kind": "fit", "material": m, "label": f["label"], "model": f["model"],
-                        "parameters": params, "evaluations": evaluations, "exposure": 0.0,
+                        "train": f["train"], "parameters": params, "evaluations": evaluations,
+                        "exposure": 0.0,
                         "converged": True, "termination": "CONVERGENCE"})
     with open(os.path.join(d, "results.csv"), "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))

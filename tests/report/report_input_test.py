@@ -64,24 +64,25 @@ CASES = [
      "study.json", "not JSON"),
     ("study.json without fits", lambda d: edit_json(os.path.join(d, "study.json"),
                                                      lambda j: j.pop("fits")),
-     "study.json", "fits: missing"),
+     "study.json", "field 'fits': missing"),
     ("unknown verdict kind", lambda d: edit_json(
         os.path.join(d, "study.json"),
         lambda j: next(iter(j["verdicts"].values())).update(kind="median")),
-     "study.json", ".kind: unknown kind 'median'"),
+     "study.json", ".kind': expected 'relative' or 'absolute' or 'max', got 'median'"),
     ("results.csv without a metric column",
      lambda d: drop_column(os.path.join(d, "results.csv"), "flip_ldr_mean"),
-     "results.csv", "column flip_ldr_mean: missing"),
+     "results.csv", "column 'flip_ldr_mean': missing"),
     ("fit job without parameters", lambda d: edit_json(
         os.path.join(d, "jobs", first_fit_job(d)), lambda j: j.pop("parameters")),
-     "jobs/fit.", "parameters: missing"),
+     "jobs/fit.", "field 'parameters': missing"),
     ("probe result of an older shadefit", lambda d: edit_json(
         os.path.join(d, "jobs", first_probe_job(d)), old_curves),
-     "jobs/probe.", "probes.fresnel.schema: want shadefit.probe/3"),
+     "jobs/probe.",
+     "field 'probes.fresnel.schema': missing (written by an older shadefit: run the study"),
     ("probe curve without a kind", lambda d: edit_json(
         os.path.join(d, "jobs", first_probe_job(d)),
         lambda j: j["probes"]["fresnel"]["curves"][0].pop("kind")),
-     "jobs/probe.", "probes.fresnel.curves[0].kind: missing"),
+     "jobs/probe.", "field 'probes.fresnel.curves[0].kind': missing"),
     ("chart manifest with a short row", lambda d: edit_json(
         os.path.join(d, "charts", "charts.json"), lambda j: j["charts"][0]["images"][0].pop()),
      "charts/charts.json", "charts[0].images"),

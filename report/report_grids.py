@@ -1,0 +1,310 @@
+"""Image grids: per material, the reference, each fit and its error map per lighting, cropped
+to the object (docs/studies.md, "Figures")."""
+
+import math
+import os
+
+import numpy as np
+
+from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, linear_to_srgb, matplotlib, plt,
+                            read_rgb, save_figure, srgb_to_linear, wrap_to_width)
+
+
+def row_exposure(reference_rgb):
+    """Whole stops that bring a dim reference's bright pixels (99th percentile of the lit ones)
+    up to mid-grey-to-white; 0 for lightings that already read. At most +6."""
+    lin = srgb_to_linear(reference_rgb).mean(axis=2)
+    lit = lin[lin > 1e-4]
+    if lit.size == 0:
+        return 0
+    p99 = float(np.percentile(lit, 99))
+    if p99 >= 0.25:
+        return 0
+    return int(min(6, max(0, np.floor(np.log2(0.6 / max(p99, 1e-6))))))
+
+
+def exposed(rgb, stops):
+    return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(rgb) * 2.0 ** stops)
+
+
+# 7 in page gives each image ~0.5 in. More fits split the grid into parts, one per training set
+# (chunks of at most this many where a training set holds more).
+GRID_MAX_FITS = 5
+
+
+def grid_parts(study, labels):
+    """[(suffix, labels)]: one part, suffix "", when the labels fit one figure; else one part per
+    training set in study order, suffix "-<training set>" ("-key+mirror60"), and "-<k>" after it
+    when a training set is chunked."""
+    if len(labels) <= GRID_MAX_FITS:
+        return [("", labels)]
+    train = {f["label"]: "+".join(f.get("train") or []) for f in study["fits"]}
+    groups = {}
+    for l in labels:
+        groups.setdefault(train.get(l, ""), []).append(l)
+    parts = []
+    for t, ls in groups.items():
+        chunks = [ls[i:i + GRID_MAX_FITS] for i in range(0, len(ls), GRID_MAX_FITS)]
+        for k, chunk in enumerate(chunks):
+            suffix = (f"-{t}" if t else "") + (f"-{k + 1}" if len(chunks) > 1 or not t else "")
+            parts.append((suffix, chunk))
+    return parts
+
+
+def common_at_suffix(labels):
+    """The "@..." ending every label shares ("@key+mirror60"), or "" (then titles keep it)."""
+    ends = {l[l.rfind("@"):] if "@" in l else "" for l in labels}
+    return ends.pop() if len(ends) == 1 and len(labels) > 1 else ""
+
+
+def image_grid(study_dir, study, fits, material, fig_dir, manifest):
+    """Rows = lightings (a chosen subset of many: grid_lightings); columns = reference, each fit,
+    each fit's error map, cropped to the object (grid_crop); one colour bar per row (the error
+    maps of a reference share their range) with its ticks in radiance units.
+    More fits than GRID_MAX_FITS: one figure per training set (grid_parts), each named in
+    figures.json with its material and part, so the page and report.tex show every part."""
+    labels = [f["label"] for f in study["fits"] if (material, f["label"]) in fits]
+    if not labels:
+        return
+    parts = grid_parts(study, labels)
+    for k, (suffix, part) in enumerate(parts):
+        heading = ""
+        if len(parts) > 1:
+            train = next((f.get("train") for f in study["fits"] if f["label"] == part[0]), None)
+            heading = f"part {k + 1} of {len(parts)}" + (
+                f": fits trained on {', '.join(train)}" if train else "")
+        fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading)
+        save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
+                    {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
+                     "fits": part, "lightings": rows})
+
+
+# Rows of one grid figure: past this many lightings the figure shows a chosen subset (the
+# training lightings and the test lightings with the lowest and highest error); the HTML viewer
+# keeps every lighting.
+GRID_MAX_ROWS = 12
+# The tallest grid figure: a printed page's text height (7 x 9 in), so a grid of many lightings
+# shrinks its tiles rather than run over the page.
+GRID_MAX_HEIGHT_IN = 9.0
+# Around the object's bounds, a share of its larger side (at least 2 px).
+GRID_CROP_MARGIN = 0.06
+
+
+def lighting_error(evals, labels, light):
+    """The mean relative RMSE of the fits in `labels` under `light` (None where none has one)."""
+    values = []
+    for l in labels:
+        v = (evals[l].get(light, {}).get("metrics") or {}).get("relative_rmse")
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            values.append(float(v))
+    return sum(values) / len(values) if values else None
+
+
+def grid_lightings(evals, labels, lightings, max_rows=GRID_MAX_ROWS):
+    """(rows, note): the lightings a grid shows, and a caption note ("" when it shows all). With
+    more than max_rows: the training lightings of any fit in `labels` (in study order; at most
+    max_rows - 2 of them), then the test lightings with the lowest and the highest error
+    (lighting_error), half the remaining rows each, lowest first; tests without an error fill
+    from the study order."""
+    if len(lightings) <= max_rows:
+        return list(lightings), ""
+    train = [x for x in lightings
+             if any(evals[l].get(x, {}).get("split") == "train" for l in labels)]
+    train = train[:max(0, max_rows - 2)]
+    tests = [x for x in lightings if x not in train]
+    known = sorted((e, i, x) for i, x in enumerate(tests)
+                   if (e := lighting_error(evals, labels, x)) is not None)
+    by_error = [x for _, _, x in known]
+    free = max_rows - len(train)
+    low_n = (free + 1) // 2
+    low, high = by_error[:low_n], by_error[low_n:][-(free - low_n):] if free > low_n else []
+    chosen = low + [x for x in high if x not in low]
+    for x in tests:  # Tests without numbers, when too few have one.
+        if len(chosen) >= free:
+            break
+        if x not in chosen:
+            chosen.append(x)
+    note = (f"rows: {len(train)} training and {len(chosen)} of {len(tests)} test lightings "
+            f"(the {len(low)} with the lowest and {len(chosen) - len(low)} with the highest mean "
+            f"relative RMSE, lowest first); the HTML viewer shows all {len(lightings)}")
+    return train + chosen, note
+
+
+def object_box(images, threshold=1.5 / 255):
+    """(x0, y0, x1, y1), half-open pixel bounds of the pixels brighter than `threshold` in any of
+    `images` (display RGB of one size), grown by GRID_CROP_MARGIN of the larger side and clipped
+    to the frame; None when no pixel is. The fits' previews are renders composited over black, so
+    their bright pixels are the object's (a photograph's background is not black: the reference
+    preview alone cannot say where the object is)."""
+    lit = None
+    for img in images:
+        m = img[..., :3].max(axis=2) > threshold
+        lit = m if lit is None else (lit | m if lit.shape == m.shape else lit)
+    if lit is None or not lit.any():
+        return None
+    ys, xs = np.nonzero(lit)
+    x0, x1, y0, y1 = int(xs.min()), int(xs.max()) + 1, int(ys.min()), int(ys.max()) + 1
+    pad = max(2, int(math.ceil(GRID_CROP_MARGIN * max(x1 - x0, y1 - y0))))
+    h, w = lit.shape
+    return max(0, x0 - pad), max(0, y0 - pad), min(w, x1 + pad), min(h, y1 + pad)
+
+
+def grid_crop(study_dir, evals, labels, rows):
+    """The crop box of a grid (object_box over every fit preview of its rows; the reference
+    previews when there is no fit preview) and the frame's size (w, h); (None, None) when no
+    preview can be read."""
+    def previews(key, only_labels):
+        for light in rows:
+            for l in only_labels:
+                rel = evals[l].get(light, {}).get("images", {}).get(key)
+                if rel and os.path.exists(os.path.join(study_dir, rel)):
+                    yield read_rgb(os.path.join(study_dir, rel))
+
+    for key, ls in (("fit", labels), ("reference", labels[:1])):
+        frame, lit = None, []
+        for img in previews(key, ls):
+            frame = frame or (img.shape[1], img.shape[0])
+            if (img.shape[1], img.shape[0]) == frame:
+                lit.append(img[..., :3].max(axis=2, keepdims=True))  # one channel: less memory
+        if frame is not None:
+            return object_box(lit) or (0, 0, frame[0], frame[1]), frame
+    return None, None
+
+
+def grid_figure(study_dir, study, fits, material, labels, heading):
+    """One grid figure over `labels`, and its caption; `heading` (a split grid's part) goes above
+    the column titles and into the caption. Every frame is cropped to the object's bounds
+    (grid_crop) and keeps its pixel aspect ratio; many lightings show a subset (grid_lightings)."""
+    evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
+    all_lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
+                     for r in g["references"]]
+    lightings, rows_note = grid_lightings(evals, labels, all_lightings)
+    box, frame = grid_crop(study_dir, evals, labels, lightings)
+    aspect = (box[3] - box[1]) / (box[2] - box[0]) if box else 1.0  # tile height / width
+    ncols = 1 + 2 * len(labels)
+    left_in, bar_in, right_in = 0.42, 0.08, 0.52  # Row labels; colour bar; its ticks and label.
+    gap_in = 0.03
+    cell_w = (PAGE_IN - left_in - bar_in - right_in - gap_in * (ncols + 1)) / ncols
+    # A training set every fit of the figure shares is said once, in the heading.
+    common = common_at_suffix(labels) if heading else ""
+    short = [l[:len(l) - len(common)] if common else l for l in labels]
+    if common:
+        heading += f" (labels end in {common})"
+    heading_in = (FONT_PT * 1.3 + 4) / 72 if heading else 0.0
+
+    def titles_for(width):  # Column titles wrapped to the column, measured.
+        return ["reference"] + [wrap_to_width(l, width, FONT_PT - 1) for l in short] + \
+            [wrap_to_width(f"|error| {l}", width, FONT_PT - 1) for l in short]
+
+    titles = titles_for(cell_w)
+    title_lines = max(t.count("\n") + 1 for t in titles)
+    top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08 + heading_in
+    bottom_in = 0.02
+    # The tiles' height follows the crop's aspect; a figure taller than the page shrinks them
+    # (the figure stays PAGE_IN wide, the tiles start at the left).
+    cell_h = cell_w * aspect
+    max_cell_h = (GRID_MAX_HEIGHT_IN - top_in - bottom_in) / len(lightings) - gap_in
+    if cell_h > max_cell_h:
+        cell_h = max_cell_h
+        cell_w = cell_h / aspect
+        titles = titles_for(cell_w)
+        title_lines = max(t.count("\n") + 1 for t in titles)
+        top_in = title_lines * (FONT_PT - 1) * 1.25 / 72 + 0.08 + heading_in
+    height = top_in + bottom_in + len(lightings) * (cell_h + gap_in)
+    # Shrunk tiles leave the page's width: centre the grid on it (row labels to colour bar).
+    left_in += max(0.0, PAGE_IN - bar_in - right_in - gap_in - ncols * (cell_w + gap_in)
+                   - left_in) / 2
+    bar_x = left_in + gap_in + ncols * (cell_w + gap_in)  # where the last tile's gap ends
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    fx = lambda inch: inch / PAGE_IN  # noqa: E731
+    fy = lambda inch: inch / height  # noqa: E731
+    # Every tile is an image of one axes spanning the figure, in inches: one axes per tile (up to
+    # 77 in the measured study) made building a grid take ~2 s, most of the report's time.
+    tiles = fig.add_axes([0, 0, 1, 1])
+    tiles.set_axis_off()
+    tiles.set_xticks([])
+    tiles.set_yticks([])
+    if heading:
+        fig.text(fx(left_in + gap_in), fy(height - 0.03), f"{material}, {heading}", ha="left",
+                 va="top", fontsize=FONT_PT)
+
+    def cropped(img):
+        if box is None:
+            return img
+        if frame is not None and img.shape[1] > frame[0]:
+            # The error PNG carries its own small bar right of the frame: keep the frame; the
+            # row's bar is drawn here, readable in print.
+            img = img[:, :frame[0]]
+        if (img.shape[1], img.shape[0]) != frame:
+            return img
+        return img[box[1]:box[3], box[0]:box[2]]
+
+    exposures = []
+    for i, light in enumerate(lightings):
+        y0 = height - top_in - (i + 1) * (cell_h + gap_in) + gap_in
+        first = evals[labels[0]].get(light, {}).get("images", {})
+        ref_path = os.path.join(study_dir, first["reference"]) if first.get("reference") else None
+        ref = read_rgb(ref_path) if ref_path and os.path.exists(ref_path) else None
+        stops = row_exposure(cropped(ref)) if ref is not None else 0
+        exposures.append((light, stops))
+        panels = [("reference", first.get("reference"), False)]
+        panels += [(l, evals[l].get(light, {}).get("images", {}).get("fit"), False) for l in labels]
+        panels += [(f"|error| {l}", evals[l].get(light, {}).get("images", {}).get("error"), True)
+                   for l in labels]
+        error_scale = None
+        for j, (title, rel, is_error) in enumerate(panels):
+            x0 = left_in + gap_in + j * (cell_w + gap_in)
+            if i == 0:
+                tiles.text(x0 + cell_w / 2, y0 + cell_h + 2 / 72, titles[j], ha="center",
+                           va="bottom", fontsize=FONT_PT - 1)
+            if not rel or not os.path.exists(os.path.join(study_dir, rel)):
+                tiles.text(x0 + cell_w / 2, y0 + cell_h / 2, "missing", ha="center", va="center")
+                continue
+            img = ref if j == 0 and ref is not None else read_rgb(os.path.join(study_dir, rel))
+            if is_error:
+                if frame is None:  # No preview to size it: keep the square image part.
+                    img = img[:, :img.shape[0]]
+                lab = labels[j - 1 - len(labels)]
+                error_scale = evals[lab].get(light, {}).get("images", {}).get("error_scale")
+                img = cropped(img)
+            else:
+                img = exposed(cropped(img), stops)
+            tiles.imshow(img, interpolation="nearest", aspect="auto",
+                         extent=(x0, x0 + cell_w, y0, y0 + cell_h))
+        split = next((evals[l].get(light, {}).get("split") for l in labels
+                      if evals[l].get(light, {}).get("split")), "")
+        row_label = light + (f"\n({split})" if split else "") + (f"\n+{stops} EV" if stops else "")
+        fig.text(fx(left_in - 0.02), fy(y0 + cell_h / 2), row_label, ha="right", va="center",
+                 fontsize=FONT_PT - 1)
+        if error_scale:
+            cax = fig.add_axes([fx(bar_x), fy(y0), fx(bar_in), fy(cell_h)])
+            sm = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, error_scale),
+                                              cmap="viridis")
+            cb = fig.colorbar(sm, cax=cax)
+            cb.set_ticks([0, error_scale / 2, error_scale])
+            cb.ax.set_yticklabels([f"{t:.2g}" for t in (0, error_scale / 2, error_scale)])
+            cb.ax.tick_params(labelsize=FONT_PT - 2, length=2, pad=1)
+            # The end labels stay inside the bar's height, clear of the next row's.
+            tl = cb.ax.get_yticklabels()
+            tl[0].set_verticalalignment("bottom")
+            tl[-1].set_verticalalignment("top")
+            cb.outline.set_linewidth(0.4)
+            if i == 0:
+                # Over the bars' column, which no column title reaches (titles are wrapped to
+                # their image's width).
+                fig.text(fx(bar_x), fy(y0 + cell_h + 0.03), UNITS_RADIANCE, ha="left",
+                         va="bottom", fontsize=FONT_PT - 2)
+    tiles.set_xlim(0, PAGE_IN)  # imshow widened the limits to its extents; inches again.
+    tiles.set_ylim(0, height)
+    dim = [f"{l} +{s} EV" for l, s in exposures if s]
+    crop_note = ""
+    if box is not None and frame is not None and (box[2] - box[0], box[3] - box[1]) != frame:
+        crop_note = (f"; frames cropped to the object ({box[2] - box[0]} x {box[3] - box[1]} of "
+                     f"{frame[0]} x {frame[1]} px)")
+    caption = (f"{material}" + (f", {heading}" if heading else "")
+               + ": reference, fits and |fit - reference| (mean RGB, linear radiance, "
+               f"colour bar in {UNITS_RADIANCE} shared by the fits of a row) per lighting; "
+               "images at the study's display exposure"
+               + (f", dim lightings brightened: {', '.join(dim)}" if dim else "") + crop_note
+               + (f"; {rows_note}" if rows_note else "") + ".")
+    return fig, caption, lightings

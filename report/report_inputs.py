@@ -1,0 +1,376 @@
+"""The report's inputs and their schema: every field the report reads from a study's result files
+(study.json, results.csv, jobs/*.json, provenance.json) is declared here once, with its type, and
+checked when the file is read, before the first output is written.
+
+A missing or mistyped field is a ReportInputError whose message is one line naming the file and
+the field (`<file>: field 'fits[0].label': expected string, got number`); make_report.py prints it
+and exits non-zero. Optional fields are the ones the runner legitimately leaves out (a fit without
+previews has no `images`; only a fitted encoding writes `encoding`; a metric with no lit pixel is
+null); readers take them with `.get(name)` and handle their absence, never with a default that
+hides a required field's absence.
+
+Writers: studies/runner/src/study.cpp (study.json), fit_job.cpp (fit jobs), probe_job.cpp and
+metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance.json).
+"""
+
+import csv
+import glob
+import json
+import math
+import os
+
+
+class ReportInputError(Exception):
+    """Bad input: the message is one line naming the file and the field."""
+
+
+# ------------------------------------------------------------------------------------------------
+# Schema vocabulary: a field's kind is a JSON scalar type name, an Object of fields, an Array of
+# items, a Map from names to values, or ANY (read, but its inside is not the report's contract).
+
+STRING, NUMBER, BOOLEAN, ANY = "string", "number", "boolean", "any"
+
+
+class Field:
+    """One field: its kind; `optional`: may be absent; `nullable`: may be null; `one_of`: the
+    values it may take; `hint`: said after a wrong value (how to get a good one)."""
+
+    def __init__(self, kind, optional=False, nullable=False, one_of=None, hint=""):
+        self.kind, self.optional, self.nullable = kind, optional, nullable
+        self.one_of, self.hint = one_of, hint
+
+
+def Optional(kind, nullable=False, one_of=None):
+    return Field(kind, optional=True, nullable=nullable, one_of=one_of)
+
+
+class Object:
+    def __init__(self, fields):
+        self.fields = {k: v if isinstance(v, Field) else Field(v) for k, v in fields.items()}
+
+
+class Array:
+    def __init__(self, item):
+        self.item = item
+
+
+class Map:
+    def __init__(self, value):
+        self.value = value
+
+
+def json_type(value):
+    """The JSON name of a parsed value's type."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return BOOLEAN
+    if isinstance(value, (int, float)):
+        return NUMBER
+    if isinstance(value, str):
+        return STRING
+    return "array" if isinstance(value, list) else "object"
+
+
+def expected_name(kind):
+    if isinstance(kind, str):
+        return kind
+    return {Object: "object", Map: "object", Array: "array"}[type(kind)]
+
+
+def check(value, kind, path, where):
+    """Raises ReportInputError unless `value` (at `where` in the file `path`) is a `kind` (a kind
+    or a Field)."""
+    if isinstance(kind, Field):
+        check_field(value, kind, path, where)
+        return
+    if kind == ANY:
+        return
+    got = json_type(value)
+    if got != expected_name(kind):
+        raise ReportInputError(f"{path}: field '{where}': expected {expected_name(kind)}, "
+                               f"got {got}")
+    if isinstance(kind, Array):
+        for i, item in enumerate(value):
+            check(item, kind.item, path, f"{where}[{i}]")
+    elif isinstance(kind, Map):
+        for name, item in value.items():
+            check(item, kind.value, path, f"{where}.{name}")
+    elif isinstance(kind, Object):
+        check_object(value, kind, path, where)
+
+
+def check_field(value, field, path, where):
+    """A present field's value: null where nullable, one of its values where it has a list."""
+    if value is None and field.nullable:
+        return
+    if field.one_of is not None and value not in field.one_of:
+        want = " or ".join(repr(v) for v in field.one_of)
+        raise ReportInputError(f"{path}: field '{where}': expected {want}, got {value!r}"
+                               + (f" ({field.hint})" if field.hint else ""))
+    check(value, field.kind, path, where)
+
+
+def check_object(obj, schema, path, where=""):
+    for name, field in schema.fields.items():
+        at = f"{where}.{name}" if where else name
+        if name in obj:
+            check_field(obj[name], field, path, at)
+        elif not field.optional:
+            raise ReportInputError(f"{path}: field '{at}': missing"
+                                   + (f" ({field.hint})" if field.hint else ""))
+
+
+# ------------------------------------------------------------------------------------------------
+# study.json (StudySpec's JSON, studies/runner/src/study.cpp)
+
+VERDICT_KINDS = ("relative", "absolute", "max")
+
+STUDY = Object({
+    "name": STRING,
+    "description": Optional(STRING),
+    # label: what results.csv and the jobs call the fit; model and train: the label's parts, as
+    # fields (the label is composed from them in C++, StudySpec::Label).
+    "fits": Array(Object({"label": STRING, "model": STRING, "train": Optional(Array(STRING))})),
+    "groups": Array(Object({
+        "material": STRING,
+        "references": Array(Object({"lighting": STRING, "sidecar": Optional(STRING)})),
+    })),
+    "training_sets": Array(Array(STRING)),
+    "test_lightings": Optional(Array(STRING)),
+    "baseline": Optional(STRING, nullable=True),
+    "compare": Optional(Array(Array(STRING)), nullable=True),
+    "probes": Optional(Array(STRING)),
+    "measured": Optional(Array(Object({"materials": Optional(Array(STRING))}))),
+    "verdicts": Optional(Map(Object({
+        "source": STRING,
+        "kind": Field(STRING, one_of=VERDICT_KINDS),
+        "tolerance": NUMBER,
+        "question": Optional(STRING),
+        "metric": Optional(STRING),  # source "metrics" only
+        "split": Optional(STRING),   # source "metrics" only
+        "keys": Optional(Array(STRING)),
+        "floor": Optional(NUMBER),
+    })), nullable=True),
+})
+
+
+def check_document(value, schema, path):
+    """A whole file: an object whose fields `schema` declares."""
+    if not isinstance(value, dict):
+        raise ReportInputError(f"{path}: expected object, got {json_type(value)}")
+    check_object(value, schema, path)
+
+
+def check_study(study, path):
+    check_document(study, STUDY, path)
+    models = [f["model"] for f in study["fits"]]
+    if study.get("baseline") is not None and study["baseline"] not in models:
+        raise ReportInputError(f"{path}: field 'baseline': '{study['baseline']}' is not a "
+                               "fitted model")
+    for i, pair in enumerate(study.get("compare") or []):
+        if not (len(pair) == 2 and all(p in models for p in pair)):
+            raise ReportInputError(f"{path}: field 'compare[{i}]': expected a pair of fitted "
+                                   "models")
+
+
+# ------------------------------------------------------------------------------------------------
+# jobs/fit.*.json (RunFitJob and WriteFailedFit, studies/runner/src/fit_job.cpp). A failed fit has
+# no exposure, termination or fit record, and empty parameters and evaluations.
+
+NUMBERS = Map(Field(NUMBER, nullable=True))  # metrics: null where a pass had no pixel
+
+FIT_JOB = Object({
+    "kind": Field(STRING, one_of=("fit",)),
+    "material": STRING,
+    "label": STRING,
+    "model": STRING,
+    "train": Array(STRING),
+    "converged": BOOLEAN,
+    "exposure": Optional(NUMBER),      # absent on a failed fit
+    "termination": Optional(STRING),   # absent on a failed fit
+    "parameters": Array(Object({
+        "name": STRING,
+        "value": Field(NUMBER, nullable=True),      # null: not finite
+        "std_error": Field(NUMBER, nullable=True),  # null: not determined
+        "fixed": BOOLEAN,
+        "at_bound": BOOLEAN,
+        "undetermined": BOOLEAN,
+    })),
+    "evaluations": Array(Object({
+        "lighting": STRING,
+        "split": Field(STRING, one_of=("train", "test")),
+        "metrics": NUMBERS,
+        "measured_fraction": Optional(NUMBER),
+        # Absent when the study writes no previews; "domain" on measured references only.
+        "images": Optional(Object({"reference": Optional(STRING), "fit": Optional(STRING),
+                                   "error": Optional(STRING), "error_scale": Optional(NUMBER),
+                                   "domain": Optional(STRING)})),
+    })),
+    # The encoding search's record (fit.encoding = "fit" only; fit/src/encoding_search.cpp).
+    "encoding": Optional(Object({
+        "chosen": STRING,
+        "name": STRING,
+        "gamma": Field(NUMBER, nullable=True),
+        "stored_rmse": NUMBER,
+        "candidates": Array(Object({"name": STRING, "gamma": Field(NUMBER, nullable=True),
+                                    "stored_rmse": NUMBER, "chosen": BOOLEAN})),
+    })),
+})
+
+# jobs/probe.*.json: the probes' results as ProbeResultToJson writes them
+# (metrics/probes/src/output.cpp): curves are records, never parsed names.
+PROBE_SCHEMA = "shadefit.probe/3"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
+
+PROBE_RESULT = Object({
+    "schema": Field(STRING, one_of=(PROBE_SCHEMA,),
+                    hint="written by an older shadefit: run the study again"),
+    "numbers": ANY,  # per series, nested numbers; flattened by report_util.flatten
+    "curves": Array(Object({
+        "series": STRING, "kind": STRING, "x": Array(ANY), "y": Array(ANY),
+        "x_label": STRING, "y_label": STRING, "x_scale": STRING, "y_scale": STRING,
+        "reference": Optional(STRING, nullable=True),
+        "extrapolated": Optional(Array(BOOLEAN)),
+    })),
+})
+
+PROBE_JOB = Object({
+    "kind": Field(STRING, one_of=("probe",)),
+    "material": STRING,
+    "probes": Map(PROBE_RESULT),
+})
+
+# provenance.json (outputs.cpp): shown at the page's foot; the file itself may be absent.
+PROVENANCE = Object({
+    "shadefit": Optional(Object({"version": Optional(STRING)})),
+    "gl_renderer": Optional(STRING),
+})
+
+# A reference's sidecar (reference_images/; LoadReference): the Ngan et al. 2005 comparison looks
+# for the measured folder the study's references came from. "brdf" on measured references only.
+SIDECAR = Object({
+    "kind": Optional(STRING),
+    "brdf": Optional(Object({"files": Array(Object({"path": STRING}))})),
+})
+
+# ------------------------------------------------------------------------------------------------
+# results.csv (AppendResultRows, outputs.cpp): one row per fit and reference. Cells are text; a
+# number cell is empty where the metric has no value (no lit pixel, a failed fit).
+
+# Every metric column the runner writes (kMetricColumns, outputs.cpp), then the same over every
+# covered pixel as <metric>_all, and measured_fraction.
+NUMBER_COLUMNS = ["rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim",
+                  "ciede2000_mean", "flip_ldr_mean", "flip_hdr_mean", "delta_e_itp_mean"]
+NUMBER_COLUMNS += [c + "_all" for c in NUMBER_COLUMNS] + ["measured_fraction"]
+# The columns the report needs (its metrics table, figures and verdicts); the other number
+# columns are checked where present (a verdict or question may name any of them).
+RESULT_COLUMNS = {"material": STRING, "lighting": STRING, "label": STRING, "split": STRING,
+                  "converged": BOOLEAN, "rmse": NUMBER, "relative_rmse": NUMBER, "psnr": NUMBER,
+                  "ssim": NUMBER, "ciede2000_mean": NUMBER, "flip_ldr_mean": NUMBER,
+                  "flip_hdr_mean": NUMBER}
+
+
+def check_cell(text, kind, path, line, column):
+    if kind == BOOLEAN and text not in ("0", "1"):
+        raise ReportInputError(f"{path}:{line}: field '{column}': expected 0 or 1, got '{text}'")
+    if kind == NUMBER and text != "":
+        try:
+            float(text)
+        except ValueError:
+            raise ReportInputError(f"{path}:{line}: field '{column}': expected number, "
+                                   f"got '{text}'") from None
+
+
+def read_results(path):
+    """results.csv's rows as dicts of text, every declared cell checked."""
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            header = reader.fieldnames or []
+    except (OSError, csv.Error, UnicodeDecodeError) as e:
+        raise ReportInputError(f"{path}: cannot read ({e})")
+    missing = [c for c in RESULT_COLUMNS if c not in header]
+    if missing:
+        raise ReportInputError(f"{path}: column '{missing[0]}': missing")
+    checked = dict(RESULT_COLUMNS)
+    checked.update({c: NUMBER for c in NUMBER_COLUMNS if c in header})
+    for line, row in enumerate(rows, 2):
+        if None in row or any(row[c] is None for c in checked):
+            raise ReportInputError(f"{path}:{line}: wrong number of cells")
+        for column, kind in checked.items():
+            check_cell(row[column], kind, path, line, column)
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------
+# Reading
+
+
+def load_json(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except OSError as e:
+        raise ReportInputError(f"{path}: cannot read ({e.strerror})")
+    except ValueError as e:
+        raise ReportInputError(f"{path}: not JSON ({e})")
+
+
+def read_checked(path, schema):
+    value = load_json(path)
+    check_document(value, schema, path)
+    return value
+
+
+def read_jobs(study_dir):
+    """(fits by (material, label), probe jobs by material); other job kinds are not the
+    report's."""
+    fits, probes = {}, {}
+    for path in sorted(glob.glob(os.path.join(study_dir, "jobs", "*.json"))):
+        if path.endswith(".timing.json"):
+            continue  # wall-clock times (WriteTiming), not results
+        job = load_json(path)
+        kind = job.get("kind") if isinstance(job, dict) else None
+        if kind == "fit":
+            check_object(job, FIT_JOB, path)
+            fits[(job["material"], job["label"])] = job
+        elif kind == "probe":
+            check_object(job, PROBE_JOB, path)
+            probes[job["material"]] = job
+    return fits, probes
+
+
+def check_verdict_columns(study, study_path, rows, csv_path):
+    """A verdict on the metrics names a number column of results.csv, and a split."""
+    for name, v in (study.get("verdicts") or {}).items():
+        if v["source"] != "metrics":
+            continue
+        for field in ("metric", "split"):
+            if field not in v:
+                raise ReportInputError(f"{study_path}: field 'verdicts.{name}.{field}': missing")
+        if v["metric"] not in NUMBER_COLUMNS or (rows and v["metric"] not in rows[0]):
+            raise ReportInputError(f"{study_path}: field 'verdicts.{name}.metric': "
+                                   f"'{v['metric']}' is not a column of {csv_path}")
+
+
+def load_study(study_dir):
+    """(study, results rows, fits, probes, provenance), every field the report reads checked."""
+    study_path = os.path.join(study_dir, "study.json")
+    study = load_json(study_path)
+    check_study(study, study_path)
+    csv_path = os.path.join(study_dir, "results.csv")
+    rows = read_results(csv_path)
+    check_verdict_columns(study, study_path, rows, csv_path)
+    fits, probes = read_jobs(study_dir)
+    prov_path = os.path.join(study_dir, "provenance.json")
+    provenance = read_checked(prov_path, PROVENANCE) if os.path.exists(prov_path) else {}
+    return study, rows, fits, probes, provenance
+
+
+def to_float(x):
+    """A checked number cell or JSON number as a float; None where empty, null or not finite."""
+    if x is None or x == "":
+        return None
+    v = float(x)
+    return v if math.isfinite(v) else None

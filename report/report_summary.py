@@ -1,0 +1,101 @@
+"""summary.md: the study's answers first, then the data floor, the verdicts within tolerance, the
+verdict matrix, the encoding search and the comparison with Ngan et al. 2005."""
+
+import datetime
+
+import report_compare
+from report_util import labels_of, materials_of, md_escape
+
+
+def not_valid_reasons(summary, name):
+    return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
+
+
+def summary_markdown(study, summary, matrix, provenance, comparisons, floor_lines, fits, ngan):
+    """summary.md's text. `floor_lines`: the data floor's sentences (none without photographs);
+    `ngan`: report_ngan.ngan_comparison's record, or None."""
+    labels = labels_of(study)
+    lines = [f"# {study['name']}", "", study.get("description", ""), "",
+             f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
+             f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
+             "## Answers", "", report_compare.method_text(comparisons), ""]
+    lines += report_compare.answer_lines(comparisons)
+    hcols, hrows = report_compare.human_agreement_table(comparisons)
+    lines += ["", "### Image metrics against human judgments", "",
+              f"Spearman rho of each metric with the human distance over "
+              f"{report_compare.HUMAN_AGREEMENT_SOURCE}.", "",
+              "| " + " | ".join(hcols) + " |", "|---|---:|---:|---|"]
+    lines += ["| " + " | ".join(r) + " |" for r in hrows]
+    if floor_lines:
+        lines += ["", "### Data floor", ""] + [f"- {l}" for l in floor_lines]
+    lines += ["", "## Within tolerance (secondary)", "",
+              "Materials whose numbers are within the study's fixed tolerance, out of those "
+              "judged.", ""]
+    lines += within_tolerance_lines(study, summary)
+    lines += ["", "## Verdict matrix", "", "| " + " | ".join(matrix[0]) + " |",
+              "|" + "|".join("---" for _ in matrix[0]) + "|"]
+    lines += ["| " + " | ".join(md_escape(c) for c in r) + " |" for r in matrix[1]]
+    sf = provenance.get("shadefit", {})
+    lines += ["", f"shadefit {sf.get('version', '?')}, GL: {provenance.get('gl_renderer', '?')}, "
+              f"generated {datetime.date.today().isoformat()}.", ""]
+    return "\n".join(lines) + encoding_markdown(fits) + ngan_markdown(ngan)
+
+
+def within_tolerance_lines(study, summary):
+    """Per verdict: the materials each fit reproduces within the study's tolerance."""
+    labels = labels_of(study)
+    lines = []
+    for name, v in study.get("verdicts", {}).items():
+        parts = []
+        for label in labels:
+            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
+                      and s["reproduced"] is not None]
+            if not judged:
+                continue
+            good = [s["material"] for s in judged if s["reproduced"]]
+            parts.append(f"{label}: {len(good)}/{len(judged)}")
+        tol = f"{v['kind']} tolerance {v['tolerance']:g}"
+        why = not_valid_reasons(summary, name)
+        answer = "; ".join(parts) if parts else (
+            f"n/a ({why[0]})" if why else "not measured (no numbers)")
+        if parts and why:
+            answer += f"; n/a on the other materials ({why[0]})"
+        lines.append(f"- **{v.get('question', name)}** ({tol}) — materials reproduced: {answer}")
+    return lines
+
+
+def encoding_markdown(fits):
+    """The encoding search's section, where a fit chose the encoding of its photographs."""
+    sentences = encoding_sentences(fits)
+    if not sentences:
+        return ""
+    return ("\n## Encoding of the photographs\n\nScored by the RMSE between the encoded "
+            "prediction and the stored values of the training photographs.\n\n"
+            + "\n".join(sentences) + "\n")
+
+
+def ngan_markdown(ngan):
+    if ngan is None:
+        return ""
+    return "\n## Against Ngan, Durand and Matusik 2005\n\n" + "".join(
+        f"- {c['fit']}: Spearman rho of our {c['ours']} with Ngan's {c['ngan']} over "
+        f"{c['materials']} materials: "
+        + (f"{c['spearman']:.3f}" if c["spearman"] is not None else "n/a") + "\n"
+        for c in ngan["correlations"])
+
+
+# --- Encoding of photographs (fit.encoding = "fit": fit/encoding_search.h) --------------------
+
+def encoding_sentences(fits):
+    """One sentence per fit whose encoding was fitted: which encoding won, on what score."""
+    out = []
+    for (material, label), job in sorted(fits.items()):
+        e = job.get("encoding")
+        if not isinstance(e, dict):
+            continue
+        others = "; ".join(f"{c.get('name')} {255 * c.get('stored_rmse', float('nan')):.3f}"
+                           for c in e.get("candidates", []) if not c.get("chosen"))
+        out.append(f"- {material} / {label}: the fit chose the encoding **{e.get('name')}** "
+                   f"(RMSE in stored 8-bit codes {255 * e.get('stored_rmse', float('nan')):.3f}; "
+                   f"{others})")
+    return out

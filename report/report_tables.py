@@ -1,0 +1,89 @@
+"""The report's tables as (columns, rows of strings): metrics, fitted parameters, probe numbers
+and the encoding search. report_latex writes them out."""
+
+from report_util import flatten, fmt, labels_of, materials_of, to_float
+
+METRIC_COLUMNS = [
+    ("rmse", "RMSE", "{:.4g}"),
+    ("relative_rmse", "rel. RMSE", "{:.3f}"),
+    ("psnr", "PSNR [dB]", "{:.2f}"),
+    ("ssim", "SSIM", "{:.4f}"),
+    ("ciede2000_mean", "$\\Delta E_{00}$", "{:.3f}"),
+    ("flip_ldr_mean", "LDR-FLIP", "{:.4f}"),
+    ("flip_hdr_mean", "HDR-FLIP", "{:.4f}"),
+    ("delta_e_itp_mean", "$\\Delta E_{ITP}$", "{:.3f}"),
+]
+
+
+def metrics_table(study, rows):
+    cols = ["material", "lighting", "fit", "split"] + [c[1] for c in METRIC_COLUMNS] + ["converged"]
+    out = []
+    for r in rows:
+        out.append([r["material"], r["lighting"], r["label"], r["split"]]
+                   + [fmt(to_float(r.get(k)), f) for k, _, f in METRIC_COLUMNS]
+                   + ["yes" if r["converged"] == "1" else "NO"])
+    return cols, out
+
+
+def parameters_table(study, fits):
+    cols = ["material", "fit", "parameter", "value", "std. error", "note"]
+    out = []
+    for m in materials_of(study):
+        for label in labels_of(study):
+            job = fits.get((m, label))
+            if job is None:
+                continue
+            for p in job["parameters"]:
+                note = []
+                if p.get("fixed"):
+                    note.append("fixed")
+                if p.get("at_bound"):
+                    note.append("at bound")
+                if p.get("undetermined"):
+                    note.append("undetermined")
+                out.append([m, label, p["name"], fmt(to_float(p["value"])),
+                            fmt(to_float(p["std_error"]), "{:.2g}"), ", ".join(note)])
+            out.append([m, label, "exposure", fmt(job.get("exposure")), "",
+                        "converged" if job.get("converged") else "NOT CONVERGED: " + job.get("termination", "")])
+    return cols, out
+
+
+def probe_numbers(probes, material, probe):
+    job = probes.get(material)
+    if job is None or probe not in job.get("probes", {}):
+        return None
+    return job["probes"][probe].get("numbers", {})
+
+
+def probes_table(study, probes):
+    labels = labels_of(study)
+    cols = ["material", "probe", "quantity", "reference"] + labels
+    out = []
+    for m in materials_of(study):
+        for probe in study.get("probes", []):
+            numbers = probe_numbers(probes, m, probe)
+            if not numbers:
+                continue
+            ref = flatten(numbers.get("reference") or numbers.get("truth")
+                          or numbers.get("measured") or {})
+            per = {l: flatten(numbers.get(l, {})) for l in labels}
+            keys = list(ref.keys())
+            for l in labels:
+                keys += [k for k in per[l] if k not in keys]
+            for k in keys:
+                out.append([m, probe, k, fmt(ref.get(k))] + [fmt(per[l].get(k)) for l in labels])
+    return cols, out
+
+
+def encoding_table(fits):
+    cols = ["material", "fit", "encoding", "gamma", "stored RMSE x255", "chosen"]
+    rows = []
+    for (material, label), job in sorted(fits.items()):
+        e = job.get("encoding")
+        if not isinstance(e, dict):
+            continue
+        for c in e.get("candidates", []):
+            rows.append([material, label, str(c.get("name")), fmt(c.get("gamma")),
+                         fmt(255 * c.get("stored_rmse", float("nan"))),
+                         "yes" if c.get("chosen") else ""])
+    return cols, rows

@@ -1,0 +1,54 @@
+"""Small helpers every report module shares: the one atomic writer, the study's labels and
+materials in its order, number formatting, and the flattening of nested probe numbers."""
+
+import math
+import os
+
+
+def write_text(path, text):
+    """Writes through a temporary file in the same folder and a rename: never a partial file."""
+    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    with open(tmp, "w", encoding="utf-8", newline="") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def labels_of(study):
+    return [f["label"] for f in study["fits"]]
+
+
+def materials_of(study):
+    return [g["material"] for g in study["groups"]]
+
+
+def to_float(x):
+    """A number cell of results.csv or a JSON number (both checked by report_inputs) as a float;
+    None where it is empty, null or not finite."""
+    if x is None or x == "":
+        return None
+    v = float(x)
+    return v if math.isfinite(v) else None
+
+
+def flatten(d, prefix=""):
+    """Numeric leaves of nested dicts as {"a.b": value}; lists of numbers become "a[i]"."""
+    out = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            out.update(flatten(v, f"{prefix}{k}."))
+    elif isinstance(d, list) and len(d) <= 8 and all(isinstance(x, (int, float)) for x in d):
+        for i, v in enumerate(d):
+            out[f"{prefix[:-1]}[{i}]"] = float(v)
+    elif isinstance(d, bool):
+        out[prefix[:-1]] = 1.0 if d else 0.0
+    elif isinstance(d, (int, float)) and math.isfinite(float(d)):
+        out[prefix[:-1]] = float(d)
+    return out
+
+
+def fmt(v, spec="{:.4g}"):
+    return "" if v is None else spec.format(v)
+
+
+def md_escape(s):
+    return str(s).replace("|", "\\|")

@@ -1,0 +1,129 @@
+"""Verdicts: each phenomenon x material x fit judged from the numbers with the study's
+tolerances (docs/studies.md, "Verdicts"), never written by hand; and their tables."""
+
+import fnmatch
+
+import numpy as np
+
+import report_compare
+from report_tables import probe_numbers
+from report_util import flatten, fmt, labels_of, materials_of, to_float
+
+
+def judge(kind, tol, ref, val, floor=0.0):
+    """Returns (error, passed) for one quantity; error is what the tolerance bounds. `floor`: a
+    relative error's denominator is at least this, so numbers that are both ~0 agree."""
+    if val is None or (kind != "max" and ref is None):
+        return None, None
+    if kind == "max":
+        err = val
+    elif kind == "absolute":
+        err = abs(val - ref)
+    else:
+        err = abs(val - ref) / max(abs(ref), floor, 1e-12)
+    return err, err <= tol
+
+
+def compute_verdicts(study, rows, probes):
+    """One record per phenomenon x material x fit (worst quantity), plus every quantity."""
+    labels = labels_of(study)
+    model_of = {f["label"]: f["model"] for f in study["fits"]}
+    detail, summary = [], []
+    for name, v in study.get("verdicts", {}).items():
+        tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
+        for m in materials_of(study):
+            why = report_compare.not_valid_reason(study, source, m)
+            for label in labels:
+                checks = []  # (quantity, reference, value, error, passed)
+                if why:
+                    # Not valid on this kind of reference: n/a with its reason, never judged.
+                    summary.append({"phenomenon": name, "question": v.get("question", name),
+                                    "material": m, "fit": label, "quantity": "",
+                                    "reference": None, "model": None, "error": None,
+                                    "kind": kind, "tolerance": tol, "reproduced": None,
+                                    "quantities": 0, "not_valid": why})
+                    continue
+                if source == "metrics":
+                    vals = [to_float(r[v["metric"]]) for r in rows
+                            if r["material"] == m and r["label"] == label and r["split"] == v["split"]]
+                    vals = [x for x in vals if x is not None]
+                    if vals:
+                        val = float(np.mean(vals))
+                        err, ok = judge("max", tol, 0.0, val)
+                        checks.append((f"{v['metric']} ({v['split']}, mean of {len(vals)})", 0.0, val, err, ok))
+                else:
+                    numbers = probe_numbers(probes, m, source)
+                    if numbers:
+                        # The reference's numbers; probes that measure models only (energy)
+                        # report the true BRDF as "truth".
+                        # The brdf probe calls the measured BRDF "measured".
+                        ref = flatten(numbers.get("reference") or numbers.get("truth")
+                                      or numbers.get("measured") or {})
+                        mod = flatten(numbers.get(label, {}))
+                        # The energy probe's parameter sweep is per model, not per fit: it says
+                        # whether the model's form conserves energy over its parameter range.
+                        sweep = (numbers.get("sweep") or {}).get(model_of.get(label, ""))
+                        if sweep:
+                            mod.update(flatten({"sweep": sweep}))
+                        patterns = v.get("keys") or []
+                        pool = list(mod.keys()) if kind == "max" else \
+                            [k for k in ref if k in mod] + [k for k in mod if k not in ref]
+                        if patterns:
+                            keys = [k for k in pool if any(fnmatch.fnmatchcase(k, p) for p in patterns)]
+                        else:
+                            keys = [k for k in pool if kind == "max" or k in ref]
+                        for k in keys:
+                            err, ok = judge(kind, tol, ref.get(k), mod.get(k),
+                                            float(v.get("floor", 0.0)))
+                            checks.append((k, ref.get(k), mod.get(k), err, ok))
+                for q, r, val, err, ok in checks:
+                    detail.append({"phenomenon": name, "material": m, "fit": label, "quantity": q,
+                                   "reference": r, "model": val, "error": err, "kind": kind,
+                                   "tolerance": tol, "reproduced": ok})
+                judged = [c for c in checks if c[4] is not None]
+                if not judged:
+                    summary.append({"phenomenon": name, "question": v.get("question", name),
+                                    "material": m, "fit": label, "quantity": "", "reference": None,
+                                    "model": None, "error": None, "kind": kind, "tolerance": tol,
+                                    "reproduced": None, "quantities": 0})
+                    continue
+                worst = max(judged, key=lambda c: c[3] / tol if tol > 0 else c[3])
+                summary.append({"phenomenon": name, "question": v.get("question", name),
+                                "material": m, "fit": label, "quantity": worst[0],
+                                "reference": worst[1], "model": worst[2], "error": worst[3],
+                                "kind": kind, "tolerance": tol,
+                                "reproduced": all(c[4] for c in judged), "quantities": len(judged)})
+    return summary, detail
+
+
+def yes_no(ok):
+    return "n/a" if ok is None else ("yes" if ok else "no")
+
+
+def verdict_tables(study, summary, detail):
+    cols = ["phenomenon", "material", "fit", "quantity (worst)", "reference", "model",
+            "error", "tolerance", "reproduced"]
+    rows = []
+    for s in summary:
+        err_name = {"relative": "rel.", "absolute": "abs.", "max": "value"}[s["kind"]]
+        rows.append([s["phenomenon"], s["material"], s["fit"], s["quantity"], fmt(s["reference"]),
+                     fmt(s["model"]), fmt(s["error"], "{:.3g}"),
+                     f"{err_name} <= {s['tolerance']:g}", yes_no(s["reproduced"])])
+    dcols = ["phenomenon", "material", "fit", "quantity", "reference", "model", "error",
+             "tolerance", "reproduced"]
+    drows = [[d["phenomenon"], d["material"], d["fit"], d["quantity"], fmt(d["reference"]),
+              fmt(d["model"]), fmt(d["error"], "{:.3g}"), f"{d['kind']} {d['tolerance']:g}",
+              yes_no(d["reproduced"])] for d in detail]
+    # The matrix: phenomenon x fit -> materials reproduced / materials judged.
+    labels = labels_of(study)
+    mcols = ["phenomenon", "question"] + labels
+    mrows = []
+    for name, v in study.get("verdicts", {}).items():
+        row = [name, v.get("question", name)]
+        for label in labels:
+            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
+                      and s["reproduced"] is not None]
+            good = sum(1 for s in judged if s["reproduced"])
+            row.append(f"{good}/{len(judged)}" if judged else "n/a")
+        mrows.append(row)
+    return (cols, rows), (dcols, drows), (mcols, mrows)
