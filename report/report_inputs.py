@@ -128,30 +128,31 @@ VERDICT_KINDS = ("relative", "absolute", "max")
 
 STUDY = Object({
     "name": STRING,
-    "description": Optional(STRING),
+    "description": STRING,
     # label: what results.csv and the jobs call the fit; model and train: the label's parts, as
-    # fields (the label is composed from them in C++, StudySpec::Label).
-    "fits": Array(Object({"label": STRING, "model": STRING, "train": Optional(Array(STRING))})),
+    # fields (the label is composed from them in C++, StudySpec::Label; read these, never split
+    # the label).
+    "fits": Array(Object({"label": STRING, "model": STRING, "train": Array(STRING)})),
     "groups": Array(Object({
         "material": STRING,
-        "references": Array(Object({"lighting": STRING, "sidecar": Optional(STRING)})),
+        "references": Array(Object({"lighting": STRING, "sidecar": STRING})),
     })),
     "training_sets": Array(Array(STRING)),
-    "test_lightings": Optional(Array(STRING)),
-    "baseline": Optional(STRING, nullable=True),
-    "compare": Optional(Array(Array(STRING)), nullable=True),
-    "probes": Optional(Array(STRING)),
-    "measured": Optional(Array(Object({"materials": Optional(Array(STRING))}))),
-    "verdicts": Optional(Map(Object({
+    "test_lightings": Array(STRING),  # empty: every lighting not trained on
+    "baseline": Field(STRING, nullable=True),
+    "compare": Array(Array(STRING)),
+    "probes": Array(STRING),
+    "measured": Array(Object({"materials": Array(STRING)})),
+    "verdicts": Map(Object({
         "source": STRING,
         "kind": Field(STRING, one_of=VERDICT_KINDS),
         "tolerance": NUMBER,
-        "question": Optional(STRING),
+        "question": STRING,
         "metric": Optional(STRING),  # source "metrics" only
         "split": Optional(STRING),   # source "metrics" only
-        "keys": Optional(Array(STRING)),
-        "floor": Optional(NUMBER),
-    })), nullable=True),
+        "keys": Optional(Array(STRING)),  # quantities judged (fnmatch patterns); absent: all
+        "floor": Optional(NUMBER),  # a relative error's least denominator; absent: 0
+    })),
 })
 
 
@@ -165,10 +166,10 @@ def check_document(value, schema, path):
 def check_study(study, path):
     check_document(study, STUDY, path)
     models = [f["model"] for f in study["fits"]]
-    if study.get("baseline") is not None and study["baseline"] not in models:
+    if study["baseline"] is not None and study["baseline"] not in models:
         raise ReportInputError(f"{path}: field 'baseline': '{study['baseline']}' is not a "
                                "fitted model")
-    for i, pair in enumerate(study.get("compare") or []):
+    for i, pair in enumerate(study["compare"]):
         if not (len(pair) == 2 and all(p in models for p in pair)):
             raise ReportInputError(f"{path}: field 'compare[{i}]': expected a pair of fitted "
                                    "models")
@@ -225,11 +226,11 @@ PROBE_SCHEMA = "shadefit.probe/3"  # kProbeResultSchema, metrics/probes/include/
 PROBE_RESULT = Object({
     "schema": Field(STRING, one_of=(PROBE_SCHEMA,),
                     hint="written by an older shadefit: run the study again"),
-    "numbers": ANY,  # per series, nested numbers; flattened by report_util.flatten
+    "numbers": Map(ANY),  # per series, nested numbers; flattened by report_util.flatten
     "curves": Array(Object({
         "series": STRING, "kind": STRING, "x": Array(ANY), "y": Array(ANY),
         "x_label": STRING, "y_label": STRING, "x_scale": STRING, "y_scale": STRING,
-        "reference": Optional(STRING, nullable=True),
+        "reference": Field(STRING, nullable=True),  # null: a curve of no reference image
         "extrapolated": Optional(Array(BOOLEAN)),
     })),
 })
@@ -343,7 +344,7 @@ def read_jobs(study_dir):
 
 def check_verdict_columns(study, study_path, rows, csv_path):
     """A verdict on the metrics names a number column of results.csv, and a split."""
-    for name, v in (study.get("verdicts") or {}).items():
+    for name, v in study["verdicts"].items():
         if v["source"] != "metrics":
             continue
         for field in ("metric", "split"):

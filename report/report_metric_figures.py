@@ -86,7 +86,7 @@ def paired_errors_figure(rec, study, fig_dir, manifest, title, y_label):
     groups = {}
     for f in fits:
         if f["label"] in used:
-            groups.setdefault(tuple(f.get("train") or []), []).append(f["label"])
+            groups.setdefault(tuple(f["train"]), []).append(f["label"])
     errors = {}
     for key, e in rec["errors"].items():
         m, label = key.split("|", 1)

@@ -12,7 +12,7 @@ def ngan_table_path(study):
     """ngan2005-fits.tsv beside the measured folder the study's references came from, if any."""
     for g in study["groups"]:
         for r in g["references"]:
-            sidecar = r.get("sidecar")
+            sidecar = r["sidecar"]
             if not sidecar or not os.path.exists(sidecar):
                 continue
             sc = read_checked(sidecar, SIDECAR)

@@ -44,6 +44,28 @@ def plot_curve(ax, c, ys, **style):
     return h, e
 
 
+def shown_reference(probe, curves):
+    """The reference whose curves a panel shows: the first of PREFERRED_LIGHTING's lightings
+    for the probe that a curve's reference is of, else the first by name; None for curves of no
+    reference. The lighting is read off the reference's name ("<material>-<lighting>", as the
+    runner names references): a curve record carries no lighting field."""
+    refs = sorted({c["reference"] for c in curves if c["reference"]})
+    for want in PREFERRED_LIGHTING.get(probe, []):
+        chosen = next((r for r in refs if r.endswith("-" + want)), None)
+        if chosen:
+            return chosen
+    return refs[0] if refs else None
+
+
+def clip_log_axis(ax):
+    """Five decades below the panel's largest value: a specular part that falls to zero (or
+    below the floor) would otherwise stretch a log axis over 1e-15."""
+    top = max((np.nanmax(l.get_ydata()) for l in ax.get_lines()
+               if np.isfinite(l.get_ydata()).any()), default=None)
+    if top and top > 0:
+        ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
+
+
 def probe_curve_figure(probe, material, curves, labels):
     """One panel per curve kind, in the order the probe measured them, PANELS_PER_ROW to a row;
     per-reference curves show one reference (PREFERRED_LIGHTING). `curves`: the probe's curve
@@ -70,7 +92,7 @@ def probe_curve_figure(probe, material, curves, labels):
     height = rows * panel_h + legend_h + 0.25
     label_chars = 40 if cols < 3 else 30
     fig = plt.figure(figsize=(width, height))
-    handles = {}
+    handles, series_of = {}, {}  # legend entry -> its handle, and the series it belongs to
     series = sorted({c["series"] for c in curves if c["series"] not in GROUND_SERIES},
                     key=lambda x: (labels.index(x) if x in labels else len(labels), x))
     for k_i, kind in enumerate(kinds):
@@ -83,13 +105,7 @@ def probe_curve_figure(probe, material, curves, labels):
         items = sorted((c for c in curves if c["kind"] == kind), key=lambda c: (
             c["series"] in GROUND_SERIES,
             series.index(c["series"]) if c["series"] in series else len(series)))
-        refs = sorted({c["reference"] for c in items if c["reference"]})
-        chosen = None
-        for want in PREFERRED_LIGHTING.get(probe, []):
-            chosen = next((r for r in refs if r.endswith("-" + want)), None)
-            if chosen:
-                break
-        chosen = chosen or (refs[0] if refs else None)
+        chosen = shown_reference(probe, items)
         for c in items:
             lab, ref = c["series"], c["reference"]
             if ref and ref != chosen:
@@ -101,8 +117,10 @@ def probe_curve_figure(probe, material, curves, labels):
             else:
                 h, e = plot_curve(ax, c, ys, linewidth=1.1, label=lab, **style_of(lab, series))
             handles.setdefault(lab, h)
+            series_of.setdefault(lab, lab)
             if e is not None:
                 handles.setdefault(f"{lab}, extrapolated", e)
+                series_of.setdefault(f"{lab}, extrapolated", lab)
             ax.set_xlabel(textwrap.fill(c["x_label"], label_chars))
             ax.set_ylabel(textwrap.fill(c["y_label"], 26))
             # The highlight falloff and the energy sweep span decades: log y for both.
@@ -111,16 +129,12 @@ def probe_curve_figure(probe, material, curves, labels):
             if c["x_scale"] == "log":
                 ax.set_xscale("log")
         if ax.get_yscale() == "log":
-            # Five decades below the panel's largest value: a specular part that falls to zero
-            # (or below the floor) would otherwise stretch the axis over 1e-15.
-            top = max((np.nanmax(l.get_ydata()) for l in ax.get_lines()
-                       if np.isfinite(l.get_ydata()).any()), default=None)
-            if top and top > 0:
-                ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
+            clip_log_axis(ax)
         title = kind + (f" ({chosen})" if chosen else "")
         ax.set_title(title if len(title) < 48 else title[:45] + "...", fontsize=FONT_PT)
+
     def legend_order(name):  # ground truth first, then the fits in the study's order
-        base = name.split(", extrapolated")[0]
+        base = series_of[name]
         return (base not in GROUND_SERIES, series.index(base) if base in series else -1, name)
     names = sorted(handles, key=legend_order)
     fig.legend([handles[x] for x in names], names, loc="lower center", ncol=legend_cols,
@@ -171,13 +185,13 @@ def probe_bar_figure(probe, material, numbers, flatten, labels=()):
 def probe_figures(study, probes, fig_dir, manifest, flatten):
     labels = [f["label"] for f in study["fits"]]
     for material, job in sorted(probes.items()):
-        for probe, result in job.get("probes", {}).items():
-            curves = result.get("curves") or []
+        for probe, result in job["probes"].items():
+            curves = result["curves"]
             fig = None
             if probe != "portability" and curves:
                 fig = probe_curve_figure(probe, material, curves, labels)
             if fig is None:
-                fig = probe_bar_figure(probe, material, result.get("numbers") or {}, flatten,
+                fig = probe_bar_figure(probe, material, result["numbers"], flatten,
                                        labels)
             save_figure(fig, fig_dir, f"probe-{probe}-{material}", manifest,
                         f"{material}: {probe} probe (reference or measured BRDF dashed black; "

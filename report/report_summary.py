@@ -15,7 +15,7 @@ def summary_markdown(study, summary, matrix, provenance, comparisons, floor_line
     """summary.md's text. `floor_lines`: the data floor's sentences (none without photographs);
     `ngan`: report_ngan.ngan_comparison's record, or None."""
     labels = labels_of(study)
-    lines = [f"# {study['name']}", "", study.get("description", ""), "",
+    lines = [f"# {study['name']}", "", study["description"], "",
              f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
              f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
              "## Answers", "", report_compare.method_text(comparisons), ""]
@@ -45,7 +45,7 @@ def within_tolerance_lines(study, summary):
     """Per verdict: the materials each fit reproduces within the study's tolerance."""
     labels = labels_of(study)
     lines = []
-    for name, v in study.get("verdicts", {}).items():
+    for name, v in study["verdicts"].items():
         parts = []
         for label in labels:
             judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
@@ -60,7 +60,7 @@ def within_tolerance_lines(study, summary):
             f"n/a ({why[0]})" if why else "not measured (no numbers)")
         if parts and why:
             answer += f"; n/a on the other materials ({why[0]})"
-        lines.append(f"- **{v.get('question', name)}** ({tol}) — materials reproduced: {answer}")
+        lines.append(f"- **{v['question']}** ({tol}) — materials reproduced: {answer}")
     return lines
 
 
@@ -93,9 +93,9 @@ def encoding_sentences(fits):
         e = job.get("encoding")
         if not isinstance(e, dict):
             continue
-        others = "; ".join(f"{c.get('name')} {255 * c.get('stored_rmse', float('nan')):.3f}"
-                           for c in e.get("candidates", []) if not c.get("chosen"))
-        out.append(f"- {material} / {label}: the fit chose the encoding **{e.get('name')}** "
-                   f"(RMSE in stored 8-bit codes {255 * e.get('stored_rmse', float('nan')):.3f}; "
+        others = "; ".join(f"{c['name']} {255 * c['stored_rmse']:.3f}"
+                           for c in e["candidates"] if not c["chosen"])
+        out.append(f"- {material} / {label}: the fit chose the encoding **{e['name']}** "
+                   f"(RMSE in stored 8-bit codes {255 * e['stored_rmse']:.3f}; "
                    f"{others})")
     return out

@@ -35,24 +35,26 @@ def parameters_table(study, fits):
                 continue
             for p in job["parameters"]:
                 note = []
-                if p.get("fixed"):
+                if p["fixed"]:
                     note.append("fixed")
-                if p.get("at_bound"):
+                if p["at_bound"]:
                     note.append("at bound")
-                if p.get("undetermined"):
+                if p["undetermined"]:
                     note.append("undetermined")
                 out.append([m, label, p["name"], fmt(to_float(p["value"])),
                             fmt(to_float(p["std_error"]), "{:.2g}"), ", ".join(note)])
+            # A failed fit has no exposure and no termination (report_inputs.FIT_JOB).
             out.append([m, label, "exposure", fmt(job.get("exposure")), "",
-                        "converged" if job.get("converged") else "NOT CONVERGED: " + job.get("termination", "")])
+                        "converged" if job["converged"]
+                        else "NOT CONVERGED: " + (job.get("termination") or "")])
     return cols, out
 
 
 def probe_numbers(probes, material, probe):
     job = probes.get(material)
-    if job is None or probe not in job.get("probes", {}):
+    if job is None or probe not in job["probes"]:
         return None
-    return job["probes"][probe].get("numbers", {})
+    return job["probes"][probe]["numbers"]
 
 
 def probes_table(study, probes):
@@ -60,7 +62,7 @@ def probes_table(study, probes):
     cols = ["material", "probe", "quantity", "reference"] + labels
     out = []
     for m in materials_of(study):
-        for probe in study.get("probes", []):
+        for probe in study["probes"]:
             numbers = probe_numbers(probes, m, probe)
             if not numbers:
                 continue
@@ -82,8 +84,7 @@ def encoding_table(fits):
         e = job.get("encoding")
         if not isinstance(e, dict):
             continue
-        for c in e.get("candidates", []):
-            rows.append([material, label, str(c.get("name")), fmt(c.get("gamma")),
-                         fmt(255 * c.get("stored_rmse", float("nan"))),
-                         "yes" if c.get("chosen") else ""])
+        for c in e["candidates"]:
+            rows.append([material, label, c["name"], fmt(c["gamma"]), fmt(255 * c["stored_rmse"]),
+                         "yes" if c["chosen"] else ""])
     return cols, rows

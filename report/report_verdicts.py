@@ -29,7 +29,7 @@ def compute_verdicts(study, rows, probes):
     labels = labels_of(study)
     model_of = {f["label"]: f["model"] for f in study["fits"]}
     detail, summary = [], []
-    for name, v in study.get("verdicts", {}).items():
+    for name, v in study["verdicts"].items():
         tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
         for m in materials_of(study):
             why = report_compare.not_valid_reason(study, source, m)
@@ -37,7 +37,7 @@ def compute_verdicts(study, rows, probes):
                 checks = []  # (quantity, reference, value, error, passed)
                 if why:
                     # Not valid on this kind of reference: n/a with its reason, never judged.
-                    summary.append({"phenomenon": name, "question": v.get("question", name),
+                    summary.append({"phenomenon": name, "question": v["question"],
                                     "material": m, "fit": label, "quantity": "",
                                     "reference": None, "model": None, "error": None,
                                     "kind": kind, "tolerance": tol, "reproduced": None,
@@ -82,13 +82,13 @@ def compute_verdicts(study, rows, probes):
                                    "tolerance": tol, "reproduced": ok})
                 judged = [c for c in checks if c[4] is not None]
                 if not judged:
-                    summary.append({"phenomenon": name, "question": v.get("question", name),
+                    summary.append({"phenomenon": name, "question": v["question"],
                                     "material": m, "fit": label, "quantity": "", "reference": None,
                                     "model": None, "error": None, "kind": kind, "tolerance": tol,
                                     "reproduced": None, "quantities": 0})
                     continue
                 worst = max(judged, key=lambda c: c[3] / tol if tol > 0 else c[3])
-                summary.append({"phenomenon": name, "question": v.get("question", name),
+                summary.append({"phenomenon": name, "question": v["question"],
                                 "material": m, "fit": label, "quantity": worst[0],
                                 "reference": worst[1], "model": worst[2], "error": worst[3],
                                 "kind": kind, "tolerance": tol,
@@ -118,8 +118,8 @@ def verdict_tables(study, summary, detail):
     labels = labels_of(study)
     mcols = ["phenomenon", "question"] + labels
     mrows = []
-    for name, v in study.get("verdicts", {}).items():
-        row = [name, v.get("question", name)]
+    for name, v in study["verdicts"].items():
+        row = [name, v["question"]]
         for label in labels:
             judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
                       and s["reproduced"] is not None]

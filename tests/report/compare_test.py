@@ -57,7 +57,9 @@ def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=
     fits = [{"label": m, "model": m, "train": ["key"]} for m in ("blinn-phong", "ggx")]
     study = {"name": os.path.basename(d), "description": "synthetic: comparative answers",
              "fits": fits, "training_sets": [["key"]], "baseline": "blinn-phong", "compare": [],
-             "groups": [{"material": m, "references": [{"lighting": l} for l in ("key", "rim")]}
+             "test_lightings": [],
+             "groups": [{"material": m, "references": [{"lighting": l, "sidecar": ""}
+                                                       for l in ("key", "rim")]}
                         for m in materials],
              "probes": [], "verdicts": verdicts or {},
              "measured": [{"folder": "x", "present": True, "materials": materials}] if measured else []}

@@ -75,8 +75,10 @@ def write_study(d, shape):
             for t in shape.training_sets for m in shape.models]
     write_json(os.path.join(d, "study.json"), {
         "name": shape.name, "description": "synthetic: report layout test",
-        "fits": fits, "training_sets": shape.training_sets,
-        "groups": [{"material": m, "references": [{"lighting": l} for l in LIGHTINGS]}
+        "fits": fits, "training_sets": shape.training_sets, "test_lightings": [],
+        "baseline": None, "compare": [], "measured": [],
+        "groups": [{"material": m, "references": [{"lighting": l, "sidecar": ""}
+                                                  for l in LIGHTINGS]}
                    for m in shape.materials],
         "probes": ["highlight", "portability", "brdf"],
         # The measured study's questions (a tolerance matrix of 10 fit columns), so that the
