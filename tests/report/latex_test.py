@@ -68,7 +68,7 @@ def main(argv):
             if "<" + fig["pdf"] not in flat:
                 failures.append(f"{fig['pdf']} was not embedded in report.pdf")
         # Nothing wider than the page: a table or figure that runs off it is not publication
-        # ready (make_report.long_table splits wide tables and sets their headers on their side).
+        # ready (report_latex.long_table splits wide tables and sets their headers on their side).
         for m in re.finditer(r"Overfull \\hbox \(([0-9.]+)pt too wide\) ([^\n]*)", texlog):
             if float(m.group(1)) > 1.0:
                 failures.append(f"report.pdf: a box {m.group(1)} pt wider than the page "
