@@ -73,13 +73,13 @@ def chosen_decoding(study, fits, material, train):
     set chose with encoding = "fit", as {"chosen", "gamma", "label"}; None when it kept the
     import's: the floor is scored in the same values as that fit."""
     cands = [(label, f) for (m, label), f in sorted(fits.items())
-             if m == material and list(f.get("train", [])) == list(train)]
-    base = study.get("baseline")
-    cands.sort(key=lambda lf: lf[1].get("model") != base)
+             if m == material and list(f["train"]) == list(train)]
+    base = study["baseline"]
+    cands.sort(key=lambda lf: lf[1]["model"] != base)
     for label, f in cands:
-        enc = f.get("encoding")
-        if isinstance(enc, dict) and enc.get("chosen"):
-            return {"chosen": enc["chosen"], "gamma": enc.get("gamma"), "label": label}
+        enc = f.get("encoding")  # optional: only a fit that searched the encoding has one
+        if enc is not None:
+            return {"chosen": enc["chosen"], "gamma": enc["gamma"], "label": label}
         return None
     return None
 
@@ -239,9 +239,9 @@ def mean(xs):
 def fit_test_error(fit, lightings):
     """A fit job's mean relative RMSE over `lightings` (its evaluations' "metrics")."""
     vals = []
-    for e in fit.get("evaluations", []):
-        if e.get("lighting") in lightings:
-            v = (e.get("metrics") or {}).get("relative_rmse")
+    for e in fit["evaluations"]:
+        if e["lighting"] in lightings:
+            v = e["metrics"].get("relative_rmse")
             vals.append(float(v) if v is not None else None)
     return mean(vals)
 
@@ -255,7 +255,7 @@ def compute_floor(study_dir, study, fits):
     with open(index_path) as f:
         index = json.load(f)
     dtd = smoothness_matrix()
-    test_only = set(study.get("test_lightings") or [])
+    test_only = set(study["test_lightings"])
     out = {"schema": "shadefit.report.floor/1", "bins": [H_BINS, D_BINS],
            "theta_h_spacing": "square root", "lambdas": list(LAMBDAS),
            "relative_epsilon": RELATIVE_EPSILON, "materials": []}
@@ -270,7 +270,7 @@ def compute_floor(study_dir, study, fits):
     for material in sorted(by_material):
         entries = by_material[material]
 
-        for train in study.get("training_sets", []):
+        for train in study["training_sets"]:
             decoding = chosen_decoding(study, fits, material, train)
 
             def load(e):
@@ -296,7 +296,7 @@ def compute_floor(study_dir, study, fits):
                    "per_lighting": per, "test_lightings": test_lightings,
                    "table_max": [float(np.max(t)) for t in tables], "fits": []}
             for (m, label), fit in sorted(fits.items()):
-                if m != material or list(fit.get("train", [])) != list(train):
+                if m != material or list(fit["train"]) != list(train):
                     continue
                 err = fit_test_error(fit, set(test_lightings))
                 floor = rec["test_relative_rmse"]

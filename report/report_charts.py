@@ -91,7 +91,8 @@ def load_charts(study_dir):
 def sweep_sentence(probes, model):
     """The energy probe's sweep of this model's lobe width, as a sentence for the caption."""
     for job in probes.values():
-        sweep = ((job.get("probes", {}).get("energy") or {}).get("numbers") or {}).get("sweep") or {}
+        energy = job["probes"].get("energy")  # the energy probe, where the study ran it
+        sweep = (energy["numbers"].get("sweep") or {}) if energy else {}
         s = sweep.get(model)
         if s and s.get("flux_min") is not None and s.get("flux_max") is not None:
             return (f" Energy probe, white lobe swept over its width: reflected flux "
@@ -163,6 +164,21 @@ def material_key(marks, materials):
     return key
 
 
+def chart_mosaic(c, study_dir, path):
+    """One chart's sphere images as one image, the last y value on top."""
+    mosaic = None
+    for row in reversed(c["images"]):
+        tiles = []
+        for rel in row:
+            p = os.path.join(study_dir, rel)
+            if not os.path.exists(p):
+                raise ChartInputError(f"{path}: images: {rel}: missing")
+            tiles.append(rf.read_rgb(p))
+        line = np.concatenate(tiles, axis=1)
+        mosaic = line if mosaic is None else np.concatenate([mosaic, line], axis=0)
+    return mosaic
+
+
 def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes):
     """`charts`: load_charts' (manifest, path), read before anything is written."""
     manifest, path = charts
@@ -194,17 +210,7 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes)
         fig = plt.figure(figsize=(rf.COLUMN_IN, height))
         ax = fig.add_axes([left / rf.COLUMN_IN, bottom / height, cell * nx / rf.COLUMN_IN,
                            cell * ny / height])
-        mosaic = None
-        for row in reversed(c["images"]):  # The last y value on top.
-            tiles = []
-            for rel in row:
-                p = os.path.join(study_dir, rel)
-                if not os.path.exists(p):
-                    raise ChartInputError(f"{path}: images: {rel}: missing")
-                tiles.append(rf.read_rgb(p))
-            line = np.concatenate(tiles, axis=1)
-            mosaic = line if mosaic is None else np.concatenate([mosaic, line], axis=0)
-        ax.imshow(mosaic, origin="upper", extent=(-0.5, nx - 0.5, -0.5, ny - 0.5),
+        ax.imshow(chart_mosaic(c, study_dir, path), origin="upper", extent=(-0.5, nx - 0.5, -0.5, ny - 0.5),
                   interpolation="nearest")
         ax.set_xticks(range(nx))
         ax.set_xticklabels([f"{v:g}" for v in c["x"]["values"]])

@@ -68,8 +68,8 @@ NOT_VALID = {
 
 def reference_kind(study, material):
     """"measured" for a [[measured]] material (rendered from a measured BRDF), else "image"."""
-    for src in study.get("measured") or []:
-        if material in (src.get("materials") or []):
+    for src in study["measured"]:
+        if material in src["materials"]:
             return "measured"
     return "image"
 
@@ -88,7 +88,7 @@ def questions_of(study, rows):
     lightings, when there are test lightings). Each is a dict with the verdict's fields plus
     `name` and `default` (True for the added ones, which have no tolerance)."""
     out = []
-    for name, v in (study.get("verdicts") or {}).items():
+    for name, v in study["verdicts"].items():
         out.append(dict(v, name=name, default=False))
     splits = {r["split"] for r in rows}
     has = {q.get("split") for q in out if q["source"] == "metrics"}
@@ -176,17 +176,17 @@ def comparison_pairs(study):
     """(label, baseline label) pairs: every fit against the baseline model's fit of the same
     training set, then the study's `compare` pairs (per training set)."""
     fits = study["fits"]
-    baseline = study.get("baseline") or (fits[0]["model"] if fits else None)
+    baseline = study["baseline"] or (fits[0]["model"] if fits else None)
     by_train = {}
     for f in fits:
-        by_train.setdefault(tuple(f.get("train") or []), {})[f["model"]] = f["label"]
+        by_train.setdefault(tuple(f["train"]), {})[f["model"]] = f["label"]
     pairs = []
     for train, models in by_train.items():
         base = models.get(baseline)
         if base is None:
             continue
         pairs += [(label, base) for model, label in models.items() if model != baseline]
-    for a, b in study.get("compare") or []:
+    for a, b in study["compare"]:
         for train, models in by_train.items():
             if a in models and b in models and (models[a], models[b]) not in pairs:
                 pairs.append((models[a], models[b]))

@@ -245,6 +245,8 @@ PROBE_JOB = Object({
 PROVENANCE = Object({
     "shadefit": Optional(Object({"version": Optional(STRING)})),
     "gl_renderer": Optional(STRING),
+    "dependencies": Optional(ANY),  # shown as they are
+    "machine": Optional(ANY),
 })
 
 # A reference's sidecar (reference_images/; LoadReference): the Ngan et al. 2005 comparison looks

@@ -158,7 +158,7 @@ def matrix_groups(study, labels):
     groups = {}
     for f in study["fits"]:
         if f["label"] in labels:
-            key = "+".join(f.get("train") or [])
+            key = "+".join(f["train"])
             groups.setdefault(key, []).append((f["label"], f["model"]))
     return [(f"Trained on {k}", cols) for k, cols in groups.items()]
 
@@ -167,7 +167,7 @@ def matrix_html(study, summary, labels):
     """The verdict matrix; each cell links to the question's section, where its evidence is. An
     "n/a" cell says why in its title (a probe not valid on the material's kind of reference)."""
     order = [k for k, _, _ in FAMILIES]
-    verdicts = sorted(study.get("verdicts", {}).items(),  # Questions in reading order.
+    verdicts = sorted(study["verdicts"].items(),  # Questions in reading order.
                       key=lambda kv: order.index(family_of(kv[1])) if family_of(kv[1]) else len(order))
     out = []
     for heading, cols in matrix_groups(study, labels):
@@ -179,7 +179,7 @@ def matrix_html(study, summary, labels):
             fam = family_of(v)
             target = anchor("q", fam) if fam else anchor("v", name)
             row = [f"<td class='key'>{esc(name)}</td>",
-                   f"<td class='question'><a href='#{target}'>{esc(v.get('question', name))}</a></td>"]
+                   f"<td class='question'><a href='#{target}'>{esc(v['question'])}</a></td>"]
             for label, _ in cols:
                 mine = [s for s in summary if s["phenomenon"] == name and s["fit"] == label]
                 judged = [s for s in mine if s["reproduced"] is not None]
@@ -309,60 +309,64 @@ def viewer_html(material, study, fits, rows, labels):
     return "\n".join(out)
 
 
-def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
-                write_text, comparisons=(), floor_lines=()):
-    labels = [f["label"] for f in study["fits"]]
-    materials = [g["material"] for g in study["groups"]]
-    verdicts = study.get("verdicts", {})
-    families = {k: [] for k, _, _ in FAMILIES}  # Reading order: the FAMILIES order.
+def question_families(verdicts):
+    """{family anchor: verdict names}, in FAMILIES' reading order, empty families dropped."""
+    families = {k: [] for k, _, _ in FAMILIES}
     for name, v in verdicts.items():
         families.setdefault(family_of(v) or anchor("other", name), []).append(name)
-    families = {k: names for k, names in families.items() if names}
-    titles = {k: t for k, t, _ in FAMILIES}
+    return {k: names for k, names in families.items() if names}
 
+
+def nav_html(families, titles, charts, materials):
     nav = ["<nav><a href='#answers'>Answers</a><a href='#verdicts'>Within tolerance</a>"]
     nav += [f"<a href='#{anchor('q', k)}'>{esc(titles.get(k, k))}</a>" for k in families]
     if charts:
         nav.append("<a href='#charts'>Parameter charts</a>")
     nav += [f"<a href='#{anchor('m', m)}'>{esc(m)}</a>" for m in materials]
     nav += ["<a href='#details'>Tables</a><a href='#provenance'>Provenance</a></nav>"]
+    return "".join(nav)
 
-    parts = ["<!doctype html><html lang='en'><head><meta charset='utf-8'>"
-             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-             f"<title>{esc(study['name'])}</title><style>{read_asset('report.css')}</style>"
-             "</head><body>",
-             f"<h1>{esc(study['name'])}</h1><p>{esc(study.get('description', ''))}</p>",
-             "".join(nav)]
-    parts.append(answers_html(comparisons, figures, floor_lines))
-    parts += ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
-              "are within the study's fixed tolerance, out of those judged, per question and "
-              "fit. Every number is computed from the result files (rules: docs/studies.md). A "
-              "cell links to its evidence.</p>",
-              matrix_html(study, summary, labels)]
-    # Why the image questions judge by their metric: each metric against human judgments.
+
+def within_tolerance_html(study, summary, labels, comparisons):
+    """The tolerance matrix, then why the image questions judge by their metric: each metric
+    against human judgments."""
     hcols, hrows = report_compare.human_agreement_table(comparisons)
-    parts.append("<h3 id='human-agreement'>Image metrics against human judgments</h3>"
-                 f"<p class='method'>Spearman rho of each metric with the human distance over "
-                 f"{esc(report_compare.HUMAN_AGREEMENT_SOURCE)}.</p>"
-                 + html_table((hcols, hrows), cls="agreement"))
-    # Photographs whose encoding was fitted (fit.encoding = "fit"): which one won, in words.
-    if "encoding" in tables:
-        chosen = [r for r in tables["encoding"][1] if r[5] == "yes"]
-        parts.append("<h2 id='encoding'>Encoding of the photographs</h2><p>"
-                     + " ".join(f"{esc(r[0])} / {esc(r[1])}: the fit chose the encoding "
-                                f"<b>{esc(r[2])}</b> (RMSE {esc(r[4])} in stored 8-bit codes)."
-                                for r in chosen)
-                     + " Every candidate is in the table 'Encoding of the photographs' below; "
-                     "each is scored by the RMSE between the encoded prediction and the stored "
-                     "values of the training photographs.</p>")
+    return ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
+            "are within the study's fixed tolerance, out of those judged, per question and "
+            "fit. Every number is computed from the result files (rules: docs/studies.md). A "
+            "cell links to its evidence.</p>",
+            matrix_html(study, summary, labels),
+            "<h3 id='human-agreement'>Image metrics against human judgments</h3>"
+            f"<p class='method'>Spearman rho of each metric with the human distance over "
+            f"{esc(report_compare.HUMAN_AGREEMENT_SOURCE)}.</p>"
+            + html_table((hcols, hrows), cls="agreement")]
 
+
+def encoding_html(tables):
+    """Photographs whose encoding was fitted (fit.encoding = "fit"): which one won, in words."""
+    if "encoding" not in tables:
+        return []
+    chosen = [r for r in tables["encoding"][1] if r[5] == "yes"]
+    return ["<h2 id='encoding'>Encoding of the photographs</h2><p>"
+            + " ".join(f"{esc(r[0])} / {esc(r[1])}: the fit chose the encoding "
+                       f"<b>{esc(r[2])}</b> (RMSE {esc(r[4])} in stored 8-bit codes)."
+                       for r in chosen)
+            + " Every candidate is in the table 'Encoding of the photographs' below; "
+            "each is scored by the RMSE between the encoded prediction and the stored "
+            "values of the training photographs.</p>"]
+
+
+def question_sections_html(study, families, titles, tables, summary, figures, charts, labels):
+    """One section per family of questions, led by the figure that answers it."""
+    verdicts, materials = study["verdicts"], [g["material"] for g in study["groups"]]
+    parts = []
     for fam, names in families.items():
         parts.append(f"<section id='{anchor('q', fam)}'><h2>{esc(titles.get(fam, names[0]))}</h2>")
         for f in lead_figure(fam, names, summary, figures, materials):
             parts.append(figure_html(f))
         for name in names:
             v = verdicts[name]
-            parts.append(f"<h3 id='{anchor('v', name)}'>{esc(v.get('question', name))}</h3>"
+            parts.append(f"<h3 id='{anchor('v', name)}'>{esc(v['question'])}</h3>"
                          f"<p class='statement'>{esc(statement(name, v, summary, labels))}</p>")
             rows_v = [r for r in tables["verdicts"][1] if r[0] == name]
             parts.append(f"<details><summary>Per material ({len(rows_v)} rows)</summary>"
@@ -372,17 +376,24 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
             parts.append("<p>The parameter charts below show the same on spheres: "
                          "<a href='#charts'>Parameter charts</a>.</p>")
         parts.append("</section>")
+    return parts
 
-    if charts:
-        parts.append("<section id='charts'><h2>Parameter charts</h2><p>Each fitted model "
-                     "rendered over its two main parameters under one light and one exposure; "
-                     "the fitted materials are marked. A normalised lobe keeps its energy as "
-                     "it narrows (the highlight gets brighter as it gets smaller); the classic "
-                     "Blinn-Phong lobe keeps its peak and loses energy.</p>")
-        parts += [figure_html(f) for f in charts]
-        parts.append("</section>")
 
-    for m in materials:
+def charts_html(charts):
+    if not charts:
+        return []
+    return (["<section id='charts'><h2>Parameter charts</h2><p>Each fitted model "
+             "rendered over its two main parameters under one light and one exposure; "
+             "the fitted materials are marked. A normalised lobe keeps its energy as "
+             "it narrows (the highlight gets brighter as it gets smaller); the classic "
+             "Blinn-Phong lobe keeps its peak and loses energy.</p>"]
+            + [figure_html(f) for f in charts] + ["</section>"])
+
+
+def material_sections_html(study, figures, fits, rows, labels):
+    """Per material: the image comparison viewer and links to its grid figures."""
+    parts = []
+    for m in [g["material"] for g in study["groups"]]:
         parts.append(f"<section id='{anchor('m', m)}'><h2>{esc(m)}</h2>")
         parts.append(viewer_html(m, study, fits, rows, labels))
         # A study with many fits splits a material's grid into parts (one per training set).
@@ -396,10 +407,14 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
                 f"<a href='{esc(g['png'])}'>{esc(g['name'])}</a> "
                 f"(<a href='{esc(g['pdf'])}'>PDF</a>)" for g in grids) + ".</p>")
         parts.append("</section>")
+    return parts
 
-    parts.append("<h2 id='details'>Tables</h2><p>Click a heading to open a table, a column "
-                 "heading to sort it. The same rows are in tables/ as CSV, Markdown and "
-                 "LaTeX.</p>")
+
+def details_html(tables, figures, charts):
+    """The detail tables, collapsed and built when opened, and the list of every figure."""
+    parts = ["<h2 id='details'>Tables</h2><p>Click a heading to open a table, a column "
+             "heading to sort it. The same rows are in tables/ as CSV, Markdown and "
+             "LaTeX.</p>"]
     # The worst-quantity verdict rows are in the question sections already.
     named = [("comparisons", "Comparative answers, every comparison"),
              ("matrix", "Within tolerance: verdict matrix"), ("verdict_details", "Verdicts per quantity"),
@@ -418,12 +433,40 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
                  + "".join(f"<p><a href='{esc(f['png'])}'>{esc(f['name'])}</a> "
                            f"(<a href='{esc(f['pdf'])}'>PDF</a>): {esc(f['caption'])}</p>"
                            for f in figures + charts) + "</details>")
+    return parts
+
+
+def provenance_html(provenance):
+    """provenance.json (optional, like each of its fields: report_inputs.PROVENANCE)."""
     sf = provenance.get("shadefit", {})
     prov = {k: provenance.get(k) for k in ["shadefit", "dependencies", "gl_renderer", "machine"]}
-    parts.append("<h2 id='provenance'>Provenance</h2>"
-                 f"<p>shadefit {esc(sf.get('version', '?'))}; GL renderer "
-                 f"{esc(provenance.get('gl_renderer', '?'))}. Inputs and their SHA-256 are in "
-                 "provenance.json.</p><details><summary>Versions and machine</summary><pre>"
-                 + esc(json.dumps(prov, indent=2)) + "</pre></details>")
+    return ("<h2 id='provenance'>Provenance</h2>"
+            f"<p>shadefit {esc(sf.get('version', '?'))}; GL renderer "
+            f"{esc(provenance.get('gl_renderer', '?'))}. Inputs and their SHA-256 are in "
+            "provenance.json.</p><details><summary>Versions and machine</summary><pre>"
+            + esc(json.dumps(prov, indent=2)) + "</pre></details>")
+
+
+def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
+                write_text, comparisons=(), floor_lines=()):
+    labels = [f["label"] for f in study["fits"]]
+    materials = [g["material"] for g in study["groups"]]
+    families = question_families(study["verdicts"])  # Reading order: the FAMILIES order.
+    titles = {k: t for k, t, _ in FAMILIES}
+    parts = ["<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+             f"<title>{esc(study['name'])}</title><style>{read_asset('report.css')}</style>"
+             "</head><body>",
+             f"<h1>{esc(study['name'])}</h1><p>{esc(study['description'])}</p>",
+             nav_html(families, titles, charts, materials),
+             answers_html(comparisons, figures, floor_lines)]
+    parts += within_tolerance_html(study, summary, labels, comparisons)
+    parts += encoding_html(tables)
+    parts += question_sections_html(study, families, titles, tables, summary, figures, charts,
+                                    labels)
+    parts += charts_html(charts)
+    parts += material_sections_html(study, figures, fits, rows, labels)
+    parts += details_html(tables, figures, charts)
+    parts.append(provenance_html(provenance))
     parts.append(f"<script>{read_asset('viewer.js')}</script></body></html>")
     write_text(os.path.join(report_dir, "index.html"), "\n".join(parts))
