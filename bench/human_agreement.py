@@ -381,6 +381,20 @@ def sanity(refs, tests, materials):
 # ----------------------------------------------------------------------------- main
 
 
+def json_text(value):
+    """JSON with every non-finite number as null (json.dumps writes NaN, which is not JSON, and
+    never calls its default= for floats)."""
+    def clean(v):
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, (float, np.floating)):
+            return float(v) if math.isfinite(v) else None
+        return v
+    return json.dumps(clean(value), indent=1)
+
+
 def main(argv=None):
     root = pathlib.Path(__file__).resolve().parent.parent
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -443,11 +457,11 @@ def main(argv=None):
     ])
     print(report)
     (args.out / "human_agreement.md").write_text(report + "\n")
-    (args.out / "human_agreement.json").write_text(json.dumps({
+    (args.out / "human_agreement.json").write_text(json_text({
         "rows": [dict(zip(("metric", "rho", "ci_low", "ci_high", "exact_order", "mean_tau",
                            "materials"), r)) for r in table],
         "auto_exposure_stops": exposure,
-    }, indent=1, default=lambda x: None if isinstance(x, float) and not math.isfinite(x) else x))
+    }))
     return 0
 
 
