@@ -101,7 +101,6 @@ function(shadefit_render_library target)
     VERBATIM)
   set(src ${render_dir}/src)
   add_library(${target}
-      ${src}/error.cpp
       ${src}/image.cpp
       ${src}/models.cpp
       ${src}/scene.cpp
@@ -111,7 +110,6 @@ function(shadefit_render_library target)
       ${src}/renderer.cpp
       ${src}/gbuffer_shading.cpp
       ${src}/environment_quadrature.cpp
-      ${src}/files.cpp
       ${src}/albedo.cpp
       ${shader_cpp})
   target_include_directories(${target} PUBLIC ${render_dir}/include ${gen}/include)
@@ -122,7 +120,7 @@ function(shadefit_render_library target)
       SHADEFIT_OIIO_MODULE="$<TARGET_FILE:shadefit_oiio>")
   add_dependencies(${target} shadefit_oiio)
   target_link_libraries(${target}
-      PUBLIC fmt::fmt
+      PUBLIC fmt::fmt shadefit::base
       PRIVATE OpenEXR::OpenEXR tomlplusplus::tomlplusplus PkgConfig::EPOXY PkgConfig::EGL
               Threads::Threads ${CMAKE_DL_LIBS} shadefit::warnings)
 endfunction()

@@ -10,8 +10,8 @@
 #include <thread>
 
 #include "prepared_reference.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "solve.h"
 
 namespace shadefit::fit {
@@ -27,10 +27,10 @@ struct Row {
   std::vector<Vec3d> values;  // f cos theta_i
   std::vector<double> weights;
   std::vector<bool> extrapolated;
-  std::string error;          // First bad value, with its angles; empty when none.
+  std::string error;  // First bad value, with its angles; empty when none.
 };
 
-Row SampleRow(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& s, int i) {
+Row SampleRow(const reference_images::MeasuredBrdf& brdf, const BrdfSpaceSampling& s, int i) {
   Row row;
   const double cos_cut = std::cos(s.max_theta_deg * kPi / 180.0);
   // theta_h = u^2 pi/2 with u uniform (MERL's square-root cells), at the cell's midpoint in u.
@@ -44,7 +44,7 @@ Row SampleRow(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& s, int i)
     for (int k = 0; k < s.phi_d_cells; ++k) {
       const double phi_d = (k + 0.5) * d_phi_d;
       Vec3d wi, wo;
-      refs::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
+      reference_images::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
       if (!(wi.z > cos_cut) || !(wo.z > cos_cut)) continue;
       const Vec3d f = brdf.Eval(wi, wo);
       for (double c : {f.x, f.y, f.z}) {
@@ -100,7 +100,8 @@ void CheckBrdfSpaceOptions(const FitOptions& options) {
   if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
 }
 
-BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& sampling) {
+BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
+                              const BrdfSpaceSampling& sampling) {
   BrdfSpaceData data;
   data.files = brdf.SourceFiles();
   data.label = data.files.empty() ? "brdf" : data.files.front();
@@ -112,12 +113,14 @@ BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSam
   // Rows are independent; each thread takes every T-th row and the rows are joined in order,
   // so the data is the same bytes for any thread count.
   std::vector<Row> rows(static_cast<std::size_t>(sampling.theta_h_cells));
-  const int threads = std::max(1, std::min<int>(sampling.theta_h_cells,
-                                                static_cast<int>(std::thread::hardware_concurrency())));
+  const int threads = std::max(
+      1,
+      std::min<int>(sampling.theta_h_cells, static_cast<int>(std::thread::hardware_concurrency())));
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {
-      for (int i = t; i < sampling.theta_h_cells; i += threads) rows[i] = SampleRow(brdf, sampling, i);
+      for (int i = t; i < sampling.theta_h_cells; i += threads)
+        rows[i] = SampleRow(brdf, sampling, i);
     });
   }
   for (std::thread& th : pool) th.join();

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::fit {
 namespace {
@@ -17,14 +17,14 @@ namespace {
 constexpr float kFullCoverage = 1.0f - 1e-5f;
 
 // The value the file stored, from the linear value the reference holds.
-double StoredOf(const refs::Reference& ref, double linear) {
-  if (ref.decoded_from == refs::Encoding::kSrgb) {
+double StoredOf(const reference_images::Reference& ref, double linear) {
+  if (ref.decoded_from == reference_images::Encoding::kSrgb) {
     return SrgbOetf(static_cast<float>(std::clamp(linear, 0.0, 1.0)));
   }
   return linear;
 }
 
-bool Usable(const refs::Reference& ref, int x, int y) {
+bool Usable(const reference_images::Reference& ref, int x, int y) {
   const Image& im = ref.image;
   if (im.channels >= 4 && !(im.at(x, y, 3) >= kFullCoverage)) return false;
   if (!ref.mask.empty() && !(ref.mask.at(x, y, 0) > 0.5f)) return false;
@@ -42,7 +42,7 @@ struct Scored {
 // Fits `problem` with every reference re-decoded by `e` and scores the fit in stored values.
 Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e) {
   FitProblem decoded = problem;
-  for (refs::Reference& r : decoded.references) r = Redecode(r, e);
+  for (reference_images::Reference& r : decoded.references) r = Redecode(r, e);
   FitOptions quick = options;
   quick.render_outputs = false;
   quick.compute_covariance = false;
@@ -116,8 +116,9 @@ std::string EncodingModeName(EncodingMode mode) {
   return mode == EncodingMode::kFit ? "fit" : "as-imported";
 }
 
-refs::Reference Redecode(const refs::Reference& ref, const StoredEncoding& e) {
-  refs::Reference out = ref;
+reference_images::Reference Redecode(const reference_images::Reference& ref,
+                                     const StoredEncoding& e) {
+  reference_images::Reference out = ref;
   for (int y = 0; y < ref.image.height; ++y) {
     for (int x = 0; x < ref.image.width; ++x) {
       for (int c = 0; c < 3; ++c) {
@@ -131,7 +132,7 @@ refs::Reference Redecode(const refs::Reference& ref, const StoredEncoding& e) {
   return out;
 }
 
-double StoredRmse(const refs::Reference& ref, const Image& prediction, double exposure,
+double StoredRmse(const reference_images::Reference& ref, const Image& prediction, double exposure,
                   const StoredEncoding& e, long* pixels) {
   double sq = 0;
   long n = 0;
@@ -204,7 +205,7 @@ EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitO
 
   // The chosen encoding's fit once more, with the caller's options (outputs, covariance).
   FitProblem decoded = problem;
-  for (refs::Reference& r : decoded.references) r = Redecode(r, result.chosen);
+  for (reference_images::Reference& r : decoded.references) r = Redecode(r, result.chosen);
   result.fit = Fit(decoded, options);
   return result;
 }

@@ -5,7 +5,7 @@
 #include <numeric>
 #include <utility>
 
-#include "shadefit/render/files.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit::fit::internal {
 namespace {

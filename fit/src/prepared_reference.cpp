@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::fit::internal {
 namespace {

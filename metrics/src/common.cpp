@@ -5,7 +5,7 @@
 #include <cmath>
 #include <thread>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "internal.h"
 #include "shadefit/metrics/common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
 namespace {

@@ -5,7 +5,7 @@
 
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/pixel_metrics.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
 namespace {

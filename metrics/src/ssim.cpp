@@ -1,13 +1,13 @@
-#include <algorithm>
 #include "shadefit/metrics/ssim.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
 
 #include "internal.h"
+#include "shadefit/base/error.h"
 #include "shadefit/metrics/common.h"
-#include "shadefit/render/error.h"
 
 namespace shadefit::metrics {
 namespace {
@@ -47,8 +47,8 @@ std::vector<std::uint8_t> PoolMask(const std::vector<std::uint8_t>& valid, int w
       const auto at = [&](int xx, int yy) {
         return integral[static_cast<std::size_t>(yy) * (w + 1) + xx];
       };
-      const int invalid = at(x + r + 1, y + r + 1) - at(x - r, y + r + 1) -
-                          at(x + r + 1, y - r) + at(x - r, y - r);
+      const int invalid =
+          at(x + r + 1, y + r + 1) - at(x - r, y + r + 1) - at(x + r + 1, y - r) + at(x - r, y - r);
       pool[static_cast<std::size_t>(y) * w + x] = invalid == 0 ? 1 : 0;
     }
   }
@@ -189,7 +189,8 @@ Plane Downsample(const Plane& in, int w, int h) {
   for (int y = 0; y < h2; ++y) {
     for (int x = 0; x < w2; ++x) {
       const std::size_t i = static_cast<std::size_t>(2 * y) * w + 2 * x;
-      out[static_cast<std::size_t>(y) * w2 + x] = 0.25 * (in[i] + in[i + 1] + in[i + w] + in[i + w + 1]);
+      out[static_cast<std::size_t>(y) * w2 + x] =
+          0.25 * (in[i] + in[i + 1] + in[i + w] + in[i + w + 1]);
     }
   }
   return out;

@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::python {
 
@@ -20,8 +20,7 @@ py::array ImageToArray(Image&& image, bool squeeze) {
   if (squeeze && c == 1) {
     return py::array_t<float>({h, w}, {w * f, f}, owned->data.data(), free_when_done);
   }
-  return py::array_t<float>({h, w, c}, {w * c * f, c * f, f}, owned->data.data(),
-                            free_when_done);
+  return py::array_t<float>({h, w, c}, {w * c * f, c * f, f}, owned->data.data(), free_when_done);
 }
 
 namespace {
@@ -35,16 +34,17 @@ std::string ShapeText(const py::array& a) {
 std::string ChannelsText(const std::vector<int>& channels) {
   std::string s;
   for (std::size_t i = 0; i < channels.size(); ++i) {
-    s += (i == 0 ? "" : (i + 1 == channels.size() ? " or " : ", ")) + fmt::format("(H, W, {})",
-                                                                                  channels[i]);
+    s += (i == 0 ? "" : (i + 1 == channels.size() ? " or " : ", ")) +
+         fmt::format("(H, W, {})", channels[i]);
   }
   return s;
 }
 
 py::array AsArray(py::handle object, const std::string& what) {
   if (!py::isinstance<py::array>(object)) {
-    throw py::type_error(fmt::format("{}: expected a numpy array, got {}", what,
-                                     py::str(py::type::of(object).attr("__name__")).cast<std::string>()));
+    throw py::type_error(
+        fmt::format("{}: expected a numpy array, got {}", what,
+                    py::str(py::type::of(object).attr("__name__")).cast<std::string>()));
   }
   return py::reinterpret_borrow<py::array>(object);
 }
@@ -59,17 +59,17 @@ Image ArrayToImage(py::handle object, const std::string& what, const std::vector
         what, py::str(a.dtype()).cast<std::string>()));
   }
   const bool one = std::find(channels.begin(), channels.end(), 1) != channels.end();
-  const bool shape_ok =
-      (a.ndim() == 3 && std::find(channels.begin(), channels.end(), a.shape(2)) != channels.end()) ||
-      (a.ndim() == 2 && one);
+  const bool shape_ok = (a.ndim() == 3 && std::find(channels.begin(), channels.end(), a.shape(2)) !=
+                                              channels.end()) ||
+                        (a.ndim() == 2 && one);
   if (!shape_ok || a.shape(0) < 1 || a.shape(1) < 1) {
     throw py::value_error(fmt::format("{}: expected shape {}{}, got {}", what,
                                       ChannelsText(channels), one ? " or (H, W)" : "",
                                       ShapeText(a)));
   }
   if (a.shape(0) > 16384 || a.shape(1) > 16384) {
-    throw py::value_error(fmt::format("{}: {} x {} pixels is beyond 16384 per side", what,
-                                      a.shape(1), a.shape(0)));
+    throw py::value_error(
+        fmt::format("{}: {} x {} pixels is beyond 16384 per side", what, a.shape(1), a.shape(0)));
   }
   const auto f = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
   Image image(static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0)),
@@ -98,12 +98,18 @@ Image MaskToImage(py::handle object, const std::string& what) {
 
 py::object JsonToPy(const nlohmann::json& j) {
   switch (j.type()) {
-    case nlohmann::json::value_t::null: return py::none();
-    case nlohmann::json::value_t::boolean: return py::bool_(j.get<bool>());
-    case nlohmann::json::value_t::number_integer: return py::int_(j.get<std::int64_t>());
-    case nlohmann::json::value_t::number_unsigned: return py::int_(j.get<std::uint64_t>());
-    case nlohmann::json::value_t::number_float: return py::float_(j.get<double>());
-    case nlohmann::json::value_t::string: return py::str(j.get_ref<const std::string&>());
+    case nlohmann::json::value_t::null:
+      return py::none();
+    case nlohmann::json::value_t::boolean:
+      return py::bool_(j.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+      return py::int_(j.get<std::int64_t>());
+    case nlohmann::json::value_t::number_unsigned:
+      return py::int_(j.get<std::uint64_t>());
+    case nlohmann::json::value_t::number_float:
+      return py::float_(j.get<double>());
+    case nlohmann::json::value_t::string:
+      return py::str(j.get_ref<const std::string&>());
     case nlohmann::json::value_t::array: {
       py::list out;
       for (const auto& v : j) out.append(JsonToPy(v));
@@ -114,7 +120,8 @@ py::object JsonToPy(const nlohmann::json& j) {
       for (auto it = j.begin(); it != j.end(); ++it) out[py::str(it.key())] = JsonToPy(it.value());
       return out;
     }
-    default: return py::none();  // binary, discarded: never written by shadefit.
+    default:
+      return py::none();  // binary, discarded: never written by shadefit.
   }
 }
 
@@ -127,8 +134,8 @@ std::vector<double> ParamsFromPy(const ModelInfo& model, py::handle params,
       const std::string name = py::str(item.first);
       std::vector<double> values;
       if (py::isinstance<py::str>(item.second)) {
-        throw py::type_error(fmt::format("{}: {}: expected a number or (r, g, b), got a string",
-                                         context, name));
+        throw py::type_error(
+            fmt::format("{}: {}: expected a number or (r, g, b), got a string", context, name));
       }
       try {
         if (py::isinstance<py::sequence>(item.second) || py::isinstance<py::array>(item.second)) {
@@ -147,9 +154,9 @@ std::vector<double> ParamsFromPy(const ModelInfo& model, py::handle params,
   try {
     flat = params.cast<std::vector<double>>();
   } catch (const py::cast_error&) {
-    throw py::type_error(fmt::format(
-        "{}: expected a dict {{name: value}}, a sequence of {} numbers or None", context,
-        model.ParamCount()));
+    throw py::type_error(
+        fmt::format("{}: expected a dict {{name: value}}, a sequence of {} numbers or None",
+                    context, model.ParamCount()));
   }
   if (static_cast<int>(flat.size()) != model.ParamCount()) {
     throw Error("", context,
@@ -171,7 +178,8 @@ std::vector<double> ParamsFromPy(const ModelInfo& model, py::handle params,
   return out;
 }
 
-Scene SceneFromArgs(const std::string& path, const std::string& text, const std::string& text_name) {
+Scene SceneFromArgs(const std::string& path, const std::string& text,
+                    const std::string& text_name) {
   if (!path.empty()) return LoadScene(path);
   return ParseScene(text, text_name);
 }

@@ -3,7 +3,7 @@
 // docstrings and argument handling live in python/shadefit/__init__.py; what is here takes
 // already normalised arguments (docs/python.md).
 //
-// Links: shadefit::render, shadefit::metrics, shadefit::refs (and, through the other files,
+// Links: shadefit::render, shadefit::metrics, shadefit::reference_images (and, through the other files,
 // shadefit::fit, shadefit::probes, shadefit::studies), pybind11.
 #include <fmt/format.h>
 #include <pybind11/stl.h>
@@ -13,9 +13,9 @@
 #include <string>
 
 #include "common.h"
+#include "shadefit/base/error.h"
 #include "shadefit/metrics/report.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/version.h"
 
 namespace shadefit::python {
@@ -51,8 +51,7 @@ py::list Models() {
 }
 
 py::array Render(const std::string& scene_path, const std::string& scene_text,
-                 const std::string& scene_name, const std::string& model_name,
-                 py::handle params) {
+                 const std::string& scene_name, const std::string& model_name, py::handle params) {
   // The CLI's order: model, parameters, scene, then GL.
   const ModelInfo& model = FindModel(model_name);
   const std::vector<double> values = ParamsFromPy(model, params, "params");
@@ -60,7 +59,8 @@ py::array Render(const std::string& scene_path, const std::string& scene_text,
   {
     py::gil_scoped_release no_gil;
     const Scene scene = SceneFromArgs(scene_path, scene_text, scene_name);
-    image = SharedGl::With([&](Renderer& r, GlContext&) { return r.Render(scene, model.id, values); });
+    image =
+        SharedGl::With([&](Renderer& r, GlContext&) { return r.Render(scene, model.id, values); });
   }
   return ImageToArray(std::move(image));
 }
@@ -92,8 +92,8 @@ Image ImageArg(py::handle object, const std::string& what, std::string* name) {
   return ArrayToImage(object, what, {3, 4});
 }
 
-py::dict Metrics(py::handle reference, py::handle test, py::handle mask, float exposure,
-                 double ppd, double itp_white, bool maps) {
+py::dict Metrics(py::handle reference, py::handle test, py::handle mask, float exposure, double ppd,
+                 double itp_white, bool maps) {
   // The CLI's checks, in its order, named by the keyword.
   if (!std::isfinite(exposure) || std::abs(exposure) > 64) {
     throw Error("", "exposure", fmt::format("{} stops is not in [-64, 64]", exposure));
@@ -162,8 +162,8 @@ void WriteExrArray(const std::string& path, py::handle array) {
 }
 
 // f(wi, wo) for N direction pairs: (N, 3) float64 each -> (N, 3) float64, 1/sr.
-py::array_t<double> EvalBrdf(const refs::MeasuredBrdf& brdf, const py::array_t<double>& wi,
-                             const py::array_t<double>& wo) {
+py::array_t<double> EvalBrdf(const reference_images::MeasuredBrdf& brdf,
+                             const py::array_t<double>& wi, const py::array_t<double>& wo) {
   const py::ssize_t n = wi.shape(0);
   py::array_t<double> out({n, py::ssize_t{3}});
   const double* a = wi.data();
@@ -172,8 +172,8 @@ py::array_t<double> EvalBrdf(const refs::MeasuredBrdf& brdf, const py::array_t<d
   {
     py::gil_scoped_release no_gil;
     for (py::ssize_t k = 0; k < n; ++k) {
-      const Vec3d f = brdf.Eval({a[3 * k], a[3 * k + 1], a[3 * k + 2]},
-                                {b[3 * k], b[3 * k + 1], b[3 * k + 2]});
+      const Vec3d f =
+          brdf.Eval({a[3 * k], a[3 * k + 1], a[3 * k + 2]}, {b[3 * k], b[3 * k + 1], b[3 * k + 2]});
       o[3 * k] = f.x;
       o[3 * k + 1] = f.y;
       o[3 * k + 2] = f.z;
@@ -219,17 +219,18 @@ PYBIND11_MODULE(_shadefit, m) {
   m.def("read_image", &ReadImageArray, py::arg("path"));
   m.def("write_exr", &WriteExrArray, py::arg("path"), py::arg("image"));
 
-  py::class_<sf::refs::MeasuredBrdf, std::shared_ptr<sf::refs::MeasuredBrdf>>(m, "MeasuredBrdf")
+  py::class_<sf::reference_images::MeasuredBrdf,
+             std::shared_ptr<sf::reference_images::MeasuredBrdf>>(m, "MeasuredBrdf")
       .def("eval", &EvalBrdf, py::arg("wi"), py::arg("wo"))
-      .def_property_readonly("format", &sf::refs::MeasuredBrdf::Format)
-      .def_property_readonly("files", &sf::refs::MeasuredBrdf::SourceFiles);
+      .def_property_readonly("format", &sf::reference_images::MeasuredBrdf::Format)
+      .def_property_readonly("files", &sf::reference_images::MeasuredBrdf::SourceFiles);
   m.def("load_brdf", [](const std::string& path) {
-    std::unique_ptr<sf::refs::MeasuredBrdf> b;
+    std::unique_ptr<sf::reference_images::MeasuredBrdf> b;
     {
       py::gil_scoped_release no_gil;
-      b = sf::refs::LoadMeasuredBrdf(path);
+      b = sf::reference_images::LoadMeasuredBrdf(path);
     }
-    return std::shared_ptr<sf::refs::MeasuredBrdf>(std::move(b));
+    return std::shared_ptr<sf::reference_images::MeasuredBrdf>(std::move(b));
   });
 
   RegisterFit(m);

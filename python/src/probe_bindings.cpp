@@ -2,7 +2,7 @@
 // (studies/cli/probe_command.cpp): references from files with their sidecar scenes, their
 // G-buffers rendered here; models as dicts; the result as the probe's JSON.
 //
-// Links: shadefit::probes, shadefit::refs.
+// Links: shadefit::probes, shadefit::reference_images.
 #include <fmt/format.h>
 #include <pybind11/stl.h>
 
@@ -12,12 +12,12 @@
 #include <vector>
 
 #include "common.h"
+#include "shadefit/base/error.h"
 #include "shadefit/probes/brdf_space.h"
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/refs/sidecar.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
+#include "shadefit/reference_images/sidecar.h"
 
 namespace shadefit::python {
 namespace {
@@ -42,8 +42,9 @@ py::object Probe(const std::string& name, const std::vector<std::string>& refere
     const std::vector<std::string> names = probes::ProbeNames();
     std::string all;
     for (const auto& n : names) all += (all.empty() ? "" : ", ") + n;
-    throw Error("", "probe", fmt::format("unknown probe '{}'{} (one of {})", name,
-                                         DidYouMean(name, names), all));
+    throw Error(
+        "", "probe",
+        fmt::format("unknown probe '{}'{} (one of {})", name, DidYouMean(name, names), all));
   }
   std::vector<probes::ModelUnderTest> models;
   for (auto h : models_in) models.push_back(ModelFromPy(h));
@@ -54,7 +55,8 @@ py::object Probe(const std::string& name, const std::vector<std::string>& refere
       if (brdf_path.empty()) throw Error("", "brdf", "the brdf probe needs a measured BRDF file");
       if (!references.empty()) throw Error("", "references", "not read by the brdf probe");
       if (truth_from_sidecar) throw Error("", "truth_from_sidecar", "not used by the brdf probe");
-      const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(brdf_path);
+      const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+          reference_images::LoadMeasuredBrdf(brdf_path);
       j = probes::ProbeResultToJson(probes::BrdfSpaceProbe(*brdf, models));
     } else {
       if (!brdf_path.empty()) throw Error("", "brdf", "only the brdf probe reads a measured BRDF");
@@ -72,9 +74,10 @@ py::object Probe(const std::string& name, const std::vector<std::string>& refere
         }
         in.models = models;
         if (truth_from_sidecar) {
-          const std::string sidecar = refs::SidecarPathFor(references.front());
+          const std::string sidecar = reference_images::SidecarPathFor(references.front());
           std::string why_not;
-          const std::optional<refs::SidecarTruth> truth = refs::TruthOfSidecar(sidecar, &why_not);
+          const std::optional<reference_images::SidecarTruth> truth =
+              reference_images::TruthOfSidecar(sidecar, &why_not);
           if (!truth) throw Error(sidecar, "material", why_not + " (needed by truth_from_sidecar)");
           probes::ModelUnderTest t;
           t.label = "truth";

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/studies/parameter_charts.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
@@ -17,8 +17,8 @@
 namespace shadefit::python {
 namespace {
 
-py::dict RunStudy(const std::string& path, const std::string& out, bool quick, int jobs,
-                  bool force, bool quiet) {
+py::dict RunStudy(const std::string& path, const std::string& out, bool quick, int jobs, bool force,
+                  bool quiet) {
   if (jobs < 0) throw Error("", "jobs", "must be >= 0");
   studies::RunSummary s;
   bool report = false;
@@ -28,7 +28,8 @@ py::dict RunStudy(const std::string& path, const std::string& out, bool quick, i
     py::gil_scoped_release no_gil;
     studies::StudySpec spec = studies::LoadStudy(path, quick);
     skip = studies::MeasuredSkipReason(spec);
-    if (!skip.empty()) std::fprintf(stderr, "shadefit: study %s: %s\n", spec.name.c_str(), skip.c_str());
+    if (!skip.empty())
+      std::fprintf(stderr, "shadefit: study %s: %s\n", spec.name.c_str(), skip.c_str());
     studies::MeasuredOptions mo;
     mo.quiet = quiet;
     studies::MaterialiseMeasuredReferences(&spec, out, mo);
@@ -69,8 +70,8 @@ py::dict RunStudy(const std::string& path, const std::string& out, bool quick, i
 }  // namespace
 
 void RegisterStudy(py::module_& m) {
-  m.def("run_study", &RunStudy, py::arg("path"), py::arg("out"), py::arg("quick"),
-        py::arg("jobs"), py::arg("force"), py::arg("quiet"));
+  m.def("run_study", &RunStudy, py::arg("path"), py::arg("out"), py::arg("quick"), py::arg("jobs"),
+        py::arg("force"), py::arg("quiet"));
 }
 
 }  // namespace shadefit::python

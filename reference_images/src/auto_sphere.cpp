@@ -8,10 +8,10 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "shadefit/refs/import.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/import.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 double Luminance(const Image& img, int x, int y) {
@@ -352,4 +352,4 @@ std::string OrthographicSphereSceneToml(const SphereEstimate& s, int width, int 
   return toml;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

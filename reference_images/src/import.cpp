@@ -1,4 +1,4 @@
-#include "shadefit/refs/import.h"
+#include "shadefit/reference_images/import.h"
 
 #include <fmt/format.h>
 
@@ -10,11 +10,11 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "shadefit/render/files.h"
-#include "shadefit/refs/render_measured.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/render_measured.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 namespace fs = std::filesystem;
@@ -259,7 +259,7 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
                "the view about the normal at the highlight (initial guess)"}};
   }
 
-  // --- Write: each file atomically, all or nothing (render/files.h).
+  // --- Write: each file atomically, all or nothing (base/files.h).
   ImageMetadata meta{{"shadefit:kind", "imported"},
                      {"shadefit:source", fs::path(options.image_path).filename().string()},
                      {"shadefit:encoding", EncodingName(result.encoding)},
@@ -278,4 +278,4 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   return result;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -1,5 +1,5 @@
 // Light calibration from mirror-ball photographs (light_calibration.h).
-#include "shadefit/refs/light_calibration.h"
+#include "shadefit/reference_images/light_calibration.h"
 
 #include <fmt/format.h>
 
@@ -11,10 +11,10 @@
 #include <set>
 #include <sstream>
 
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 namespace fs = std::filesystem;
 
@@ -110,7 +110,7 @@ Scene LoadLightlessTemplate(const std::string& path, const std::string& output_d
   return tmpl;
 }
 
-// Writes every scene, then the summary: all of them or none (render/files.h). The output folder
+// Writes every scene, then the summary: all of them or none (base/files.h). The output folder
 // is created first when missing, and removed again when nothing could be written into it.
 void WriteScenesAndSummary(const std::string& output_dir, const std::vector<std::string>& paths,
                            const std::vector<std::string>& texts, const std::string& summary_path,
@@ -458,4 +458,4 @@ std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOption
   return out;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

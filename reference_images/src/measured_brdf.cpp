@@ -1,13 +1,13 @@
 // Rusinkiewicz half/difference coordinates and the by-extension loader.
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 HalfDiff ToHalfDiff(const Vec3d& wi, const Vec3d& wo) {
   HalfDiff r;
@@ -60,4 +60,4 @@ std::unique_ptr<MeasuredBrdf> LoadMeasuredBrdf(const std::string& path) {
               "expected a MERL .binary file or a Neural-BRDF .h5 (with its .json beside it)");
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -13,12 +13,12 @@
 #include <filesystem>
 #include <fstream>
 
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/brdf.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 static_assert(std::endian::native == std::endian::little,
@@ -163,4 +163,4 @@ void WriteMerlBinary(const std::string& path,
   WriteTextAtomic(path, bytes);  // Binary-safe: a temporary sibling, then a rename.
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

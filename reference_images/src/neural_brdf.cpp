@@ -10,11 +10,11 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
-#include "shadefit/render/files.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 // Closes an HDF5 handle on scope exit.
@@ -210,4 +210,4 @@ Vec3d NeuralBrdf::Eval(const Vec3d& wi, const Vec3d& wo) const {
   return Forward({std::sin(hd.theta_h), 0.0, std::cos(hd.theta_h), hd.d.x, hd.d.y, hd.d.z});
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -1,19 +1,19 @@
 // Reading a reference from files: image, sidecar JSON, scene TOML, optional mask.
+#include "shadefit/reference_images/reference.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-
 #include <nlohmann/json.hpp>
 
-#include "shadefit/refs/reference.h"
-#include "shadefit/refs/sidecar.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/sidecar.h"
 #include "sidecar_fields.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace fs = std::filesystem;
 namespace {
 
@@ -141,17 +141,17 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
                   fmt::format("scene '{}' does not exist", scene_path.string()));
     }
     ref.scene_path = scene_path.lexically_normal().string();
-    if (meta.contains("measured_domain")) ReadMeasuredDomain(meta["measured_domain"], sidecar, &ref);
+    if (meta.contains("measured_domain"))
+      ReadMeasuredDomain(meta["measured_domain"], sidecar, &ref);
   }
   if (!fs::exists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
   ref.scene = LoadScene(ref.scene_path);
   ref.sha256["scene"] = Sha256File(ref.scene_path);
-  if (ref.scene.camera.width != ref.image.width ||
-      ref.scene.camera.height_px != ref.image.height) {
-    throw Error(image_path, "resolution",
-                fmt::format("image is {}x{} but scene {} renders {}x{}", ref.image.width,
-                            ref.image.height, ref.scene_path, ref.scene.camera.width,
-                            ref.scene.camera.height_px));
+  if (ref.scene.camera.width != ref.image.width || ref.scene.camera.height_px != ref.image.height) {
+    throw Error(
+        image_path, "resolution",
+        fmt::format("image is {}x{} but scene {} renders {}x{}", ref.image.width, ref.image.height,
+                    ref.scene_path, ref.scene.camera.width, ref.scene.camera.height_px));
   }
 
   if (!mask_path.empty()) {
@@ -168,4 +168,4 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   return ref;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

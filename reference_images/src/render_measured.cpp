@@ -1,4 +1,4 @@
-#include "shadefit/refs/render_measured.h"
+#include "shadefit/reference_images/render_measured.h"
 
 #include <fmt/format.h>
 
@@ -12,12 +12,12 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "shadefit/render/files.h"
+#include "shadefit/base/files.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 // Same offset as kRayEpsilon in render/shaders/render.frag and gbuffer_shading.cpp.
@@ -410,4 +410,4 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
   return stats;
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

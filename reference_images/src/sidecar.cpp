@@ -1,4 +1,4 @@
-#include "shadefit/refs/sidecar.h"
+#include "shadefit/reference_images/sidecar.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include "shadefit/render/models.h"
 #include "sidecar_fields.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
@@ -98,4 +98,4 @@ std::optional<SidecarTruth> TruthOfSidecar(const std::string& sidecar_path,
   }
 }
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

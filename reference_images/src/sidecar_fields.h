@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace shadefit::refs::internal {
+namespace shadefit::reference_images::internal {
 
 // The scene a sidecar names, as written: "scene_file", else "scene" when it is a string; ""
 // when neither is.
@@ -20,4 +20,4 @@ inline std::string SceneFieldOf(const nlohmann::json& sidecar) {
   return "";
 }
 
-}  // namespace shadefit::refs::internal
+}  // namespace shadefit::reference_images::internal

@@ -10,7 +10,7 @@
 #include <tuple>
 
 #include "shadefit/render/brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {

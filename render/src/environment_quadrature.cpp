@@ -9,7 +9,7 @@
 
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/gbuffer.h"
 
 namespace shadefit {

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <vector>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {

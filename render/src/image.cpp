@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "image_oiio.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit {
 namespace {

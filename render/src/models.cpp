@@ -6,7 +6,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {
@@ -76,8 +76,9 @@ const ModelInfo& FindModel(const std::string& name) {
     known += (known.empty() ? "" : ", ") + m.name;
     names.push_back(m.name);
   }
-  throw Error("", "model",
-              fmt::format("unknown model '{}'{} (known: {})", name, DidYouMean(name, names), known));
+  throw Error(
+      "", "model",
+      fmt::format("unknown model '{}'{} (known: {})", name, DidYouMean(name, names), known));
 }
 
 const ModelInfo& GetModel(ModelId id) {
@@ -109,15 +110,14 @@ void SetParam(const ModelInfo& model, const std::string& name, const std::vector
                             DidYouMean(name, names), known));
   }
   if (values.size() != 1 && static_cast<int>(values.size()) != spec->size) {
-    throw Error(context, name, fmt::format("expected {} value(s), got {}", spec->size,
-                                           values.size()));
+    throw Error(context, name,
+                fmt::format("expected {} value(s), got {}", spec->size, values.size()));
   }
   const int offset = model.Offset(name);
   for (int c = 0; c < spec->size; ++c) {
     const double v = values.size() == 1 ? values[0] : values[c];
     if (!std::isfinite(v) || v < spec->min || v > spec->max) {
-      throw Error(context, name, fmt::format("value {} outside [{}, {}]", v, spec->min,
-                                             spec->max));
+      throw Error(context, name, fmt::format("value {} outside [{}, {}]", v, spec->min, spec->max));
     }
     (*params)[offset + c] = v;
   }

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "shadefit/render/environment.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace internal {

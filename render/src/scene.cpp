@@ -11,7 +11,7 @@
 #include <sstream>
 #include <utility>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {

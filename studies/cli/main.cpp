@@ -3,8 +3,8 @@
 #include <exception>
 
 #include "commands.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/version.h"
 
 int main(int argc, char** argv) {

@@ -13,8 +13,8 @@
 #include <string>
 
 #include "commands.h"
+#include "shadefit/base/error.h"
 #include "shadefit/metrics/report.h"
-#include "shadefit/render/error.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::cli {
@@ -81,8 +81,7 @@ void RunMetrics(const MetricsOptions& o) {
     throw Error("", "--ppd", fmt::format("{} pixels per degree is not in (0, 1000]", o.ppd));
   }
   if (!std::isfinite(o.itp_white) || o.itp_white <= 0 || o.itp_white > 10000) {
-    throw Error("", "--itp-white",
-                fmt::format("{} cd/m^2 is not in (0, 10000]", o.itp_white));
+    throw Error("", "--itp-white", fmt::format("{} cd/m^2 is not in (0, 10000]", o.itp_white));
   }
   const Image reference = ReadImage(o.reference);
   const Image test = ReadImage(o.test);
@@ -116,12 +115,11 @@ void RegisterMetricsCommand(CLI::App& app) {
   auto options = std::make_shared<MetricsOptions>();
   CLI::App* cmd = app.add_subcommand(
       "metrics", "Image metrics between a reference and a test image (linear HDR RGB)");
-  cmd->add_option("reference", options->reference, "Reference image (EXR, linear RGB)")
-      ->required();
+  cmd->add_option("reference", options->reference, "Reference image (EXR, linear RGB)")->required();
   cmd->add_option("test", options->test, "Test image, same size")->required();
-  cmd->add_option("--mask", options->mask,
-                  "Single-channel mask image; pixels > 0.5 are evaluated");
-  cmd->add_flag("--json", options->json, "Print JSON (schema shadefit.metrics/1) instead of a table");
+  cmd->add_option("--mask", options->mask, "Single-channel mask image; pixels > 0.5 are evaluated");
+  cmd->add_flag("--json", options->json,
+                "Print JSON (schema shadefit.metrics/1) instead of a table");
   cmd->add_option("--exposure", options->exposure,
                   "Display-transform exposure in stops (PSNR, SSIM, CIEDE2000, LDR-FLIP)")
       ->capture_default_str();

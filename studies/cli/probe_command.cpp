@@ -1,11 +1,11 @@
 // `shadefit probe <fresnel|highlight|energy|portability> --ref a.exr [--ref ...]
 //      [--model M --set name=v ...] [--fit fit.json ...] [--truth-from-sidecar] -o DIR`:
 // the phenomenon probes (docs/probes.md). References load with their sidecar scene
-// (shadefit::refs::LoadReference); their G-buffers are rendered here.
+// (shadefit::reference_images::LoadReference); their G-buffers are rendered here.
 // `shadefit probe brdf --brdf x.binary|x.h5 [--model M --set ...] [--fit fit.json ...] -o DIR`:
 // the BRDF-space probes of a measured BRDF (probes/brdf_space.h); no references, no GL.
 //
-// Links: shadefit::probes, shadefit::refs (references and sidecars), CLI11::CLI11, fmt::fmt,
+// Links: shadefit::probes, shadefit::reference_images (references and sidecars), CLI11::CLI11, fmt::fmt,
 // nlohmann_json.
 #include <fmt/core.h>
 
@@ -13,19 +13,19 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/probes/brdf_space.h"
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/refs/sidecar.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
+#include "shadefit/reference_images/sidecar.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 
@@ -102,12 +102,13 @@ probes::ModelUnderTest ModelFromFit(const std::string& path) {
   return m;
 }
 
-// The first reference's Cycles material as one of our models (refs::TruthOfSidecar, the one
-// mapping the study runner uses too); an error naming the sidecar when it has no exact twin.
+// The first reference's Cycles material as one of our models (reference_images::TruthOfSidecar, the
+// one mapping the study runner uses too); an error naming the sidecar when it has no exact twin.
 probes::ModelUnderTest TruthFromSidecar(const std::string& image_path) {
-  const std::string sidecar = refs::SidecarPathFor(image_path);
+  const std::string sidecar = reference_images::SidecarPathFor(image_path);
   std::string why_not;
-  const std::optional<refs::SidecarTruth> truth = refs::TruthOfSidecar(sidecar, &why_not);
+  const std::optional<reference_images::SidecarTruth> truth =
+      reference_images::TruthOfSidecar(sidecar, &why_not);
   if (!truth) throw Error(sidecar, "material", why_not + " (needed by --truth-from-sidecar)");
   probes::ModelUnderTest m;
   m.label = "truth";
@@ -139,7 +140,8 @@ void RunBrdf(const ProbeCliOptions& o) {
   if (o.brdf.empty()) throw Error("", "--brdf", "the brdf probe needs a measured BRDF file");
   if (!o.refs.empty()) throw Error("", "--ref", "not read by the brdf probe (it reads --brdf)");
   if (o.truth_from_sidecar) throw Error("", "--truth-from-sidecar", "not used by the brdf probe");
-  const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(o.brdf);
+  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+      reference_images::LoadMeasuredBrdf(o.brdf);
   const std::vector<probes::ModelUnderTest> models = ModelsOf(o);
   const probes::ProbeResult result = probes::BrdfSpaceProbe(*brdf, models);
   probes::WriteProbeOutputs(result, o.output);

@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "commands.h"
-#include "shadefit/refs/import.h"
-#include "shadefit/refs/light_calibration.h"
-#include "shadefit/refs/render_measured.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
+#include "shadefit/reference_images/import.h"
+#include "shadefit/reference_images/light_calibration.h"
+#include "shadefit/reference_images/render_measured.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 
@@ -63,7 +63,7 @@ void AddMeasured(CLI::App& refs) {
       refs.add_subcommand("measured",
                           "Render a measured BRDF (MERL .binary, or Neural-BRDF .h5 with its .json "
                           "beside it) over a scene's G-buffer");
-  auto req = std::make_shared<refs::MeasuredReferenceRequest>();
+  auto req = std::make_shared<reference_images::MeasuredReferenceRequest>();
   cmd->add_option("--brdf", req->brdf_path, "MERL .binary or Neural-BRDF .h5")->required();
   cmd->add_option("--scene", req->scene_path, "Scene TOML file")->required();
   cmd->add_option("-o,--output", req->output, "Output EXR (sidecar: same name, .json)")->required();
@@ -80,19 +80,21 @@ void AddMeasured(CLI::App& refs) {
   cmd->callback([req] {
     GlContext context;
     Renderer renderer(context);
-    const refs::RenderMeasuredStats s = refs::MakeMeasuredReference(*req, renderer);
+    const reference_images::RenderMeasuredStats s =
+        reference_images::MakeMeasuredReference(*req, renderer);
     fmt::print(
         "wrote {} and {} ({} pixels, {} samples/technique, mean standard error "
         "({:.3g}, {:.3g}, {:.3g}), {:.1f} s)\n",
-        req->output, refs::SidecarPath(req->output), s.shaded_pixels, s.samples_per_technique,
-        s.mean_standard_error[0], s.mean_standard_error[1], s.mean_standard_error[2], s.seconds);
+        req->output, reference_images::SidecarPath(req->output), s.shaded_pixels,
+        s.samples_per_technique, s.mean_standard_error[0], s.mean_standard_error[1],
+        s.mean_standard_error[2], s.seconds);
   });
 }
 
 void AddImport(CLI::App& refs) {
   auto* cmd = refs.add_subcommand(
       "import", "Import a photograph or published image (PNG, JPEG, EXR) as a reference");
-  auto opt = std::make_shared<refs::ImportOptions>();
+  auto opt = std::make_shared<reference_images::ImportOptions>();
   auto encoding = std::make_shared<std::string>("auto");
   cmd->add_option("image", opt->image_path, "Image file (PNG, JPEG, EXR, ...)")->required();
   auto* scene = cmd->add_option("--scene", opt->scene_path, "Scene TOML matching the image");
@@ -109,18 +111,19 @@ void AddImport(CLI::App& refs) {
                   "8-bit code at or above which a channel counts as clipped (256: off)");
   cmd->add_option("-o,--output", opt->output, "Output EXR (sidecar: same name, .json)")->required();
   cmd->callback([opt, encoding] {
-    opt->encoding = refs::ParseEncoding(*encoding);
+    opt->encoding = reference_images::ParseEncoding(*encoding);
     GlContext context;
     Renderer renderer(context);
-    const refs::ImportResult r = refs::ImportReference(*opt, renderer);
-    const refs::ImportCounts& n = r.counts;
+    const reference_images::ImportResult r = reference_images::ImportReference(*opt, renderer);
+    const reference_images::ImportCounts& n = r.counts;
     fmt::print(
         "wrote {} and {} (encoding {}; {} pixels: {} masked out, {} clipped, {} valid, "
         "{} valid on the object; exposure unknown)\n",
-        opt->output, refs::SidecarPath(opt->output), refs::EncodingName(r.encoding), n.total,
-        n.masked_out, n.clipped, n.valid, n.valid_covered);
+        opt->output, reference_images::SidecarPath(opt->output),
+        reference_images::EncodingName(r.encoding), n.total, n.masked_out, n.clipped, n.valid,
+        n.valid_covered);
     if (r.has_sphere) {
-      const refs::SphereEstimate& s = r.sphere;
+      const reference_images::SphereEstimate& s = r.sphere;
       fmt::print("sphere: centre ({:.2f}, {:.2f}) px, radius {:.2f} px -> {}\n", s.center_x,
                  s.center_y, s.radius, r.scene_path);
       if (s.light_found) {
@@ -140,8 +143,8 @@ void AddLights(CLI::App& refs) {
       "Directional lights, one scene per light from a template: from photographs of a mirror "
       "ball (--ball, one per light, same camera), or from a data set's published light "
       "directions and intensities (--directions)");
-  auto opt = std::make_shared<refs::LightCalibrationOptions>();
-  auto pub = std::make_shared<refs::PublishedLightsOptions>();
+  auto opt = std::make_shared<reference_images::LightCalibrationOptions>();
+  auto pub = std::make_shared<reference_images::PublishedLightsOptions>();
   auto encoding = std::make_shared<std::string>("auto");
   auto axes = std::make_shared<std::string>("x,y,z");
   auto* ball = cmd->add_option("--ball", opt->ball_paths,
@@ -183,26 +186,30 @@ void AddLights(CLI::App& refs) {
       throw Error("", "lights", "give --ball photographs or a --directions file");
     }
     if (!pub->directions_path.empty()) {
-      pub->axes = refs::ParseAxisMapping(*axes);
+      pub->axes = reference_images::ParseAxisMapping(*axes);
       pub->scene_template = opt->scene_template;
       pub->output_dir = opt->output_dir;
       pub->irradiance = opt->irradiance;
-      for (const refs::PublishedLight& l : refs::LightsFromPublishedFiles(*pub)) {
-        fmt::print("{}: towards the light ({:.5f}, {:.5f}, {:.5f}), irradiance ({:.5g}, {:.5g}, "
-                   "{:.5g}) -> {}\n",
-                   l.lighting, l.to_light.x, l.to_light.y, l.to_light.z, l.irradiance.x,
-                   l.irradiance.y, l.irradiance.z, l.scene_path);
+      for (const reference_images::PublishedLight& l :
+           reference_images::LightsFromPublishedFiles(*pub)) {
+        fmt::print(
+            "{}: towards the light ({:.5f}, {:.5f}, {:.5f}), irradiance ({:.5g}, {:.5g}, "
+            "{:.5g}) -> {}\n",
+            l.lighting, l.to_light.x, l.to_light.y, l.to_light.z, l.irradiance.x, l.irradiance.y,
+            l.irradiance.z, l.scene_path);
       }
       return;
     }
-    opt->encoding = refs::ParseEncoding(*encoding);
-    const std::vector<refs::CalibratedLight> lights = refs::CalibrateLightsFromMirrorBall(*opt);
-    for (const refs::CalibratedLight& c : lights) {
-      fmt::print("{}: ball ({:.2f}, {:.2f}) r {:.2f} px ({}), highlight ({:.2f}, {:.2f}) px -> "
-                 "towards the light ({:.5f}, {:.5f}, {:.5f}) -> {}\n",
-                 c.ball_path, c.ball.center_x, c.ball.center_y, c.ball.radius, c.ball.found_by,
-                 c.ball.highlight_x, c.ball.highlight_y, c.to_light.x, c.to_light.y, c.to_light.z,
-                 c.scene_path);
+    opt->encoding = reference_images::ParseEncoding(*encoding);
+    const std::vector<reference_images::CalibratedLight> lights =
+        reference_images::CalibrateLightsFromMirrorBall(*opt);
+    for (const reference_images::CalibratedLight& c : lights) {
+      fmt::print(
+          "{}: ball ({:.2f}, {:.2f}) r {:.2f} px ({}), highlight ({:.2f}, {:.2f}) px -> "
+          "towards the light ({:.5f}, {:.5f}, {:.5f}) -> {}\n",
+          c.ball_path, c.ball.center_x, c.ball.center_y, c.ball.radius, c.ball.found_by,
+          c.ball.highlight_x, c.ball.highlight_y, c.to_light.x, c.to_light.y, c.to_light.z,
+          c.scene_path);
     }
   });
 }

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "commands.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"

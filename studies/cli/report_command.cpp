@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "commands.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 #ifndef SHADEFIT_SOURCE_DIR
 #define SHADEFIT_SOURCE_DIR "."
@@ -61,15 +61,17 @@ void MakeReport(const std::string& study_dir) {
     if (errno != EINTR) throw Error("", "report", "waitpid failed");
   }
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    throw Error(script, "", fmt::format("report failed (exit status {})",
-                                        WIFEXITED(status) ? WEXITSTATUS(status) : -1));
+    throw Error(script, "",
+                fmt::format("report failed (exit status {})",
+                            WIFEXITED(status) ? WEXITSTATUS(status) : -1));
   }
 }
 
 void RegisterReportCommand(CLI::App& app) {
   auto dir = std::make_shared<std::string>();
   CLI::App* cmd = app.add_subcommand(
-      "report", "Tables (LaTeX, Markdown, CSV), figures, verdicts, index.html from a study's results");
+      "report",
+      "Tables (LaTeX, Markdown, CSV), figures, verdicts, index.html from a study's results");
   cmd->add_option("study_dir", *dir, "A study's output folder, e.g. out/pbs_vs_blinn_phong")
       ->required();
   cmd->callback([dir] { MakeReport(*dir); });

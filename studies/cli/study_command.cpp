@@ -18,8 +18,8 @@
 
 #include "commands.h"
 #include "report_command.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/studies/parameter_charts.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
@@ -73,7 +73,8 @@ void RunStudyCommand(const StudyRunOptions& o) {
     shard_materials = studies::RestrictToShard(&spec, shard);
     mo.materials = &shard_materials;
   }
-  const studies::MeasuredSummary measured = studies::MaterialiseMeasuredReferences(&spec, o.out, mo);
+  const studies::MeasuredSummary measured =
+      studies::MaterialiseMeasuredReferences(&spec, o.out, mo);
   if (measured.rendered + measured.unchanged > 0 && !o.quiet) {
     std::fprintf(stderr, "study %s: %d measured reference(s) rendered (%.1f s), %d unchanged\n",
                  spec.name.c_str(), measured.rendered, measured.seconds, measured.unchanged);
@@ -115,9 +116,11 @@ void RunStudyCommand(const StudyRunOptions& o) {
                             s.not_run));
   }
   if (!s.fits_without_parameters.empty()) {  // A result, not progress: said even with -q.
-    std::fprintf(stderr, "shadefit: study %s: %zu fit(s) left no parameters (first: %s); see "
-                 "the status column of results.csv\n", spec.name.c_str(),
-                 s.fits_without_parameters.size(), s.fits_without_parameters.front().c_str());
+    std::fprintf(stderr,
+                 "shadefit: study %s: %zu fit(s) left no parameters (first: %s); see "
+                 "the status column of results.csv\n",
+                 spec.name.c_str(), s.fits_without_parameters.size(),
+                 s.fits_without_parameters.front().c_str());
   }
   if (shard.whole()) FinishStudy(spec, s.study_dir, !o.no_report);
   fmt::print("{}\n", s.study_dir);
@@ -137,8 +140,9 @@ void MergeStudyCommand(const StudyMergeOptions& o) {
   const std::string path = o.study.empty() ? sharded.study_path : o.study;
   studies::StudySpec spec = studies::LoadStudy(path, sharded.quick);
   if (Sha256String(spec.text) != sharded.study_sha256) {
-    throw Error(path, "", "differs from the study file the shards ran (its SHA-256 changed); "
-                          "rerun the shards, or pass the original with --study");
+    throw Error(path, "",
+                "differs from the study file the shards ran (its SHA-256 changed); "
+                "rerun the shards, or pass the original with --study");
   }
   const std::filesystem::path dir = std::filesystem::absolute(o.study_dir).lexically_normal();
   if (dir.filename() != spec.name) {
@@ -209,7 +213,8 @@ void RegisterStudyCommand(CLI::App& app) {
   CLI::App* slurm = study->add_subcommand(
       "slurm", "Write sbatch scripts: a job array of shards and a dependent merge job");
   slurm->add_option("study", sl->study, "Study file (TOML)")->required();
-  slurm->add_option("--array", sl->slurm.array, "Shards, one per array task")->capture_default_str();
+  slurm->add_option("--array", sl->slurm.array, "Shards, one per array task")
+      ->capture_default_str();
   slurm->add_option("--partition", sl->slurm.partition, "Slurm partition (default: the cluster's)");
   slurm->add_option("--time", sl->slurm.time, "Time limit per task (sbatch --time)")
       ->capture_default_str();

@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/image.h"
 
 namespace {
@@ -239,7 +239,7 @@ class BadInput : public ::testing::Test {
   std::string err_;
 };
 
-constexpr std::size_t kMerlValues = 3 * shadefit::refs::kMerlCells;
+constexpr std::size_t kMerlValues = 3 * shadefit::reference_images::kMerlCells;
 
 // Rewrites the width and height in a PNG's IHDR chunk (ISO/IEC 15948, 11.2.2) and its CRC-32
 // (ISO 3309, over the chunk type and data: bytes 12 to 28), leaving the pixel data as it was.

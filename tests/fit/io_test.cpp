@@ -14,7 +14,7 @@
 
 #include "commands.h"
 #include "fit_test_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {
@@ -117,7 +117,7 @@ int RunCli(std::vector<std::string> args) {
   return 0;
 }
 
-// Hidden temporaries of the atomic writers ("<dir>/.<name>.<pid>.<n>.tmp", render/files.h) or any
+// Hidden temporaries of the atomic writers ("<dir>/.<name>.<pid>.<n>.tmp", base/files.h) or any
 // other ".tmp" left in a folder.
 std::vector<std::string> LeftoverTemporaries(const std::string& dir) {
   std::vector<std::string> out;

@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "fit_test_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {

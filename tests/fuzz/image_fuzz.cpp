@@ -12,8 +12,8 @@
 #include <string>
 
 #include "fuzz_util.h"
-#include "shadefit/refs/import.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
+#include "shadefit/reference_images/import.h"
 #include "shadefit/render/image.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -22,10 +22,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string path = shadefit::fuzz::WriteFile(
       std::string("image") + kExtensions[data[0] % 6], data + 1, size - 1);
   try {
-    const shadefit::refs::LoadedImage loaded = shadefit::refs::LoadImageForImport(path);
+    const shadefit::reference_images::LoadedImage loaded =
+        shadefit::reference_images::LoadImageForImport(path);
     if (loaded.rgb.width <= 128 && loaded.rgb.height <= 128) {
       try {
-        shadefit::refs::DetectSphere(loaded.rgb, 1.0, path);
+        shadefit::reference_images::DetectSphere(loaded.rgb, 1.0, path);
       } catch (const shadefit::Error&) {
       }
     }

@@ -14,32 +14,34 @@
 #include <vector>
 
 #include "fuzz_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  namespace refs = shadefit::refs;
+  namespace reference_images = shadefit::reference_images;
   if (size < 1) return 0;
   std::string path;
   if (data[0] & 1) {
     path = shadefit::fuzz::WriteFile("t.binary", data + 1, size - 1);
   } else {
-    constexpr std::size_t kBytes = 12 + 3 * refs::kMerlCells * sizeof(double);
+    constexpr std::size_t kBytes = 12 + 3 * reference_images::kMerlCells * sizeof(double);
     static std::vector<std::uint8_t> table(kBytes);
     double fill = 1.0;
     if (size >= 9) std::memcpy(&fill, data + 1, sizeof fill);
     // The cells start at byte 12, not 8-aligned: copy, never cast.
-    for (std::size_t i = 0; i < 3 * refs::kMerlCells; ++i) {
+    for (std::size_t i = 0; i < 3 * reference_images::kMerlCells; ++i) {
       std::memcpy(table.data() + 12 + i * sizeof fill, &fill, sizeof fill);
     }
-    const std::int32_t dims[3] = {refs::kMerlThetaH, refs::kMerlThetaD, refs::kMerlPhiD};
+    const std::int32_t dims[3] = {reference_images::kMerlThetaH, reference_images::kMerlThetaD,
+                                  reference_images::kMerlPhiD};
     std::memcpy(table.data(), dims, sizeof dims);
     if (size > 9) std::memcpy(table.data(), data + 9, std::min(size - 9, kBytes));
     path = shadefit::fuzz::WriteFile("t.binary", table.data(), table.size());
   }
-  for (refs::MerlLookup lookup : {refs::MerlLookup::kTrilinear, refs::MerlLookup::kTruncate}) {
+  for (reference_images::MerlLookup lookup :
+       {reference_images::MerlLookup::kTrilinear, reference_images::MerlLookup::kTruncate}) {
     try {
-      const refs::MerlBrdf brdf(path, lookup);
+      const reference_images::MerlBrdf brdf(path, lookup);
       for (double th : {0.0, 0.3, 1.5707963}) {
         for (double td : {0.0, 0.7, 1.5707963}) {
           for (double pd : {-3.0, 0.0, 1.0, 3.14159265}) {

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "fuzz_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/base/error.h"
 
 namespace {
 
@@ -54,7 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const std::string h5 = MakeWeights();
   const std::string json = shadefit::fuzz::WriteFile("net.json", data, size);
   try {
-    const shadefit::refs::NeuralBrdf brdf(h5, json);
+    const shadefit::reference_images::NeuralBrdf brdf(h5, json);
     for (double th : {0.0, 0.5, 1.5}) {
       for (double td : {0.0, 0.5, 1.5}) {
         const shadefit::Vec3d v = brdf.EvalAngles(th, td, 0.25);

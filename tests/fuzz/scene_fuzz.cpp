@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

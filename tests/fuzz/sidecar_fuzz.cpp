@@ -1,14 +1,14 @@
-// libFuzzer harness: the sidecar reader of refs::LoadReference (reference_images/src/reference.cpp), which
-// finds a reference's scene through <image>.json. The input is the sidecar; the image, the scene
-// it names in the seeds and a mask are fixtures. Any input either loads or is rejected with
-// shadefit::Error.
+// libFuzzer harness: the sidecar reader of reference_images::LoadReference
+// (reference_images/src/reference.cpp), which finds a reference's scene through <image>.json. The
+// input is the sidecar; the image, the scene it names in the seeds and a mask are fixtures. Any
+// input either loads or is rejected with shadefit::Error.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
 #include "fuzz_util.h"
+#include "shadefit/base/error.h"
 #include "shadefit/fit/fitter.h"
-#include "shadefit/render/error.h"
 #include "shadefit/render/image.h"
 
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "fuzz_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/image.h"
 #include "shadefit/studies/study.h"
 

@@ -8,8 +8,8 @@
 #include <numbers>
 #include <string>
 
+#include "shadefit/base/error.h"
 #include "shadefit/metrics/common.h"
-#include "shadefit/render/error.h"
 #include "test_images.h"
 
 namespace shadefit::metrics {
@@ -105,10 +105,12 @@ TEST(PixelMetricsTest, BadInputsNameFileAndField) {
   const Image a(8, 8, 3, 0.5f);
   EXPECT_EQ(ErrorOf([&] { Rmse(a, Image(8, 4, 3)); }),
             "test: resolution: 8x4 differs from the reference's 8x8 (reference)");
-  EXPECT_EQ(ErrorOf([&] { Rmse(a, Image(8, 8, 1)); }), "test: channels: has 1, the reference has 3");
+  EXPECT_EQ(ErrorOf([&] { Rmse(a, Image(8, 8, 1)); }),
+            "test: channels: has 1, the reference has 3");
   Image inf = a;
   inf.at(2, 5, 2) = INFINITY;
-  EXPECT_EQ(ErrorOf([&] { Rmse(inf, a); }), "reference: pixels: infinite value at (2, 5) channel 2");
+  EXPECT_EQ(ErrorOf([&] { Rmse(inf, a); }),
+            "reference: pixels: infinite value at (2, 5) channel 2");
   const Image empty_mask(8, 8, 1, 0.0f);
   PixelMetricParameters p;
   p.mask = &empty_mask;

@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <string>
 
+#include "shadefit/base/error.h"
 #include "shadefit/metrics/false_color.h"
-#include "shadefit/render/error.h"
 #include "test_images.h"
 
 namespace shadefit::metrics {
@@ -54,13 +54,13 @@ TEST(ReportTest, JsonHasEveryDocumentedField) {
   for (const char* key : {"rmse", "relative_rmse", "log_rmse", "mae"}) {
     EXPECT_GT(j["linear"][key].get<double>(), 0.0) << key;
   }
-  for (const char* key : {"psnr_db", "ssim_luminance", "ssim_rgb", "ssim_pooled_pixels",
-                          "ms_ssim"}) {
+  for (const char* key :
+       {"psnr_db", "ssim_luminance", "ssim_rgb", "ssim_pooled_pixels", "ms_ssim"}) {
     EXPECT_TRUE(j["display"].contains(key)) << key;
   }
-  for (const char* key : {"mean", "median", "p95", "p99", "max", "weighted_median",
-                          "weighted_q1", "weighted_q3", "histogram", "start_exposure",
-                          "stop_exposure", "num_exposures"}) {
+  for (const char* key :
+       {"mean", "median", "p95", "p99", "max", "weighted_median", "weighted_q1", "weighted_q3",
+        "histogram", "start_exposure", "stop_exposure", "num_exposures"}) {
     EXPECT_TRUE(j["flip_hdr"].contains(key)) << key;
   }
   EXPECT_TRUE(std::isnan(maps.absolute_error.at(0, 0, 0)));
@@ -84,7 +84,8 @@ TEST(ReportTest, ErrorsNameTheFile) {
     ComputeMetrics(a, b, nullptr, p);
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "test.exr: resolution: 16x32 differs from the reference's 32x32 (ref.exr)");
+    EXPECT_STREQ(e.what(),
+                 "test.exr: resolution: 16x32 differs from the reference's 32x32 (ref.exr)");
   }
   const Image empty(32, 32, 1, 0.0f);
   try {
@@ -116,7 +117,7 @@ TEST(FalseColorTest, ColorBarRunsFromMaxAtTopToMinAtBottom) {
   Image map(40, 40, 1, 0.5f);
   const Image rgb = FalseColor(map, {});
   ASSERT_GT(rgb.width, 40);
-  const int bar_x = 40 + 4 + 6;  // Middle of the bar.
+  const int bar_x = 40 + 4 + 6;                         // Middle of the bar.
   EXPECT_NEAR(rgb.at(bar_x, 39, 0), 0.267004f, 1e-6f);  // min at the bottom
   EXPECT_NEAR(rgb.at(bar_x, 0, 1), 0.906157f, 1e-6f);   // max at the top
 }

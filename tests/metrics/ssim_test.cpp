@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "shadefit/metrics/common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "test_images.h"
 
 namespace shadefit::metrics {

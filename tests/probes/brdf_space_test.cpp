@@ -14,8 +14,8 @@
 #include <string>
 
 #include "probe_test_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::testing {
 namespace {
@@ -45,7 +45,7 @@ double FSchlick(double f0, double LoH) { return f0 + (1 - f0) * std::pow(1 - LoH
 
 double AnalyticF(double theta_h, double theta_d, double phi_d) {
   Vec3d wi, wo;
-  refs::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
+  reference_images::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
   if (wi.z <= 0 || wo.z <= 0) return kKd / kPi;  // Never sampled by a lookup above the horizon.
   const double alpha = kRoughness * kRoughness;
   const double spec = DGgx(std::cos(theta_h), alpha) * G2Ggx(wi.z, wo.z, alpha) *
@@ -82,14 +82,14 @@ std::string OutputDir() {
 }
 
 // Written and read once per process (35 MB, about 1 s).
-const refs::MerlBrdf& GgxTable() {
-  static const refs::MerlBrdf brdf = [] {
+const reference_images::MerlBrdf& GgxTable() {
+  static const reference_images::MerlBrdf brdf = [] {
     const std::string path = OutputDir() + "/analytic-ggx.binary";
-    refs::WriteMerlBinary(path, [](double th, double td, double pd) {
+    reference_images::WriteMerlBinary(path, [](double th, double td, double pd) {
       const double f = AnalyticF(th, td, pd);
       return Vec3d{f, f, f};
     });
-    return refs::MerlBrdf(path);
+    return reference_images::MerlBrdf(path);
   }();
   return brdf;
 }
@@ -266,7 +266,7 @@ TEST(BrdfSpaceProbe, AlbedoMarksExtrapolatedViews) {
 
 // A measured BRDF that is pure Lambert: its albedo is kd at every view (the half-vector
 // quadrature's accuracy), and it has no highlight to measure.
-class LambertBrdf : public refs::MeasuredBrdf {
+class LambertBrdf : public reference_images::MeasuredBrdf {
  public:
   Vec3d Eval(const Vec3d& wi, const Vec3d& wo) const override {
     if (wi.z <= 0 || wo.z <= 0) return {0, 0, 0};
@@ -319,7 +319,7 @@ TEST(BrdfSpaceProbe, SharedMaterialRuns) {
                  << " absent (set SHADEFIT_BRDF_DATA): the measured materials are data "
                     "beside the repository, never copied into it";
   }
-  const auto brdf = refs::LoadMeasuredBrdf(h5);
+  const auto brdf = reference_images::LoadMeasuredBrdf(h5);
   const probes::ProbeResult r = probes::BrdfSpaceProbe(
       *brdf, {MakeModel("ggx", "ggx", {"kd=0.3,0.05,0.05", "f0=0.04", "roughness=0.3"})});
   probes::WriteProbeOutputs(r, OutputDir() + "/red-plastic");

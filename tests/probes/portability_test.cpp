@@ -9,7 +9,7 @@
 #include <cstdio>
 
 #include "probe_test_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::testing {
 namespace {

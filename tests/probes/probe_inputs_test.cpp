@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "probe_test_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::testing {
 namespace {

@@ -1,5 +1,5 @@
-// The one atomic writer (render/files.h): a complete file or nothing, never a temporary left.
-#include "shadefit/render/files.h"
+// The one atomic writer (base/files.h): a complete file or nothing, never a temporary left.
+#include "shadefit/base/files.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/image.h"
 #include "test_util.h"
 

@@ -11,13 +11,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
 
@@ -32,7 +31,7 @@ constexpr double kPi = 3.14159265358979323846;
 // Schlick f0 0.04), grey, in 1/sr.
 Vec3d Analytic(double theta_h, double theta_d, double phi_d) {
   Vec3d wi, wo;
-  refs::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
+  reference_images::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
   const double lambert = 0.3 / kPi;
   if (wi.z <= 0 || wo.z <= 0) return Vec3d{lambert, lambert, lambert};
   const double a2 = 0.04;
@@ -47,7 +46,7 @@ Vec3d Analytic(double theta_h, double theta_d, double phi_d) {
 
 // The same, with every cell beyond the measured limit replaced by large, uneven values.
 Vec3d Garbage(double theta_h, double theta_d, double phi_d) {
-  if (theta_d <= refs::kMeasuredThetaDMaxDeg * kPi / 180 + 1e-9) {
+  if (theta_d <= reference_images::kMeasuredThetaDMaxDeg * kPi / 180 + 1e-9) {
     return Analytic(theta_h, theta_d, phi_d);
   }
   const double g = 50.0 * (1.5 + std::sin(13 * theta_h + 7 * phi_d));
@@ -62,8 +61,9 @@ std::string Scene(bool sphere, double angle_deg) {
   std::ostringstream s;
   s.precision(17);
   s << "[camera]\nposition = "
-    << (sphere ? "[0.0, -6.0, 0.0]" : "[0.0, " + std::to_string(-5 * std::sin(c)) + ", " +
-                                         std::to_string(5 * std::cos(c)) + "]")
+    << (sphere ? "[0.0, -6.0, 0.0]"
+               : "[0.0, " + std::to_string(-5 * std::sin(c)) + ", " +
+                     std::to_string(5 * std::cos(c)) + "]")
     << "\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\n"
     << "fov_y = " << (sphere ? 22.0 : 30.0) << "\nresolution = [128, 128]\n[[objects]]\n"
     << (sphere ? "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n"
@@ -84,8 +84,8 @@ TEST(MeasuredDomainStudy, GarbageBeyondTheLimitMovesOnlyTheAllPixelMetrics) {
   fs::remove_all(dir);
   fs::create_directories(dir / "merl");
   fs::create_directories(dir / "scenes");
-  refs::WriteMerlBinary((dir / "merl" / "analytic.binary").string(), Analytic);
-  refs::WriteMerlBinary((dir / "merl" / "garbage.binary").string(), Garbage);
+  reference_images::WriteMerlBinary((dir / "merl" / "analytic.binary").string(), Analytic);
+  reference_images::WriteMerlBinary((dir / "merl" / "garbage.binary").string(), Garbage);
   std::ofstream(dir / "scenes" / "sphere-key.toml") << Scene(true, 40.0);
   std::ofstream(dir / "scenes" / "plane-grazing.toml") << Scene(false, 160.0);
   std::ofstream(dir / "scenes" / "sphere-rim.toml") << Scene(true, 148.0);
@@ -109,10 +109,10 @@ TEST(MeasuredDomainStudy, GarbageBeyondTheLimitMovesOnlyTheAllPixelMetrics) {
   // The references: the domain does not depend on the BRDF's values, and the measured pixels
   // are the same; the garbage shows in the others.
   for (const std::string lighting : {"key", "grazing", "rim"}) {
-    const refs::Reference a =
-        refs::LoadReference((study / "references" / ("analytic-" + lighting + ".exr")).string());
-    const refs::Reference g =
-        refs::LoadReference((study / "references" / ("garbage-" + lighting + ".exr")).string());
+    const reference_images::Reference a = reference_images::LoadReference(
+        (study / "references" / ("analytic-" + lighting + ".exr")).string());
+    const reference_images::Reference g = reference_images::LoadReference(
+        (study / "references" / ("garbage-" + lighting + ".exr")).string());
     ASSERT_FALSE(a.extrapolated_share.empty()) << lighting;
     EXPECT_TRUE(a.extrapolated_share.data == g.extrapolated_share.data) << lighting;
     int measured_differ = 0, extrapolated_differ = 0;
@@ -120,7 +120,8 @@ TEST(MeasuredDomainStudy, GarbageBeyondTheLimitMovesOnlyTheAllPixelMetrics) {
       for (int x = 0; x < a.image.width; ++x) {
         bool differ = false;
         for (int c = 0; c < 4; ++c) differ |= a.image.at(x, y, c) != g.image.at(x, y, c);
-        (refs::IsMeasuredPixel(a, x, y) ? measured_differ : extrapolated_differ) += differ;
+        (reference_images::IsMeasuredPixel(a, x, y) ? measured_differ : extrapolated_differ) +=
+            differ;
       }
     }
     EXPECT_EQ(measured_differ, 0) << lighting;
@@ -181,11 +182,12 @@ TEST(MeasuredDomainStudy, GarbageBeyondTheLimitMovesOnlyTheAllPixelMetrics) {
       }
       EXPECT_NE(ea["metrics_all"]["relative_rmse"], ea["metrics"]["relative_rmse"]);
       const json& rel = ea["metrics"]["relative_rmse"];
-      std::printf("[ domain ] %s: measured fraction %.4f; relative RMSE measured %.4g (both), "
-                  "all pixels %.4g (analytic) vs %.4g (garbage)\n",
-                  lighting.c_str(), fraction, rel.is_null() ? NAN : rel.get<double>(),
-                  ea["metrics_all"]["relative_rmse"].get<double>(),
-                  eg["metrics_all"]["relative_rmse"].get<double>());
+      std::printf(
+          "[ domain ] %s: measured fraction %.4f; relative RMSE measured %.4g (both), "
+          "all pixels %.4g (analytic) vs %.4g (garbage)\n",
+          lighting.c_str(), fraction, rel.is_null() ? NAN : rel.get<double>(),
+          ea["metrics_all"]["relative_rmse"].get<double>(),
+          eg["metrics_all"]["relative_rmse"].get<double>());
     }
     EXPECT_EQ(ea["images"]["domain"], "images/analytic-" + lighting + ".domain.png");
     EXPECT_TRUE(fs::exists(study / ea["images"]["domain"].get<std::string>()));

@@ -11,16 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "shadefit/fit/fitter.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/render_measured.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/render_measured.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
@@ -126,15 +125,15 @@ TEST(MeasuredStudy, ReferencesAreByteIdenticalAcrossRunsAndThreadCountsAndCached
   // The measured renderer's image does not depend on its thread count.
   GlContext context;
   Renderer renderer(context);
-  const std::unique_ptr<refs::MeasuredBrdf> brdf =
-      refs::LoadMeasuredBrdf(folder + "/red-plastic.h5");
+  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+      reference_images::LoadMeasuredBrdf(folder + "/red-plastic.h5");
   const Scene scene = LoadScene(a.measured[0].scenes[0]);
   const GBuffer gbuffer = renderer.RenderGBuffer(scene);
-  refs::RenderMeasuredOptions one, two;
+  reference_images::RenderMeasuredOptions one, two;
   one.threads = 1;
   two.threads = 2;
-  const Image i1 = refs::RenderMeasured(*brdf, scene, gbuffer, one);
-  const Image i2 = refs::RenderMeasured(*brdf, scene, gbuffer, two);
+  const Image i1 = reference_images::RenderMeasured(*brdf, scene, gbuffer, one);
+  const Image i2 = reference_images::RenderMeasured(*brdf, scene, gbuffer, two);
   ASSERT_EQ(i1.data.size(), i2.data.size());
   EXPECT_TRUE(i1.data == i2.data);
 }
@@ -240,7 +239,7 @@ constexpr double kStudyKd = 0.25, kStudyF0 = 0.5, kStudyRoughness = 0.4;
 
 Vec3d AnalyticLambertGgx(double theta_h, double theta_d, double phi_d) {
   Vec3d wi, wo;
-  refs::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
+  reference_images::FromHalfDiff(theta_h, theta_d, phi_d, &wi, &wo);
   const double lambert = kStudyKd / 3.14159265358979323846;
   if (wi.z <= 0 || wo.z <= 0) return Vec3d{lambert, lambert, lambert};
   const double a = kStudyRoughness * kStudyRoughness, a2 = a * a;
@@ -256,13 +255,15 @@ Vec3d AnalyticLambertGgx(double theta_h, double theta_d, double phi_d) {
 TEST(MeasuredStudy, BrdfTrainingSetFitsTheBrdfItselfAndTestsEveryLighting) {
   const fs::path dir = OutputDir("brdf_training");
   fs::create_directories(dir / "merl");
-  refs::WriteMerlBinary((dir / "merl" / "analytic.binary").string(), AnalyticLambertGgx);
+  reference_images::WriteMerlBinary((dir / "merl" / "analytic.binary").string(),
+                                    AnalyticLambertGgx);
   const std::string scenes = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles/scenes";
   auto text = [&](const std::string& train, const std::string& loss) {
     return "[study]\nname = \"brdf_training\"\n[[measured]]\nfolder = \"" +
            (dir / "merl").string() + "\"\nscenes = [\"" + scenes + "/sphere-key.toml\", \"" +
            scenes + "/sphere-side.toml\"]\n[fit]\nmodels = [\"ggx\"]\ntrain = " + train +
-           "\nloss = \"" + loss + "\"\nstarts = 1\npixel_stride = 4\n"
+           "\nloss = \"" + loss +
+           "\"\nstarts = 1\npixel_stride = 4\n"
            "[outputs]\npreviews = false\nreport = false\n";
   };
   StudySpec spec = LoadText(dir, text("[[\"key\"], [\"brdf\"]]", "l2"), false);

@@ -13,8 +13,8 @@
 #include <string>
 
 #include "probe_common.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/albedo.h"
-#include "shadefit/render/error.h"
 
 namespace shadefit::probes {
 namespace {
@@ -34,8 +34,8 @@ double LumaOf(const Vec3d& c) { return Luma(c.x, c.y, c.z); }
 // Y of f at Rusinkiewicz angles (degrees; phi_h = 0, isotropic BRDFs do not depend on it).
 double FAt(const BrdfFn& f, double theta_h_deg, double theta_d_deg, double phi_d_deg) {
   Vec3d wi, wo;
-  refs::FromHalfDiff(theta_h_deg * kDegToRad, theta_d_deg * kDegToRad, phi_d_deg * kDegToRad, &wi,
-                     &wo);
+  reference_images::FromHalfDiff(theta_h_deg * kDegToRad, theta_d_deg * kDegToRad,
+                                 phi_d_deg * kDegToRad, &wi, &wo);
   if (wi.z <= 0 || wo.z <= 0) return 0.0;
   return LumaOf(f(wi, wo));
 }
@@ -406,7 +406,7 @@ void ValidateOptions(const BrdfSpaceOptions& o) {
 
 }  // namespace
 
-ProbeResult BrdfSpaceProbe(const refs::MeasuredBrdf& measured,
+ProbeResult BrdfSpaceProbe(const reference_images::MeasuredBrdf& measured,
                            const std::vector<ModelUnderTest>& models, const BrdfSpaceOptions& o) {
   ValidateOptions(o);
   for (const ModelUnderTest& m : models) {

@@ -11,7 +11,7 @@
 
 #include "probe_common.h"
 #include "shadefit/render/albedo.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 namespace {

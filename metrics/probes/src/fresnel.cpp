@@ -10,7 +10,7 @@
 #include <map>
 
 #include "probe_common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 namespace {

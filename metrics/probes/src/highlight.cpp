@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "probe_common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 namespace {

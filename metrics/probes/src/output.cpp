@@ -1,5 +1,5 @@
 // Probe outputs: JSON and a plot of the curves, each through the one atomic writer
-// (render/files.h).
+// (base/files.h).
 #include <fmt/format.h>
 
 #include <cstdlib>
@@ -8,8 +8,8 @@
 #include <string>
 
 #include "probe_common.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit::probes {
 namespace {
@@ -73,7 +73,7 @@ fig.savefig(sys.argv[2], format="png", dpi=90)
 )PY";
 
 // Scratch files of the plot (its script, data and log), named like the atomic writer's
-// temporaries (TemporaryPathFor, render/files.h) so that an interrupted run's leftovers are
+// temporaries (TemporaryPathFor, base/files.h) so that an interrupted run's leftovers are
 // recognised and swept by the same rule; removed when the plot is done.
 class PlotScratch {
  public:

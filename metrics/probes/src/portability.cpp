@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "probe_common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 namespace {

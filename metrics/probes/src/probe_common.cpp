@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "shadefit/render/brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 

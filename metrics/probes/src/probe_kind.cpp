@@ -2,7 +2,7 @@
 
 #include "shadefit/probes/brdf_space.h"
 #include "shadefit/probes/probes.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::probes {
 

@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/reference.h"
+#include "shadefit/reference_images/reference.h"
 
 namespace shadefit::probes {
 
@@ -14,7 +14,7 @@ std::string LightingOfReference(const std::string& name) {
 }
 
 ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer) {
-  refs::Reference fr = refs::LoadReference(path);
+  reference_images::Reference fr = reference_images::LoadReference(path);
   ProbeReference r;
   r.name = fr.name;
   r.lighting = LightingOfReference(fr.name);
@@ -26,7 +26,8 @@ ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer) {
     for (int y = 0; y < rgba.height; ++y) {
       for (int x = 0; x < rgba.width; ++x) {
         for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = r.image.at(x, y, c);
-        if (x < r.gbuffer.width && y < r.gbuffer.height) rgba.at(x, y, 3) = r.gbuffer.Coverage(x, y);
+        if (x < r.gbuffer.width && y < r.gbuffer.height)
+          rgba.at(x, y, 3) = r.gbuffer.Coverage(x, y);
       }
     }
     r.image = std::move(rgba);

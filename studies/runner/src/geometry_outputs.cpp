@@ -7,13 +7,12 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 
-#include <nlohmann/json.hpp>
-
-#include "shadefit/refs/reference.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/reference.h"
 #include "shadefit/render/gbuffer.h"
 
 namespace shadefit::studies::internal {
@@ -24,15 +23,15 @@ using json = nlohmann::json;
 // below the surface or occluded). "train": coverage 1, inside the reference's mask and not
 // clipped (the pixels a fit trains on, fit/src/prepared_reference.cpp); every row is covered
 // (reference alpha > 0.5, or every pixel of an RGB reference): the pixels its metrics use.
-const std::vector<std::string> kColumns = {"x",  "y",  "coverage", "train", "r",  "g",  "b",
+const std::vector<std::string> kColumns = {"x",  "y",  "coverage", "train", "r",  "g", "b",
                                            "nx", "ny", "nz",       "vx",    "vy", "vz"};
 constexpr int kLightColumns = 6;
 
 // A little-endian float32 C-order .npy file (NumPy's format, version 1.0): a reader needs numpy
 // alone, and the bytes depend on the values only.
 std::string NpyBytes(const std::vector<float>& data, std::size_t rows, std::size_t cols) {
-  std::string header = fmt::format("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, {}), }}",
-                                   rows, cols);
+  std::string header =
+      fmt::format("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, {}), }}", rows, cols);
   const std::size_t preamble = 10;  // magic (6) + version (2) + header length (2)
   const std::size_t total = (preamble + header.size() + 1 + 63) / 64 * 64;
   header.append(total - preamble - header.size() - 1, ' ');
@@ -51,17 +50,24 @@ std::string NpyBytes(const std::vector<float>& data, std::size_t rows, std::size
 json LightJson(const Light& light) {
   auto v = [](const Vec3d& a) { return json::array({a.x, a.y, a.z}); };
   switch (light.type) {
-    case Light::Type::kPoint: return {{"type", "point"}, {"position", v(light.position)}, {"intensity", v(light.value)}};
-    case Light::Type::kDirectional: return {{"type", "directional"}, {"direction", v(light.direction)}, {"irradiance", v(light.value)}};
-    case Light::Type::kAmbient: return {{"type", "ambient"}, {"radiance", v(light.value)}};
-    default: return {{"type", "environment"}};
+    case Light::Type::kPoint:
+      return {{"type", "point"}, {"position", v(light.position)}, {"intensity", v(light.value)}};
+    case Light::Type::kDirectional:
+      return {{"type", "directional"},
+              {"direction", v(light.direction)},
+              {"irradiance", v(light.value)}};
+    case Light::Type::kAmbient:
+      return {{"type", "ambient"}, {"radiance", v(light.value)}};
+    default:
+      return {{"type", "environment"}};
   }
 }
 
 // Why the floor cannot use this scene ("" when it can): its fit needs lights the tabulated BRDF
 // sees one direction at a time.
 std::string SkipReason(const Scene& scene) {
-  if (!TwinSupportsScene(scene)) return "environment or uniform light (not one direction per light)";
+  if (!TwinSupportsScene(scene))
+    return "environment or uniform light (not one direction per light)";
   for (const Light& l : scene.lights) {
     if (l.type == Light::Type::kAmbient && (l.value.x > 0 || l.value.y > 0 || l.value.z > 0)) {
       return "ambient light (a model's ka term, not a BRDF value)";
@@ -71,8 +77,8 @@ std::string SkipReason(const Scene& scene) {
 }
 
 // The rows of one reference (see kColumns), and how many light slots they hold.
-std::vector<float> GeometryRows(const refs::Reference& ref, const GBuffer& g, std::size_t* rows,
-                                int* slots) {
+std::vector<float> GeometryRows(const reference_images::Reference& ref, const GBuffer& g,
+                                std::size_t* rows, int* slots) {
   const Image& im = ref.image;
   std::map<std::pair<int, int>, ShadingPoint> points;
   *slots = 0;
@@ -106,9 +112,10 @@ std::vector<float> GeometryRows(const refs::Reference& ref, const GBuffer& g, st
         for (int k = 0; k < 6; ++k) row[7 + k] = static_cast<float>(nv[k]);
         for (std::size_t i = 0; i < sp.lights.size(); ++i) {
           const PixelLight& pl = sp.lights[i];
-          const double lv[6] = {pl.l.x, pl.l.y, pl.l.z,
+          const double lv[6] = {pl.l.x,          pl.l.y,          pl.l.z,
                                 pl.irradiance.x, pl.irradiance.y, pl.irradiance.z};
-          for (int k = 0; k < 6; ++k) row[kColumns.size() + kLightColumns * i + k] = static_cast<float>(lv[k]);
+          for (int k = 0; k < 6; ++k)
+            row[kColumns.size() + kLightColumns * i + k] = static_cast<float>(lv[k]);
         }
       }
       out.insert(out.end(), row.begin(), row.end());
@@ -134,13 +141,13 @@ void WriteGeometry(const RunContext& context, Renderer& renderer) {
   json refs_json = json::array();
   for (const ReferenceGroup& group : context.spec.groups) {
     for (const ReferenceSpec& rs : group.references) {
-      const refs::Reference ref = refs::LoadReference(rs.image_path);
+      const reference_images::Reference ref = reference_images::LoadReference(rs.image_path);
       // decoded_from: how the values were decoded from the stored ones (sRGB or linear), so that
       // the floor can take the decoding a fit with encoding = "fit" chose instead.
       json e = {{"reference", rs.name},
                 {"material", group.material},
                 {"lighting", rs.lighting},
-                {"decoded_from", refs::EncodingName(ref.decoded_from)}};
+                {"decoded_from", reference_images::EncodingName(ref.decoded_from)}};
       json lights = json::array();
       for (const Light& l : ref.scene.lights) lights.push_back(LightJson(l));
       e["lights"] = lights;
@@ -158,17 +165,21 @@ void WriteGeometry(const RunContext& context, Renderer& renderer) {
       const std::string file = fmt::format("geometry/{}.npy", rs.name);
       WriteTextAtomic((context.paths.dir / file).string(),
                       NpyBytes(data, rows, kColumns.size() + kLightColumns * slots));
-      e.update({{"file", file}, {"width", ref.image.width}, {"height", ref.image.height},
-                {"rows", rows}, {"light_slots", slots}});
+      e.update({{"file", file},
+                {"width", ref.image.width},
+                {"height", ref.image.height},
+                {"rows", rows},
+                {"light_slots", slots}});
       refs_json.push_back(e);
     }
   }
   const json index = {{"schema", "shadefit.study.geometry/1"},
                       {"columns", kColumns},
                       {"light_columns", {"lx", "ly", "lz", "Er", "Eg", "Eb"}},
-                      {"values", "the reference as loaded (linear, as imported; no fitted "
-                                 "encoding); a pixel's radiance is sum over light slots of "
-                                 "f(l, v) (n.l) E, times its coverage"},
+                      {"values",
+                       "the reference as loaded (linear, as imported; no fitted "
+                       "encoding); a pixel's radiance is sum over light slots of "
+                       "f(l, v) (n.l) E, times its coverage"},
                       {"references", refs_json}};
   WriteTextAtomic((dir / "index.json").string(), index.dump(1) + "\n");
 }

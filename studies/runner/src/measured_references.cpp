@@ -12,10 +12,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/render_measured.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/render_measured.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/studies/runner.h"
@@ -35,7 +35,7 @@ std::string ReadAll(const std::string& path) {
 
 std::string ReferenceKey(const MeasuredSource& src, std::size_t material, std::size_t lighting) {
   std::string key = "shadefit.measured-reference/2\n" + ShadefitVersion() + "\n";
-  for (const std::string& f : refs::MeasuredBrdfFiles(src.brdfs[material])) {
+  for (const std::string& f : reference_images::MeasuredBrdfFiles(src.brdfs[material])) {
     key += Sha256File(f) + "\n";
   }
   key += Sha256String(ReadAll(src.scenes[lighting])) + "\n";
@@ -76,30 +76,33 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
         ref.material = group.material;
         ref.lighting = src.lightings[l];
         ref.image_path = (dir / (ref.name + ".exr")).string();
-        ref.sidecar_path = refs::SidecarPath(ref.image_path);
+        ref.sidecar_path = reference_images::SidecarPath(ref.image_path);
         const std::string key = ReferenceKey(src, m, l);
         const fs::path key_path = dir / (ref.name + ".key");
         const bool cached = fs::exists(ref.image_path) && fs::exists(ref.sidecar_path) &&
-                            fs::exists(refs::DomainPath(ref.image_path)) &&
+                            fs::exists(reference_images::DomainPath(ref.image_path)) &&
                             fs::exists(key_path) && ReadAll(key_path.string()) == key + "\n";
         if (cached) {
           ++summary.unchanged;
         } else if (!options.render) {
-          throw Error(ref.image_path, "", "measured reference missing or out of date; rerun the "
-                      "shard that renders material '" + group.material + "'");
+          throw Error(ref.image_path, "",
+                      "measured reference missing or out of date; rerun the "
+                      "shard that renders material '" +
+                          group.material + "'");
         } else {
           if (!renderer) {
             context = std::make_unique<GlContext>();
             renderer = std::make_unique<Renderer>(*context);
           }
-          refs::MeasuredReferenceRequest request;
+          reference_images::MeasuredReferenceRequest request;
           request.brdf_path = src.brdfs[m];
           request.scene_path = src.scenes[l];
           request.output = ref.image_path;
           request.options.samples = src.samples;
           // The key is written last: a render interrupted before it is redone by the next run.
           fs::remove(key_path, ec);
-          const refs::RenderMeasuredStats stats = refs::MakeMeasuredReference(request, *renderer);
+          const reference_images::RenderMeasuredStats stats =
+              reference_images::MakeMeasuredReference(request, *renderer);
           WriteTextAtomic(key_path.string(), key + "\n");
           ++summary.rendered;
           summary.seconds += stats.seconds;

@@ -17,7 +17,7 @@
 
 #include "fit_status.h"
 #include "job_kinds.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit::studies::internal {
 namespace fs = std::filesystem;

@@ -1,6 +1,6 @@
 // The study-wide outputs (docs/studies.md, "Outputs"): study.json, results.csv, the per-job
 // timing files and timings.csv, provenance.json, and a shard's manifest. Every file goes
-// through the atomic writer (render/files.h).
+// through the atomic writer (base/files.h).
 #pragma once
 
 #include <map>

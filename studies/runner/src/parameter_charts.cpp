@@ -14,10 +14,10 @@
 #include <optional>
 #include <sstream>
 
-#include "shadefit/refs/sidecar.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
+#include "shadefit/reference_images/sidecar.h"
 #include "shadefit/render/brdf.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/models.h"
@@ -32,23 +32,23 @@ using json = nlohmann::json;
 
 // Bumped whenever what a chart shows changes, so old manifests are re-rendered.
 constexpr int kChartsVersion = 2;
-constexpr int kSpherePx = 96;          // Per sphere; the report shows 5 x 5 of them.
+constexpr int kSpherePx = 96;           // Per sphere; the report shows 5 x 5 of them.
 constexpr float kExposureStops = 0.0f;  // The references' preview exposure: same brightness.
 // Diffuse albedo held under the lobe in the Blinn-Phong charts: dim enough that the highlight
 // reads, bright enough to show the sphere.
 constexpr double kDiffuseAlbedo = 0.25;
-constexpr double kBaseColour = 0.8;    // GGX charts: grey base colour (metals are grey too).
+constexpr double kBaseColour = 0.8;     // GGX charts: grey base colour (metals are grey too).
 constexpr double kF0Dielectric = 0.04;  // ggx-metallic's default dielectric F0 (models.h).
 
 struct Axis {
   std::string parameter;  // The model's parameter (or "metallic" for the ggx mapping).
   std::vector<double> values;
-  bool log = false;       // Values spaced evenly in log: the report draws a log axis.
+  bool log = false;  // Values spaced evenly in log: the report draws a log axis.
 };
 
 struct ChartDef {
   Axis x, y;
-  std::string held;       // What is held constant, for the caption.
+  std::string held;  // What is held constant, for the caption.
   // Parameter vector at (x, y).
   std::function<std::vector<double>(const ModelInfo&, double, double)> params;
 };
@@ -67,17 +67,17 @@ std::optional<ChartDef> ChartOf(const ModelInfo& m) {
   const Axis shininess{"shininess", {4, 16, 64, 256, 1024}, true};
   const Axis ks{"ks", {0.02, 0.05, 0.15, 0.4, 1.0}, true};
   if (m.Find("metallic") && m.Find("roughness") && m.Find("base_color")) {
-    return ChartDef{roughness, metallic,
-                    fmt::format("base colour {:g} grey, f0 of the dielectric {:g}", kBaseColour,
-                                kF0Dielectric),
-                    [](const ModelInfo& mi, double r, double mt) {
-                      std::vector<double> p = DefaultParams(mi);
-                      Set(mi, "base_color", kBaseColour, &p);
-                      Set(mi, "metallic", mt, &p);
-                      Set(mi, "roughness", r, &p);
-                      if (mi.Find("f0_dielectric")) Set(mi, "f0_dielectric", kF0Dielectric, &p);
-                      return p;
-                    }};
+    return ChartDef{
+        roughness, metallic,
+        fmt::format("base colour {:g} grey, f0 of the dielectric {:g}", kBaseColour, kF0Dielectric),
+        [](const ModelInfo& mi, double r, double mt) {
+          std::vector<double> p = DefaultParams(mi);
+          Set(mi, "base_color", kBaseColour, &p);
+          Set(mi, "metallic", mt, &p);
+          Set(mi, "roughness", r, &p);
+          if (mi.Find("f0_dielectric")) Set(mi, "f0_dielectric", kF0Dielectric, &p);
+          return p;
+        }};
   }
   if (m.Find("kd") && m.Find("f0") && m.Find("roughness")) {
     // Metallic is not a parameter of these models; the chart uses ggx-metallic's mapping
@@ -118,7 +118,7 @@ std::pair<std::string, std::string> ChartScene(const StudySpec& spec) {
   std::pair<std::string, std::string> fallback;
   for (const ReferenceGroup& g : spec.groups) {
     for (const ReferenceSpec& r : g.references) {
-      const std::string scene = refs::SceneOfSidecar(r.sidecar_path);
+      const std::string scene = reference_images::SceneOfSidecar(r.sidecar_path);
       if (scene.empty() || !fs::exists(scene)) continue;
       if (r.lighting == "key") return {scene, r.lighting};
       if (fallback.first.empty()) fallback = {scene, r.lighting};
@@ -152,7 +152,8 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
       bool complete = old.value("hash", "") == hash;
       for (const json& c : old.value("charts", json::array())) {
         for (const json& row : c["images"]) {
-          for (const json& f : row) complete = complete && fs::exists(fs::path(study_dir) / f.get<std::string>());
+          for (const json& f : row)
+            complete = complete && fs::exists(fs::path(study_dir) / f.get<std::string>());
         }
       }
       if (complete) {
@@ -212,8 +213,7 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
                     {"sphere_px", kSpherePx},
                     {"charts", charts}};
   WriteTextAtomic(manifest.string(), out.dump(1));
-  summary.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return summary;
 }
 

@@ -11,9 +11,9 @@
 #include "job_kinds.h"
 #include "outputs.h"
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/refs/sidecar.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
+#include "shadefit/reference_images/sidecar.h"
 #include "test_hooks.h"
 
 namespace shadefit::studies::internal {
@@ -26,7 +26,7 @@ std::vector<probes::ProbeReference> ProbeReferences(const ReferenceGroup& g,
                                                     Renderer& renderer) {
   std::vector<probes::ProbeReference> out;
   for (const ReferenceSpec& r : g.references) {
-    refs::Reference ref = refs::LoadReference(r.image_path);
+    reference_images::Reference ref = reference_images::LoadReference(r.image_path);
     probes::ProbeReference pr;
     pr.name = r.name;
     pr.lighting = r.lighting;
@@ -79,7 +79,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   in.references = ProbeReferences(g, renderer);
   std::vector<std::string> without_fit;
   in.models = FittedModels(context, job, jobs, &without_fit);
-  if (const auto truth = refs::TruthOfSidecar(g.references.front().sidecar_path)) {
+  if (const auto truth = reference_images::TruthOfSidecar(g.references.front().sidecar_path)) {
     probes::ModelUnderTest t;
     t.label = "truth";
     t.model = truth->model;
@@ -93,7 +93,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   // Every fit of the material failed (a black reference, say): nothing to probe.
   const std::vector<probes::ProbeKind> kinds =
       in.models.empty() ? std::vector<probes::ProbeKind>{} : context.spec.probes;
-  std::unique_ptr<refs::MeasuredBrdf> measured;
+  std::unique_ptr<reference_images::MeasuredBrdf> measured;
   json skipped = json::array();
   for (const probes::ProbeKind kind : kinds) {
     if (kind == probes::ProbeKind::kBrdf) {
@@ -103,7 +103,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
         skipped.push_back({{"probe", "brdf"}, {"why", "not a [[measured]] material"}});
         continue;
       }
-      if (!measured) measured = refs::LoadMeasuredBrdf(path);
+      if (!measured) measured = reference_images::LoadMeasuredBrdf(path);
       in.measured_brdf = measured.get();
     }
     const probes::ProbeResult r = probes::RunProbe(kind, in);

@@ -29,7 +29,7 @@
 #include "progress_log.h"
 #include "run_context.h"
 #include "shadefit/metrics/common.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/version.h"

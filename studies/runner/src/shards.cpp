@@ -10,7 +10,7 @@
 #include <regex>
 
 #include "job_cost.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/studies/runner.h"
 
 namespace shadefit::studies {

@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <regex>
 
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/studies/runner.h"
 
 namespace shadefit::studies {

@@ -8,7 +8,7 @@
 
 namespace shadefit::studies::internal {
 
-// Hidden temporaries are named "<dir>/.<name>.<pid>.<n>.tmp" (TemporaryPathFor, render/files.h:
+// Hidden temporaries are named "<dir>/.<name>.<pid>.<n>.tmp" (TemporaryPathFor, base/files.h:
 // every atomic writer's, the probes' plot scratch files included), ".<probe>.<pid>.tmp.<ext>"
 // (the probes' plot files before they used the atomic writer; still recognised in folders
 // such a version left) or ".<name>.<pid>.tmp" (the report's, report/*.py). True when `leaf` is

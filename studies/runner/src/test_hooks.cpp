@@ -8,7 +8,7 @@
 #include <fstream>
 #include <mutex>
 
-#include "shadefit/render/files.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit::studies::internal {
 namespace {

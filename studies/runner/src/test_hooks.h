@@ -15,12 +15,12 @@ void KillPoint(const char* site);
 // every) fit job attempt is to meet <mode>: "gl-lost" (the context is reported lost when the job
 // starts), "nan-residuals" (the solve's cost and parameters come back NaN, as when every
 // start's residuals were NaN) or "inf-render" (the n-th evaluation's render of a fit gets one
-// infinite pixel, as when a lobe overflows under a lighting it was not trained on). Recording and carrying on are the real code paths; only the
-// fault is simulated.
+// infinite pixel, as when a lobe overflows under a lighting it was not trained on). Recording and
+// carrying on are the real code paths; only the fault is simulated.
 bool FaultArmed(const char* mode);
 
 // A job's JSON, its last file: a job is done exactly when it exists (with the job's hash).
-// Written by the atomic writer (render/files.h), with the "result" kill point inside it.
+// Written by the atomic writer (base/files.h), with the "result" kill point inside it.
 void WriteJobJson(const std::string& path, const std::string& text);
 
 }  // namespace shadefit::studies::internal

@@ -25,16 +25,16 @@
 #include <vector>
 
 #include "shadefit/fit/fitter.h"
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gbuffer.h"
 
 namespace shadefit::fit {
 
 struct BrdfSpaceSampling {
-  int theta_h_cells = 90;        // MERL's 90 square-root-spaced theta_h cells
-  int theta_d_cells = 45;        // over [0, 90) degrees (MERL: 90)
-  int phi_d_cells = 45;          // over [0, 180) degrees (MERL: 180)
-  double max_theta_deg = 80.0;   // incident and outgoing cut (Ngan et al. 2005)
+  int theta_h_cells = 90;       // MERL's 90 square-root-spaced theta_h cells
+  int theta_d_cells = 45;       // over [0, 90) degrees (MERL: 90)
+  int phi_d_cells = 45;         // over [0, 180) degrees (MERL: 180)
+  double max_theta_deg = 80.0;  // incident and outgoing cut (Ngan et al. 2005)
 };
 
 // Throws shadefit::Error naming `field` ("brdf_space.theta_h_cells", ...) when a count is below
@@ -43,22 +43,23 @@ void ValidateBrdfSpaceSampling(const BrdfSpaceSampling& s, const std::string& fi
 
 // The measured BRDF on those cells, ready to be fitted.
 struct BrdfSpaceData {
-  std::string label;                   // The BRDF's first file, for messages and the JSON.
-  std::vector<std::string> files;      // Every file it was read from.
-  std::vector<std::string> sha256;     // Of each file, in the same order.
-  std::string format;                  // "merl-binary" or "neural-brdf".
+  std::string label;                // The BRDF's first file, for messages and the JSON.
+  std::vector<std::string> files;   // Every file it was read from.
+  std::vector<std::string> sha256;  // Of each file, in the same order.
+  std::string format;               // "merl-binary" or "neural-brdf".
   BrdfSpaceSampling sampling;
-  std::vector<ShadingPoint> points;    // One per kept cell (irradiance sqrt(w')).
-  std::vector<double> targets;         // 3 per point: sqrt(w') f cos theta_i, linear.
-  std::vector<double> weights;         // w' per point (mean 1).
-  double extrapolated_fraction = 0;    // Weight share of cells with theta_d > 75 degrees (MERL
-                                       // extrapolates there; docs/probes.md).
+  std::vector<ShadingPoint> points;  // One per kept cell (irradiance sqrt(w')).
+  std::vector<double> targets;       // 3 per point: sqrt(w') f cos theta_i, linear.
+  std::vector<double> weights;       // w' per point (mean 1).
+  double extrapolated_fraction = 0;  // Weight share of cells with theta_d > 75 degrees (MERL
+                                     // extrapolates there; docs/probes.md).
 };
 
 // Samples `brdf` on the cells (multi-threaded, deterministic: the same bytes for any thread
 // count). Throws shadefit::Error when the BRDF is non-finite or negative on a kept cell, or zero
 // on all of them.
-BrdfSpaceData SampleBrdfSpace(const refs::MeasuredBrdf& brdf, const BrdfSpaceSampling& sampling);
+BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
+                              const BrdfSpaceSampling& sampling);
 
 // The options a BRDF-space fit accepts (below); throws shadefit::Error otherwise.
 void CheckBrdfSpaceOptions(const FitOptions& options);

@@ -63,13 +63,14 @@ struct EncodingSearchResult {
 
 // The reference's stored values (its image undone by decoded_from) decoded with `encoding`;
 // alpha, mask, scene and clip rule are kept (the clip level is re-expressed in the new decoding).
-refs::Reference Redecode(const refs::Reference& reference, const StoredEncoding& encoding);
+reference_images::Reference Redecode(const reference_images::Reference& reference,
+                                     const StoredEncoding& encoding);
 
 // RMSE between encoding.Encode(exposure x prediction) and the stored values of `reference`
 // over the pixels a fit uses (fully covered, in the mask, not clipped), all channels;
 // `pixels` receives their count x 3. `prediction` is a render (RGB(A)) of reference's size.
-double StoredRmse(const refs::Reference& reference, const Image& prediction, double exposure,
-                  const StoredEncoding& encoding, long* pixels = nullptr);
+double StoredRmse(const reference_images::Reference& reference, const Image& prediction,
+                  double exposure, const StoredEncoding& encoding, long* pixels = nullptr);
 
 // The search above. options.exposure must be Exposure::kFree (Error otherwise: an unknown
 // encoding comes with an unknown exposure, and fixing one biases the other).

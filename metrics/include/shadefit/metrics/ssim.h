@@ -22,7 +22,7 @@
 #include <array>
 #include <vector>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics {

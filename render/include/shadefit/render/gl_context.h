@@ -4,7 +4,7 @@
 #include <memory>
 #include <string>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 

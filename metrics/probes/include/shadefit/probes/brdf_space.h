@@ -1,8 +1,8 @@
 // BRDF-space probes: the Fresnel rise, the highlight's shape and the directional albedo read off
 // a measured BRDF itself (MERL table or Neural-BRDF network), beside the same quantities of each
-// fitted model, in Rusinkiewicz's half/difference angles (Rusinkiewicz 1998; refs::HalfDiff).
-// The image probes (probes.h) see a BRDF through one scene; these see all of it
-// (docs/probes.md, "BRDF-space probes").
+// fitted model, in Rusinkiewicz's half/difference angles (Rusinkiewicz 1998;
+// reference_images::HalfDiff). The image probes (probes.h) see a BRDF through one scene; these see
+// all of it (docs/probes.md, "BRDF-space probes").
 //
 // Every value is linear luminance Y (probe_common.h, BT.709) of f in 1/sr; models' f is
 // Reflect / (n . l) times their exposure (the BRDF a model implies; for the classic models that
@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 
 namespace shadefit::probes {
 
@@ -52,8 +52,8 @@ struct BrdfSpaceOptions {
 
   // --- Energy: directional albedo over view angle theta_o.
   std::vector<double> view_angles_deg = {0, 10, 20, 30, 40, 50, 60, 65, 70, 75, 80, 85, 89};
-  int albedo_theta_steps = 256;     // Measured quadrature over the half vector: theta_h steps
-  int albedo_phi_steps = 256;       // (square-root spaced) and phi_h steps.
+  int albedo_theta_steps = 256;  // Measured quadrature over the half vector: theta_h steps
+  int albedo_phi_steps = 256;    // (square-root spaced) and phi_h steps.
   // DirectionalAlbedo's strata for the models (albedo.h): at 64^2 its RMS error is <= 4.1e-4 of
   // an albedo (BrdfPhysics.AlbedoStandardErrorMatchesItsActualError); 128^2 has four times the
   // samples, far below the 10% of the brdf_albedo verdict.
@@ -62,16 +62,16 @@ struct BrdfSpaceOptions {
   // --- Extrapolation.
   // MERL data beyond this theta_d is extrapolated (refs/measured_brdf.h: the rule's one
   // definition, shared with the measured renderer's per-pixel domain).
-  double extrapolated_theta_d_deg = refs::kMeasuredThetaDMaxDeg;
+  double extrapolated_theta_d_deg = reference_images::kMeasuredThetaDMaxDeg;
   // An albedo point is marked extrapolated when more than this fraction of it comes from there.
-  double extrapolated_point_fraction = refs::kExtrapolatedShareMax;
+  double extrapolated_point_fraction = reference_images::kExtrapolatedShareMax;
 };
 
 // The three BRDF-space probes of `measured` (series "measured") and of every model (series
 // model.label). ProbeResult::probe is "brdf"; numbers, curves and notes as docs/probes.md lists.
 // Throws shadefit::Error "<label>: <field>: <problem>" for bad models and "brdf: <option>:
 // <problem>" for bad options.
-ProbeResult BrdfSpaceProbe(const refs::MeasuredBrdf& measured,
+ProbeResult BrdfSpaceProbe(const reference_images::MeasuredBrdf& measured,
                            const std::vector<ModelUnderTest>& models,
                            const BrdfSpaceOptions& options = {});
 

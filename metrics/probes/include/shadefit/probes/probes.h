@@ -21,7 +21,7 @@
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 class MeasuredBrdf;  // refs/measured_brdf.h
 }
 
@@ -38,8 +38,8 @@ struct ProbeReference {  // one image of the material under one lighting
 // "gold-mirror75" -> "mirror75": the text after a reference name's last '-'.
 std::string LightingOfReference(const std::string& name);
 
-// A reference read with refs::LoadReference, its G-buffer rendered, and an RGB image given the
-// G-buffer's coverage as alpha. Throws shadefit::Error naming the file and field.
+// A reference read with reference_images::LoadReference, its G-buffer rendered, and an RGB image
+// given the G-buffer's coverage as alpha. Throws shadefit::Error naming the file and field.
 ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer);
 
 struct ModelUnderTest {                 // a model with parameters: a fit, or the truth
@@ -55,7 +55,8 @@ struct ProbeInputs {
   std::vector<ModelUnderTest> models;
   std::optional<ModelUnderTest> truth;  // the true BRDF as one of our models when known
   Renderer* renderer = nullptr;         // GL context current on the calling thread
-  const refs::MeasuredBrdf* measured_brdf = nullptr;  // the BRDF itself (brdf probe only)
+  const reference_images::MeasuredBrdf* measured_brdf =
+      nullptr;  // the BRDF itself (brdf probe only)
 };
 
 // What a curve measures. CurveKindName is the curve's "kind" in the JSON and its panel's title.
@@ -205,7 +206,7 @@ nlohmann::json ProbeResultToJson(const ProbeResult& result);
 
 // Writes <dir>/<probe>.png, a plot of the curves (one panel per distinct (x_label, y_label),
 // drawn by /usr/bin/python3 with matplotlib), then <dir>/<probe>.json, each through the atomic
-// writer (render/files.h); when either fails, neither is left. Throws shadefit::Error naming the
+// writer (base/files.h); when either fails, neither is left. Throws shadefit::Error naming the
 // path.
 // plot = false: only the JSON (a study's report draws its own figures from it).
 void WriteProbeOutputs(const ProbeResult& result, const std::string& dir, bool plot = true);

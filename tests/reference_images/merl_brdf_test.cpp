@@ -12,11 +12,11 @@
 #include <random>
 #include <vector>
 
-#include "refs_test_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "reference_images_test_util.h"
+#include "shadefit/base/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 using testing::AnalyticBrdf;
@@ -172,7 +172,8 @@ constexpr double kScale[3] = {1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0};
 double Stored(double i, double j, double k, int c) { return c * 1e7 + i * 1e5 + j * 1e3 + k + 1; }
 
 void AppendLittleEndian(std::vector<unsigned char>* bytes, std::uint64_t bits, int n) {
-  for (int b = 0; b < n; ++b) bytes->push_back(static_cast<unsigned char>((bits >> (8 * b)) & 0xff));
+  for (int b = 0; b < n; ++b)
+    bytes->push_back(static_cast<unsigned char>((bits >> (8 * b)) & 0xff));
 }
 
 // Writes the table byte by byte.
@@ -180,7 +181,8 @@ std::string WriteLayoutFile() {
   const std::string path = testing::OutputDir() + "/published-layout.binary";
   std::vector<unsigned char> bytes;
   bytes.reserve(12 + 3 * kBlock * 8);
-  for (std::int32_t d : {kTh, kTd, kPd}) AppendLittleEndian(&bytes, static_cast<std::uint32_t>(d), 4);
+  for (std::int32_t d : {kTh, kTd, kPd})
+    AppendLittleEndian(&bytes, static_cast<std::uint32_t>(d), 4);
   for (int c = 0; c < 3; ++c) {
     for (std::size_t n = 0; n < kBlock; ++n) {
       // Invert n = k + 180 * (j + 90 * i).
@@ -194,7 +196,8 @@ std::string WriteLayoutFile() {
     }
   }
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
   EXPECT_TRUE(out.good()) << path;
   return path;
 }
@@ -342,4 +345,4 @@ TEST(MerlBrdfTest, MissingFileIsAnError) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 // "<image path without extension>.json".
 std::string SidecarPathFor(const std::string& image_path);
@@ -35,4 +35,4 @@ struct SidecarTruth {
 std::optional<SidecarTruth> TruthOfSidecar(const std::string& sidecar_path,
                                            std::string* why_not = nullptr);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -13,14 +13,14 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "refs_test_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/refs/render_measured.h"
-#include "shadefit/render/error.h"
+#include "reference_images_test_util.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
+#include "shadefit/reference_images/render_measured.h"
+#include "shadefit/base/error.h"
 #include "test_util.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 namespace fs = std::filesystem;
@@ -325,4 +325,4 @@ TEST(MeasuredDomain, BadDomainFileIsOneLineErrorNamingFileAndField) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

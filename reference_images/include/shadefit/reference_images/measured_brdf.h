@@ -12,7 +12,7 @@
 
 #include "shadefit/render/vec.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 // An isotropic BRDF in the local shading frame (normal = +z). Eval(wi, wo) is f(wi, wo) in 1/sr
 // per RGB channel; the cosine factor is NOT included. wi and wo are unit vectors; either below
@@ -151,4 +151,4 @@ std::vector<std::string> MeasuredBrdfFiles(const std::string& path);
 // config "x.json" beside it. Throws shadefit::Error for other extensions and missing files.
 std::unique_ptr<MeasuredBrdf> LoadMeasuredBrdf(const std::string& path);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -1,4 +1,4 @@
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,6 +1,6 @@
 // Import of photographed / published images: counts on a JPEG made from a Cycles reference,
 // sphere and light detection on a synthetic orthographic render, and one test per bad input.
-#include "shadefit/refs/import.h"
+#include "shadefit/reference_images/import.h"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -14,13 +14,13 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "refs_test_util.h"
-#include "shadefit/refs/render_measured.h"
-#include "shadefit/render/error.h"
+#include "reference_images_test_util.h"
+#include "shadefit/reference_images/render_measured.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/models.h"
 #include "test_util.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 namespace fs = std::filesystem;
@@ -381,4 +381,4 @@ TEST_F(BadImportTest, GoodInputImports) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

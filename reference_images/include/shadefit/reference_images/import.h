@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/refs/reference.h"
+#include "shadefit/reference_images/reference.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 #include "shadefit/render/vec.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 // An input image with what the import needs to know about its file.
 struct LoadedImage {
@@ -124,4 +124,4 @@ struct ImportResult {
 // TOML, each atomically; a failure leaves no output file.
 ImportResult ImportReference(const ImportOptions& options, Renderer& renderer);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

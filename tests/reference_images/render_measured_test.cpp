@@ -1,6 +1,6 @@
 // RenderMeasured against the GL renderer (same scene, a MERL table made from the same model) and
 // against an analytic answer (white furnace), plus the files MakeMeasuredReference writes.
-#include "shadefit/refs/render_measured.h"
+#include "shadefit/reference_images/render_measured.h"
 
 #include <gtest/gtest.h>
 
@@ -12,14 +12,14 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "refs_test_util.h"
-#include "shadefit/refs/measured_brdf.h"
+#include "reference_images_test_util.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/environment.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/models.h"
 #include "test_util.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 namespace fs = std::filesystem;
@@ -317,4 +317,4 @@ TEST(RenderMeasuredTest, BadBrdfLeavesNoOutput) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

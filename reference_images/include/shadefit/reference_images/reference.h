@@ -10,7 +10,7 @@
 #include "shadefit/render/image.h"
 #include "shadefit/render/scene.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 // How a file's stored values map to linear radiance (the import's --encoding).
 enum class Encoding {
@@ -71,4 +71,4 @@ bool IsMeasuredPixel(const Reference& ref, int x, int y);
 Reference LoadReference(const std::string& image_path, const std::string& scene_override = "",
                         const std::string& mask_path = "");
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

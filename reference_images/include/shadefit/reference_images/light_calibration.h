@@ -7,11 +7,11 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/refs/import.h"
+#include "shadefit/reference_images/import.h"
 #include "shadefit/render/scene.h"
 #include "shadefit/render/vec.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 struct LightCalibrationOptions {
   std::vector<std::string> ball_paths;  // One photograph of the ball per light.
@@ -102,4 +102,4 @@ struct PublishedLight {
 // leaves no output file.
 std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOptions& options);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

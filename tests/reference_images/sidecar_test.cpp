@@ -1,6 +1,6 @@
 // The sidecar schema's readers (reference_images/src/sidecar.cpp): the scene a sidecar names and
 // the one mapping of a Cycles material to the model that is its exact twin.
-#include "shadefit/refs/sidecar.h"
+#include "shadefit/reference_images/sidecar.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 
 #include "shadefit/render/models.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 namespace fs = std::filesystem;
 
@@ -23,16 +23,16 @@ std::string WriteSidecar(const std::string& name, const std::string& material_js
   const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "sidecar_test";
   fs::create_directories(dir);
   const fs::path p = dir / (name + ".json");
-  std::ofstream(p) << "{\"scene_file\": \"scenes/x.toml\", \"material\": " << material_json
-                   << "}";
+  std::ofstream(p) << "{\"scene_file\": \"scenes/x.toml\", \"material\": " << material_json << "}";
   return p.string();
 }
 
 TEST(SidecarTest, PathAndSceneOfShippedReference) {
   const std::string sidecar = Shipped("gold-key");
   if (!fs::exists(sidecar)) GTEST_SKIP() << "shipped references not present";
-  EXPECT_EQ(SidecarPathFor(std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles/gold-key.exr"),
-            sidecar);
+  EXPECT_EQ(
+      SidecarPathFor(std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles/gold-key.exr"),
+      sidecar);
   EXPECT_EQ(fs::path(SceneOfSidecar(sidecar)),
             (fs::path(sidecar).parent_path() / "scenes" / "sphere-key.toml").lexically_normal());
   EXPECT_EQ(SceneOfSidecar(""), "");
@@ -79,10 +79,12 @@ TEST(SidecarTest, RoughnessZeroIsRaisedToTheTableMinimum) {
 TEST(SidecarTest, NoExactTwinSaysWhy) {
   std::string why;
   EXPECT_FALSE(TruthOfSidecar(WriteSidecar("multi", R"({"type": "principled",
-      "distribution": "MULTI_GGX", "base_color": [0.9, 0.9, 0.9]})"), &why));
+      "distribution": "MULTI_GGX", "base_color": [0.9, 0.9, 0.9]})"),
+                              &why));
   EXPECT_NE(why.find("MULTI_GGX"), std::string::npos) << why;
   EXPECT_FALSE(TruthOfSidecar(WriteSidecar("oren-nayar", R"({"type": "diffuse",
-      "roughness": 0.5, "base_color": [0.5, 0.5, 0.5]})"), &why));
+      "roughness": 0.5, "base_color": [0.5, 0.5, 0.5]})"),
+                              &why));
   EXPECT_NE(why.find("Oren-Nayar"), std::string::npos) << why;
   EXPECT_FALSE(TruthOfSidecar(WriteSidecar("glass", R"({"type": "glass"})"), &why));
   EXPECT_NE(why.find("glass"), std::string::npos) << why;
@@ -92,4 +94,4 @@ TEST(SidecarTest, NoExactTwinSaysWhy) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

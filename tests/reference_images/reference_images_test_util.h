@@ -7,11 +7,11 @@
 #include <filesystem>
 #include <string>
 
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/vec.h"
 
-namespace shadefit::refs::testing {
+namespace shadefit::reference_images::testing {
 
 inline std::string OutputDir() {
   const std::filesystem::path dir = std::filesystem::path(SHADEFIT_TEST_OUTPUT) / "refs";
@@ -66,4 +66,4 @@ inline double MaxRelativeDifference(const Vec3d& a, const Vec3d& b) {
   return m;
 }
 
-}  // namespace shadefit::refs::testing
+}  // namespace shadefit::reference_images::testing

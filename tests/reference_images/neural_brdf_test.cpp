@@ -12,11 +12,11 @@
 #include <random>
 #include <vector>
 
-#include "refs_test_util.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "reference_images_test_util.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/base/error.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 namespace {
 
 namespace fs = std::filesystem;
@@ -343,4 +343,4 @@ TEST(NeuralBrdfTest, WrongShapeAndMissingConfigAreErrors) {
 }
 
 }  // namespace
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images

@@ -7,13 +7,13 @@
 #include <cstdint>
 #include <string>
 
-#include "shadefit/refs/measured_brdf.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
 
-namespace shadefit::refs {
+namespace shadefit::reference_images {
 
 struct RenderMeasuredOptions {
   // Environment / uniform light: samples per technique per pixel (environment importance
@@ -91,4 +91,4 @@ std::string SidecarPath(const std::string& exr_path);
 // of a references folder does not pick up).
 std::string DomainPath(const std::string& exr_path);
 
-}  // namespace shadefit::refs
+}  // namespace shadefit::reference_images
