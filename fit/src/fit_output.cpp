@@ -7,8 +7,8 @@
 #include <list>
 #include <map>
 
+#include "shadefit/base/files.h"
 #include "shadefit/fit/fitter.h"
-#include "shadefit/render/files.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/models.h"
 #include "shadefit/version.h"
@@ -62,12 +62,9 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   j["rmse"] = {{"overall", num(r.rmse)},
                {"per_reference", per_ref},
                {"units", "linear radiance, valid pixels, RGB channels"}};
-  j["solver"] = {{"iterations", r.iterations},
-                 {"termination", r.termination},
-                 {"converged", r.converged},
-                 {"message", r.solver_message},
-                 {"method", r.solver_name},
-                 {"seconds", r.seconds},
+  j["solver"] = {{"iterations", r.iterations},      {"termination", TerminationName(r.termination)},
+                 {"converged", r.converged},        {"message", r.solver_message},
+                 {"method", r.solver_name},         {"seconds", r.seconds},
                  {"solve_seconds", r.solve_seconds}};
   j["converged"] = r.converged;
   json starts = json::array();
@@ -78,7 +75,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
                       {"initial_cost", num(s.initial_cost)},
                       {"final_cost", num(s.final_cost)},
                       {"iterations", s.iterations},
-                      {"termination", s.termination},
+                      {"termination", TerminationName(s.termination)},
                       {"coarse_cost", num(s.coarse_cost)},
                       {"polished", s.polished},
                       {"reached_best", s.reached_best}});
@@ -88,22 +85,23 @@ nlohmann::json FitResultToJson(const FitResult& r) {
       {"seed", r.seed},
       {"reached_best", r.starts_reached_best},
       {"tolerance", "final_cost <= best + 1e-6 best + 1e-12 * cost of a black prediction"},
-      {"method", "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed; starts 2 and 3 take the lobe width from the broad and middle strata"},
+      {"method",
+       "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed; starts 2 and 3 "
+       "take the lobe width from the broad and middle strata"},
       {"coarse_to_fine", r.coarse_to_fine},
       {"results", starts}};
   // The best other basin: a start that ended above the best cost (on every pixel), with its cost
   // relative to the best, so that a study can flag an optimum that is not clearly separated.
   if (r.second_basin_start >= 0) {
     const StartResult& s = r.start_results[r.second_basin_start];
-    j["starts"]["second_basin"] = {
-        {"start", r.second_basin_start},
-        {"cost", num(r.second_basin_cost)},
-        {"cost_ratio", num(r.second_basin_cost / r.final_cost)},
-        {"params", s.params}};
+    j["starts"]["second_basin"] = {{"start", r.second_basin_start},
+                                   {"cost", num(r.second_basin_cost)},
+                                   {"cost_ratio", num(r.second_basin_cost / r.final_cost)},
+                                   {"params", s.params}};
   } else {
     j["starts"]["second_basin"] = nullptr;
   }
-  j["covariance"] = {{"status", r.covariance_status}, {"method", r.covariance_method}};
+  j["covariance"] = {{"status", r.CovarianceStatusText()}, {"method", r.covariance_method}};
   j["evaluations"] = {{"model_renders", r.renders},
                       {"gbuffer_renders", r.gbuffer_renders},
                       {"residual_evaluations", r.residual_evaluations},

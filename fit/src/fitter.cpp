@@ -18,7 +18,7 @@
 #include "problem.h"
 #include "solve.h"
 #include "shadefit/fit/residuals.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "uncertainty.h"
 
 namespace shadefit::fit {
@@ -35,6 +35,25 @@ Loss ParseLoss(const std::string& name) {
   throw Error("", "--loss",
               fmt::format("unknown loss '{}'{} (known: l2, log, cuberoot, huber, cauchy)", name,
                           DidYouMean(name, {"l2", "log", "cuberoot", "huber", "cauchy"})));
+}
+
+std::string TerminationName(Termination termination) {
+  switch (termination) {
+    case Termination::kConvergence: return "CONVERGENCE";
+    case Termination::kNoConvergence: return "NO_CONVERGENCE";
+    case Termination::kFailure: return "FAILURE";
+  }
+  return "FAILURE";
+}
+
+std::string FitResult::CovarianceStatusText() const {
+  switch (covariance_status) {
+    case CovarianceStatus::kOk: return "ok";
+    case CovarianceStatus::kRankDeficient: return "rank deficient";
+    case CovarianceStatus::kFailed: return "failed: " + covariance_failure;
+    case CovarianceStatus::kSkipped: return "skipped";
+  }
+  return "skipped";
 }
 
 std::string LossName(Loss loss) {
@@ -103,7 +122,7 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
 
   // Uncertainty at the best start (the bounded LM's J^T J, or ceres::Covariance), scaled by the
   // residual variance.
-  result->covariance_status = "skipped";
+  result->covariance_status = CovarianceStatus::kSkipped;
   if (options.compute_covariance && std::isfinite(result->final_cost)) {
     EstimateUncertainty(param, problems, result);
   }
@@ -125,7 +144,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   FitResult result;
   result.model = model.name;
   result.loss = options.loss;
-  result.starts = options.starts;
+  result.starts = options.starts + static_cast<int>(options.start_points.size());
   result.seed = options.seed;
   result.exposure_free = options.exposure == Exposure::kFree;
 

@@ -16,6 +16,16 @@ namespace {
 // per step (BoundedLmOptions::trace).
 bool TraceRequested() { return std::getenv("SHADEFIT_FIT_TRACE") != nullptr; }
 
+// Ceres' termination type as a fit's (no callback of ours returns USER_SUCCESS or USER_FAILURE).
+Termination TerminationOf(ceres::TerminationType type) {
+  switch (type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: return Termination::kConvergence;
+    case ceres::NO_CONVERGENCE: return Termination::kNoConvergence;
+    default: return Termination::kFailure;
+  }
+}
+
 class TraceCallback : public ceres::IterationCallback {
  public:
   TraceCallback(const std::vector<double>* u, const Parametrization* param)
@@ -105,11 +115,12 @@ class MultiStart {
         p_(p),
         trace_(&p.u, &param),
         solver_options_(SolverOptions(options, p.threads, &trace_)),
-        end_u_(options.starts),
-        end_e_(options.starts),
-        coarse_iterations_(options.starts, 0),
-        coarse_cost_(options.starts, std::numeric_limits<double>::quiet_NaN()),
-        coarse_radius_(options.starts, 0.0) {}
+        start_count_(options.starts + static_cast<int>(options.start_points.size())),
+        end_u_(start_count_),
+        end_e_(start_count_),
+        coarse_iterations_(start_count_, 0),
+        coarse_cost_(start_count_, std::numeric_limits<double>::quiet_NaN()),
+        coarse_radius_(start_count_, 0.0) {}
   MultiStart(const MultiStart&) = delete;
   MultiStart& operator=(const MultiStart&) = delete;
 
@@ -145,6 +156,7 @@ class MultiStart {
   MultiStartResult out_;
   int best_ = -1;  // -1 until a start ends usable.
   std::string best_message_;
+  const int start_count_;  // options_.starts, then options_.start_points.
   std::vector<std::vector<double>> end_u_;  // Internal end point of each start.
   std::vector<double> end_e_;               // Log-exposure end point of each start.
   std::vector<int> coarse_iterations_;
@@ -319,7 +331,7 @@ void MultiStart::SolveFull(int s, double initial_radius) {
   if (!p_.coarse) start.initial_cost = summary.initial_cost;
   start.final_cost = summary.final_cost;
   start.iterations = coarse_iterations_[s] + used;
-  start.termination = ceres::TerminationTypeToString(summary.termination);
+  start.termination = TerminationOf(summary.termination);
   start.converged = summary.termination == ceres::CONVERGENCE;
   end_u_[s] = p_.u;
   end_e_[s] = p_.log_exposure[0];
@@ -345,7 +357,7 @@ void MultiStart::SolveCoarse(int s) {
   sr.params = param_.ToNatural(p_.u);
   sr.exposure = std::exp(p_.log_exposure[0]);
   sr.iterations = coarse_iterations_[s];
-  sr.termination = ceres::TerminationTypeToString(summary.termination);
+  sr.termination = TerminationOf(summary.termination);
   sr.final_cost = std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -355,7 +367,7 @@ void MultiStart::PolishCoarse() {
   for (double c : coarse_cost_) {
     if (std::isfinite(c)) best_coarse = std::min(best_coarse, c);
   }
-  for (int s = 0; s < options_.starts; ++s) {
+  for (int s = 0; s < start_count_; ++s) {
     if (!(coarse_cost_[s] <= best_coarse * (1 + kPolishTolerance) + 1e-12 * p_.cost_scale)) {
       continue;
     }
@@ -381,9 +393,11 @@ void MultiStart::PolishCoarse() {
 }
 
 void MultiStart::RunStarts() {
-  for (int s = 0; s < options_.starts; ++s) {
+  for (int s = 0; s < start_count_; ++s) {
     // Copy into place: the Problems hold u.data(), a move would swap the storage.
-    const std::vector<double> start_u = param_.Start(s, options_.seed);
+    const std::vector<double> start_u =
+        s < options_.starts ? param_.Start(s, options_.seed)
+                            : param_.StartAt(options_.start_points[s - options_.starts]);
     std::copy(start_u.begin(), start_u.end(), p_.u.begin());
     p_.log_exposure[0] = 0.0;
     StartResult start;
@@ -413,7 +427,7 @@ void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedR
                      2 * std::max(4, options_.environment_twin_samples));
     ForgetGeometry(p_.native_full);
     ForgetGeometry(p_.native_coarse);
-    for (int s = 0; s < options_.starts; ++s) {
+    for (int s = 0; s < start_count_; ++s) {
       StartResult& sr = out_.starts[s];
       if (s == best_ || !std::isfinite(sr.final_cost)) continue;
       LoadEnd(s);
@@ -425,7 +439,7 @@ void MultiStart::EnvironmentRounds(const ModelInfo& model, std::vector<PreparedR
     const int previous_iterations = sr.iterations;
     const double initial = sr.initial_cost;
     best_ = -1;  // SolveFull picks the best of the re-evaluated starts and this re-solve.
-    for (int s = 0; s < options_.starts; ++s) {
+    for (int s = 0; s < start_count_; ++s) {
       const StartResult& o = out_.starts[s];
       if (s != winner_before && std::isfinite(o.final_cost) &&
           (best_ < 0 || o.final_cost < out_.starts[best_].final_cost)) {

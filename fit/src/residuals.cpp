@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::fit {
 namespace {
@@ -36,6 +36,17 @@ struct WidthStratum {
 constexpr WidthStratum kWidthStrata[] = {{0.75, 1.0}, {0.3, 0.5}};
 // The rule of issue 32: set false, the broad-lobe tests in tests/fit/basin_test.cpp fail.
 constexpr bool kBroadLobeStarts = true;
+
+// A start on a bound (metallic 0, kd 0) would put the solver on a stationary point of the sine
+// transform, where the gradient along that entry is 0 and it could never leave: a start is moved
+// to at least 1% of the box from a bound instead (|sin u| <= kStartInside; measured: gold-env,
+// metallic stayed at 0 from a default of 0 and the fit ended in a dielectric local minimum with
+// RMSE 0.97).
+constexpr double kStartInside = 0.98;
+double Inside(double u) {
+  return std::abs(std::sin(u)) > kStartInside ? std::asin(std::sin(u) > 0 ? kStartInside : -kStartInside)
+                                              : u;
+}
 
 }  // namespace
 
@@ -99,16 +110,23 @@ Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::
     e.fixed = is_fixed[i];
     e.fixed_value = fixed_values[i];
     entries_.push_back(e);
-    // A default on a bound (metallic 0, kd 0) would start the solver on a stationary point of
-    // the sine transform, where the gradient along that entry is 0 and it could never leave:
-    // start 1% of the range inside instead (measured: gold-env, metallic stayed at 0 and the fit
-    // ended in a dielectric local minimum with RMSE 0.97).
+    // The default, at least 1% of the box from a bound (Inside).
     double du = ToInternal(i, defaults[i]);
-    constexpr double kInside = 0.98;  // |sin u| at the default: 1% of the box from the bound.
-    if (!is_fixed[i] && std::abs(std::sin(du)) > kInside)
-      du = std::asin(std::sin(du) > 0 ? kInside : -kInside);
+    if (!is_fixed[i]) du = Inside(du);
     entries_.back().default_u = du;
   }
+}
+
+std::vector<double> Parametrization::StartAt(const std::vector<double>& p) const {
+  if (static_cast<int>(p.size()) != size()) {
+    throw Error("", "start", fmt::format("{} parameters given, model {} has {}", p.size(),
+                                         model_->name, size()));
+  }
+  std::vector<double> u(p.size());
+  for (int i = 0; i < size(); ++i) {
+    u[i] = entries_[i].fixed ? ToInternal(i, entries_[i].fixed_value) : Inside(ToInternal(i, p[i]));
+  }
+  return u;
 }
 
 std::vector<int> Parametrization::FixedIndices() const {

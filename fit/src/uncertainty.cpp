@@ -115,7 +115,8 @@ void StandardErrors(const Parametrization& param, CeresProblems& p, const FreeCo
   for (double* b : free.blocks) pairs.emplace_back(b, b);
   const double s2 = ResidualVariance(p, free, *result);
   if (!covariance.Compute(pairs, &p.full)) {
-    result->covariance_status = "failed: ceres::Covariance::Compute returned false";
+    result->covariance_status = CovarianceStatus::kFailed;
+    result->covariance_failure = "ceres::Covariance::Compute returned false";
     return;
   }
   if (static_cast<int>(p.fixed.size()) < n) {
@@ -136,7 +137,8 @@ void StandardErrors(const Parametrization& param, CeresProblems& p, const FreeCo
       result->exposure_std_error = result->exposure * std::sqrt(std::max(0.0, cee * s2));
     }
   }
-  result->covariance_status = any_undetermined ? "rank deficient" : "ok";
+  result->covariance_status =
+      any_undetermined ? CovarianceStatus::kRankDeficient : CovarianceStatus::kOk;
 }
 
 // The bounded LM's problems (problem.h, native): J^T J comes from the solver's own one-pass
@@ -163,7 +165,8 @@ void NativeUncertainty(const Parametrization& param, CeresProblems& p, const Fre
   const double cost = BoundedLmNormalEquations(p.native_full, BoxOfInternal(param, p.u),
                                                p.log_exposure[0], &g, &h);
   if (!std::isfinite(cost)) {
-    result->covariance_status = "failed: non-finite normal equations at the optimum";
+    result->covariance_status = CovarianceStatus::kFailed;
+    result->covariance_failure = "non-finite normal equations at the optimum";
     return;
   }
   const int k = static_cast<int>(free.entry.size());
@@ -188,7 +191,8 @@ void NativeUncertainty(const Parametrization& param, CeresProblems& p, const Fre
   const Eigen::MatrixXd in_u = du.asDiagonal() * jtj * du.asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(in_u);
   if (eig.info() != Eigen::Success) {
-    result->covariance_status = "failed: eigen-decomposition of J^T J";
+    result->covariance_status = CovarianceStatus::kFailed;
+    result->covariance_failure = "eigen-decomposition of J^T J";
     return;
   }
   const double max_eigen = eig.eigenvalues().maxCoeff();
@@ -211,7 +215,8 @@ void NativeUncertainty(const Parametrization& param, CeresProblems& p, const Fre
     if (pe.fixed || pe.undetermined || pe.at_bound) continue;
     pe.std_error = std::abs(param.NaturalDerivative(i, p.u[i])) * std::sqrt(variance);
   }
-  result->covariance_status = any_undetermined ? "rank deficient" : "ok";
+  result->covariance_status =
+      any_undetermined ? CovarianceStatus::kRankDeficient : CovarianceStatus::kOk;
 }
 
 }  // namespace
@@ -241,7 +246,8 @@ void EstimateUncertainty(const Parametrization& param, CeresProblems& problems, 
         MarkUndetermined(free, undetermined, problems.n, false, result);
     StandardErrors(param, problems, free, undetermined, any_undetermined, result);
   } catch (const std::exception& e) {
-    result->covariance_status = fmt::format("failed: {}", e.what());
+    result->covariance_status = CovarianceStatus::kFailed;
+    result->covariance_failure = e.what();
   }
 }
 

@@ -2,7 +2,7 @@
 // arrays, its result as a dict of plain values and arrays (python/shadefit/__init__.py wraps it
 // in FitResult).
 //
-// Links: shadefit::fit, shadefit::refs.
+// Links: shadefit::fit, shadefit::reference_images.
 #include <fmt/format.h>
 #include <pybind11/stl.h>
 
@@ -12,18 +12,18 @@
 #include <vector>
 
 #include "common.h"
+#include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/fitter.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
 
 namespace shadefit::python {
 namespace {
 
-// One reference as __init__.py normalises it: a dict with "image" (a path or an array), "scene_path"
-// / "scene_text" (one may be set; a path image reads its sidecar's scene otherwise), "mask" (a
-// path, an array or None) and "name".
+// One reference as __init__.py normalises it: a dict with "image" (a path or an array),
+// "scene_path" / "scene_text" (one may be set; a path image reads its sidecar's scene otherwise),
+// "mask" (a path, an array or None) and "name".
 struct RefArg {
   std::string image_path, scene_path, scene_text, scene_name, mask_path, name;
   Image image, mask;
@@ -56,17 +56,19 @@ RefArg RefFromPy(py::handle h, std::size_t index) {
 }
 
 // The reference as the CLI's LoadReference makes it, or in memory from an array.
-refs::Reference MakeReference(RefArg& a, std::size_t index) {
+reference_images::Reference MakeReference(RefArg& a, std::size_t index) {
   if (!a.image_path.empty()) {
     if (!a.scene_text.empty()) {
-      throw Error(a.image_path, "scene", "a reference read from a file takes a scene path, not text");
+      throw Error(a.image_path, "scene",
+                  "a reference read from a file takes a scene path, not text");
     }
-    refs::Reference r = refs::LoadReference(a.image_path, a.scene_path, a.mask_path);
+    reference_images::Reference r =
+        reference_images::LoadReference(a.image_path, a.scene_path, a.mask_path);
     if (!a.mask.empty()) r.mask = std::move(a.mask);
     if (!a.name.empty()) r.name = a.name;
     return r;
   }
-  refs::Reference r;
+  reference_images::Reference r;
   r.name = a.name.empty() ? fmt::format("ref{}", index) : a.name;
   r.scene = SceneFromArgs(a.scene_path, a.scene_text, a.scene_name);
   r.scene_path = a.scene_path;
@@ -83,15 +85,16 @@ refs::Reference MakeReference(RefArg& a, std::size_t index) {
                             r.image.height, r.scene.camera.width, r.scene.camera.height_px));
   }
   if (!r.mask.empty() && (r.mask.width != r.image.width || r.mask.height != r.image.height)) {
-    throw Error(r.name, "mask", fmt::format("{} x {} pixels, the image has {} x {}", r.mask.width,
-                                            r.mask.height, r.image.width, r.image.height));
+    throw Error(r.name, "mask",
+                fmt::format("{} x {} pixels, the image has {} x {}", r.mask.width, r.mask.height,
+                            r.image.width, r.image.height));
   }
   return r;
 }
 
 // Every stride-th pixel in x and y of the reference's own mask: the study runner's pixel_stride
 // (studies/runner/src/fit_job.cpp, FitProblemOf), a mask, no resampling.
-void ApplyStride(refs::Reference* ref, int stride) {
+void ApplyStride(reference_images::Reference* ref, int stride) {
   if (stride <= 1) return;
   Image mask(ref->image.width, ref->image.height, 1, 0.0f);
   for (int y = 0; y < mask.height; y += stride) {
@@ -154,12 +157,12 @@ py::dict ResultToPy(fit::FitResult&& r) {
   d["final_cost"] = r.final_cost;
   d["rmse"] = r.rmse;
   d["iterations"] = r.iterations;
-  d["termination"] = r.termination;
+  d["termination"] = fit::TerminationName(r.termination);
   d["converged"] = r.converged;
   d["solver_message"] = r.solver_message;
   d["seconds"] = r.seconds;
   d["starts_reached_best"] = r.starts_reached_best;
-  d["covariance_status"] = r.covariance_status;
+  d["covariance_status"] = r.CovarianceStatusText();
   d["values"] = py::array_t<double>(static_cast<py::ssize_t>(r.values.size()), r.values.data());
   py::list estimates;
   for (const fit::ParameterEstimate& p : r.parameters) {
@@ -185,7 +188,7 @@ py::dict ResultToPy(fit::FitResult&& r) {
     e["initial_cost"] = s.initial_cost;
     e["final_cost"] = s.final_cost;
     e["iterations"] = s.iterations;
-    e["termination"] = s.termination;
+    e["termination"] = fit::TerminationName(s.termination);
     e["converged"] = s.converged;
     e["reached_best"] = s.reached_best;
     e["coarse_cost"] = s.coarse_cost;
@@ -251,7 +254,8 @@ py::dict FitBrdf(const std::string& path, const std::string& model, std::vector<
   fit::FitResult result;
   {
     py::gil_scoped_release no_gil;
-    const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(path);
+    const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+        reference_images::LoadMeasuredBrdf(path);
     result = fit::FitBrdfSpace(model, fixed, fit::SampleBrdfSpace(*brdf, sampling), o);
   }
   return ResultToPy(std::move(result));
@@ -262,8 +266,8 @@ py::dict FitBrdf(const std::string& path, const std::string& model, std::vector<
 void RegisterFit(py::module_& m) {
   m.def("fit", &FitArrays, py::arg("references"), py::arg("model"), py::arg("fixed"),
         py::arg("options"));
-  m.def("fit_brdf", &FitBrdf, py::arg("path"), py::arg("model"), py::arg("fixed"),
-        py::arg("cells"), py::arg("max_theta"), py::arg("options"));
+  m.def("fit_brdf", &FitBrdf, py::arg("path"), py::arg("model"), py::arg("fixed"), py::arg("cells"),
+        py::arg("max_theta"), py::arg("options"));
 }
 
 }  // namespace shadefit::python

@@ -11,11 +11,11 @@
 #include <vector>
 
 #include "commands.h"
+#include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 
@@ -56,11 +56,13 @@ fit::FitResult FitImages(fit::FitProblem& problem, const std::vector<std::string
 }
 
 void PrintFit(const fit::FitResult& result, const std::string& output) {
-  fmt::print("{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
-             "{} iterations, {}; {} of {} starts reached the best\n",
-             result.model, result.references.size(), fit::PathName(result.path),
-             result.final_cost, result.rmse, result.iterations, result.termination,
-             result.starts_reached_best, result.starts);
+  fmt::print(
+      "{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
+      "{} iterations, {}; {} of {} starts reached the best\n",
+      result.model, result.references.size(), fit::PathName(result.path), result.final_cost,
+      result.rmse, result.iterations, fit::TerminationName(result.termination),
+      result.starts_reached_best,
+      result.starts);
   for (const auto& p : result.parameters) {
     fmt::print("  {:<16} {:>12.6g}  +- {:<10.3g}{}{}{}\n", p.name, p.value, p.std_error,
                p.fixed ? " fixed" : "", p.undetermined ? " undetermined" : "",
@@ -75,15 +77,16 @@ void PrintFit(const fit::FitResult& result, const std::string& output) {
     std::fprintf(stderr,
                  "shadefit: warning: the fit did not converge (%s after %d iterations: %s); "
                  "the result is marked \"converged\": false\n",
-                 result.termination.c_str(), result.iterations, result.solver_message.c_str());
+                 fit::TerminationName(result.termination).c_str(), result.iterations,
+                 result.solver_message.c_str());
   }
 }
 
 }  // namespace
 
 void RegisterFitCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "fit", "Fit a shading model to reference images (jointly, one material)");
+  auto* cmd =
+      app.add_subcommand("fit", "Fit a shading model to reference images (jointly, one material)");
   struct Options {
     std::vector<std::string> refs, masks, fixed;
     std::string brdf;
@@ -161,7 +164,8 @@ void RegisterFitCommand(CLI::App& app) {
   cmd->add_option("-o,--output", opt->output, "Output JSON (images go next to it)")->required();
   cmd->callback([opt] {
     if (opt->refs.empty() == opt->brdf.empty()) {
-      throw Error("", "--ref", "give reference images (--ref) or a measured BRDF (--brdf), one of them");
+      throw Error("", "--ref",
+                  "give reference images (--ref) or a measured BRDF (--brdf), one of them");
     }
     if (!opt->brdf.empty() && (!opt->scene.empty() || !opt->masks.empty())) {
       throw Error("", opt->scene.empty() ? "--mask" : "--scene",
@@ -176,8 +180,9 @@ void RegisterFitCommand(CLI::App& app) {
       throw Error("", "--scene", "only valid with a single --ref (each reference has a sidecar)");
     }
     if (!opt->masks.empty() && opt->masks.size() != opt->refs.size()) {
-      throw Error("", "--mask", fmt::format("give one mask per --ref ({} refs, {} masks)",
-                                            opt->refs.size(), opt->masks.size()));
+      throw Error("", "--mask",
+                  fmt::format("give one mask per --ref ({} refs, {} masks)", opt->refs.size(),
+                              opt->masks.size()));
     }
     fit::FitOptions options;
     options.loss = fit::ParseLoss(opt->loss);
@@ -207,7 +212,8 @@ void RegisterFitCommand(CLI::App& app) {
     if (opt->threads < 1) throw Error("", "--threads", "must be >= 1");
     if (opt->env_samples < 0) throw Error("", "--env-samples", "must be >= 0");
     if (!(opt->loss_scale >= 0) || !std::isfinite(opt->loss_scale)) {
-      throw Error("", "--loss-scale", fmt::format("{} is not a finite number >= 0", opt->loss_scale));
+      throw Error("", "--loss-scale",
+                  fmt::format("{} is not a finite number >= 0", opt->loss_scale));
     }
 
     fit::FitProblem problem;
@@ -229,7 +235,8 @@ void RegisterFitCommand(CLI::App& app) {
       sampling.max_theta_deg = opt->brdf_max_theta;
       fit::ValidateBrdfSpaceSampling(sampling, "");
       fit::CheckBrdfSpaceOptions(options);
-      const std::unique_ptr<refs::MeasuredBrdf> brdf = refs::LoadMeasuredBrdf(opt->brdf);
+      const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+          reference_images::LoadMeasuredBrdf(opt->brdf);
       result = fit::FitBrdfSpace(problem.model, problem.fixed,
                                  fit::SampleBrdfSpace(*brdf, sampling), options);
     } else {

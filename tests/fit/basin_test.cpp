@@ -87,5 +87,37 @@ TEST_P(BroadWardDuer, LobeIsNotSwitchedOff) {
 INSTANTIATE_TEST_SUITE_P(KeySphere, BroadWardDuer,
                          ::testing::Values(WardLobe{0.9, 0.04}, WardLobe{0.9, 0.1}));
 
+// Issue 32, deliverable 2: FitOptions::start_points (a study's [fit] start = "brdf" puts a
+// measured material's BRDF-space fit there) are solved from after the options' starts and
+// recorded as starts of their own. One default start plus the truth of a broad weak lobe: two
+// starts, the second begins at the truth (moved 1% inside the box where it lies on a bound) and
+// the fit ends there. A start point of the wrong size is refused with the key named.
+TEST(StartPoints, AGivenStartIsSolvedFromAndRecorded) {
+  const std::vector<double> truth = {0.45, 0.3, 0.2, 0.03, 0.03, 0.03, 0.8};
+  const auto refs = testing::SyntheticReferences("ggx", truth, {KeySphere()});
+  fit::FitProblem problem;
+  problem.model = "ggx";
+  problem.references = refs;
+  fit::FitOptions options;
+  options.starts = 1;
+  options.start_points = {truth};
+  options.renderer = &testing::SharedRenderer();
+  options.render_outputs = false;
+  const fit::FitResult result = fit::Fit(problem, options);
+  ASSERT_EQ(result.starts, 2);
+  ASSERT_EQ(result.start_results.size(), 2u);
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    EXPECT_NEAR(result.start_results[1].start[i], truth[i], 1e-9 * truth[i]) << i;
+    EXPECT_NEAR(result.values[i], truth[i], 0.01 * truth[i]) << i;
+  }
+  options.start_points = {{0.5, 0.5}};
+  try {
+    fit::Fit(problem, options);
+    FAIL() << "a start point of 2 values for ggx's 7 was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("start"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace shadefit

@@ -9,7 +9,7 @@
 #include <limits>
 #include <string>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit::testing {
 namespace {
@@ -18,7 +18,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
 // An analytic isotropic BRDF given as a function of the local directions.
-class AnalyticBrdf : public refs::MeasuredBrdf {
+class AnalyticBrdf : public reference_images::MeasuredBrdf {
  public:
   using Fn = Vec3d (*)(const Vec3d& wi, const Vec3d& wo);
   explicit AnalyticBrdf(Fn f) : f_(f) {}
@@ -131,7 +131,7 @@ TEST(BrdfSpaceFit, RecoversAnalyticGgx) {
   const AnalyticBrdf brdf(LambertGgx);
   const fit::BrdfSpaceData data = fit::SampleBrdfSpace(brdf, fit::BrdfSpaceSampling{});
   const fit::FitResult r = fit::FitBrdfSpace("ggx", {}, data);
-  EXPECT_TRUE(r.converged) << r.termination;
+  EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination);
   EXPECT_NEAR(Value(r, "roughness"), kRoughness, 0.01 * kRoughness);
   const char* ch[3] = {"r", "g", "b"};
   for (int c = 0; c < 3; ++c) {

@@ -39,7 +39,7 @@ TEST_P(EnvironmentRecoveryTest, DefaultStartRecoversRoughnessAndBaseColour) {
   options.render_outputs = false;
   const fit::FitResult r = fit::Fit(problem, options);
   EXPECT_EQ(r.path, fit::DerivativePath::kGBuffer);
-  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message;
+  EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination) << ": " << r.solver_message;
 
   auto value = [&](const std::string& name) {
     for (const auto& p : r.parameters) {

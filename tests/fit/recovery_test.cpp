@@ -116,7 +116,7 @@ TEST_P(RecoveryTest, RecoversOwnRenders) {
     const fit::FitResult r = fit::Fit(problem, options);
     SCOPED_TRACE(::testing::Message() << c.model << " set " << s << ": "
                                       << fit::FitResultToJson(r)["values"].dump());
-    EXPECT_TRUE(r.converged) << r.termination << " " << r.solver_message;
+    EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination) << " " << r.solver_message;
     EXPECT_EQ(r.path, fit::DerivativePath::kGBuffer);
     for (int i = 0; i < model.ParamCount(); ++i) {
       if (!Determined(model, truth, i)) {
@@ -158,7 +158,7 @@ TEST(RecoveryTest, ReportsUndeterminedGreyDielectric) {
   EXPECT_NEAR(r.values[FindModel("ggx-metallic").Offset("roughness")], 0.3, 0.006);
   EXPECT_TRUE(r.parameters[3].undetermined) << "metallic";
   EXPECT_TRUE(r.parameters[5].undetermined) << "f0_dielectric";
-  EXPECT_EQ(r.covariance_status, "rank deficient");
+  EXPECT_EQ(r.covariance_status, fit::CovarianceStatus::kRankDeficient);
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 #include <cstdio>
 
 #include "fit_test_util.h"
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 
 namespace shadefit {
 namespace {
@@ -29,8 +29,8 @@ std::vector<Scene> TwoLightings() {
 void ExpectSane(const fit::FitResult& r) {
   EXPECT_TRUE(std::isfinite(r.final_cost));
   EXPECT_TRUE(std::isfinite(r.rmse));
-  EXPECT_NE(r.termination, "FAILURE") << r.solver_message;
-  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message << " "
+  EXPECT_NE(r.termination, fit::Termination::kFailure) << r.solver_message;
+  EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination) << ": " << r.solver_message << " "
                            << fit::FitResultToJson(r)["values"].dump() << " iterations "
                            << r.iterations;
   for (const auto& p : r.parameters) EXPECT_TRUE(std::isfinite(p.value)) << p.name;
@@ -161,7 +161,7 @@ TEST(ConvergenceTest, StoppedEarlySaysSo) {
   options.max_iterations = 1;
   const fit::FitResult r = fit::Fit(problem, options);
   EXPECT_FALSE(r.converged);
-  EXPECT_EQ(r.termination, "NO_CONVERGENCE");
+  EXPECT_EQ(r.termination, fit::Termination::kNoConvergence);
   const nlohmann::json j = fit::FitResultToJson(r);
   EXPECT_FALSE(j["converged"].get<bool>());
   EXPECT_EQ(j["solver"]["termination"], "NO_CONVERGENCE");

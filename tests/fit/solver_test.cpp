@@ -22,7 +22,7 @@
 
 #include "fit_test_util.h"
 #include "shadefit/fit/fitter.h"
-#include "shadefit/refs/render_measured.h"
+#include "shadefit/reference_images/render_measured.h"
 
 namespace shadefit {
 namespace {
@@ -87,7 +87,7 @@ TEST_P(StoredCostTest, DefaultFitIsNoWorse) {
   EXPECT_TRUE(std::isfinite(r.final_cost));
   EXPECT_LE(r.final_cost, s.cost * (1 + kCostTolerance))
       << s.reference << " " << s.model << ": " << r.iterations << " iterations, "
-      << r.termination;
+      << fit::TerminationName(r.termination);
   std::printf("[ cost ] %s %s: %.9g (stored %.9g, ratio %.4f), %d iterations\n",
               s.reference.c_str(), s.model.c_str(), r.final_cost, s.cost, r.final_cost / s.cost,
               r.iterations);
@@ -121,7 +121,7 @@ TEST_P(IterationTest, OneGgxStartConvergesQuickly) {
   fit::FitOptions options;
   options.starts = 1;
   const fit::FitResult r = FitCycles(GetParam(), "ggx", options);
-  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message;
+  EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination) << ": " << r.solver_message;
   EXPECT_LE(r.iterations, kMaxIterations) << r.solver_message;
   std::printf("[ iterations ] %s: %d, cost %.9g\n", GetParam().c_str(), r.iterations,
               r.final_cost);
@@ -134,7 +134,7 @@ TEST(PolishTest, ContinuesTheCoarseTrustRegion) {
   fit::FitOptions options;
   options.starts = 1;
   const fit::FitResult r = FitCycles("silver-mirror-rim", "ggx", options);
-  EXPECT_TRUE(r.converged) << r.termination << ": " << r.solver_message;
+  EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination) << ": " << r.solver_message;
   EXPECT_LE(r.iterations, 33) << r.solver_message;
 }
 
@@ -190,11 +190,11 @@ TEST_P(MeasuredDefaultStartTest, KeyLightNearBestOf16) {
     GTEST_SKIP() << h5.string() << " absent (../shared/brdf-data, or set SHADEFIT_BRDF_DATA): "
                  << "the measured default-start check needs the Neural-BRDF networks";
   }
-  refs::MeasuredReferenceRequest request;
+  reference_images::MeasuredReferenceRequest request;
   request.brdf_path = h5.string();
   request.scene_path = (CyclesDir() / "scenes" / "sphere-key.toml").string();
   request.output = testing::TestOutputDir("fit_solver") + "/" + GetParam() + "-key.exr";
-  refs::MakeMeasuredReference(request, testing::SharedRenderer());
+  reference_images::MakeMeasuredReference(request, testing::SharedRenderer());
   const fit::FitReference ref = fit::LoadReference(request.output);
   ExpectDefaultNearBestOf16(ref, GetParam() + "-key");
   // One start within the 40 iterations too. GGX does not fit a measured material

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <string>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/studies/study.h"
 
 namespace shadefit::studies {
@@ -25,7 +25,8 @@ std::string WriteStudy(const std::string& name, const std::string& text) {
 std::string Base(const std::string& extra = "") {
   return "[study]\nname = \"t\"\n[[group]]\nmaterial = \"gold\"\nimages = [\"" + kRefs +
          "/gold-*.exr\"]\nexclude = [\"*-env.exr\"]\n[fit]\nmodels = [\"ggx\", \"blinn-phong\"]\n"
-         "train = [[\"key\"]]\n" + extra;
+         "train = [[\"key\"]]\n" +
+         extra;
 }
 
 TEST(StudyFile, GlobsLightingsAndDefaults) {
@@ -58,8 +59,9 @@ TEST(StudyFile, QuickAndOverrides) {
 
 TEST(StudyFile, TwoTrainingSetsLabelFits) {
   const StudySpec s = LoadStudy(WriteStudy(
-      "c.toml", "[study]\nname = \"t\"\n[[group]]\nmaterial = \"gold\"\nimages = [\"" + kRefs +
-                    "/gold-*.exr\"]\n[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\", [\"key\", \"rim\"]]\n"));
+      "c.toml",
+      "[study]\nname = \"t\"\n[[group]]\nmaterial = \"gold\"\nimages = [\"" + kRefs +
+          "/gold-*.exr\"]\n[fit]\nmodels = [\"ggx\"]\ntrain = [\"key\", [\"key\", \"rim\"]]\n"));
   ASSERT_EQ(s.training_sets.size(), 2u);
   EXPECT_EQ(s.Label("ggx", {"key", "rim"}), "ggx@key+rim");
 }
@@ -113,11 +115,27 @@ TEST(StudyFile, BaselineAndComparisons) {
   EXPECT_TRUE(quick.comparisons.empty());
   ExpectError("f3.toml", Replace(Base(), "name = \"t\"\n", "name = \"t\"\nbaseline = \"phong\"\n"),
               "study.baseline: 'phong' is not one of fit.models");
-  ExpectError("f4.toml",
-              Replace(Base(), "name = \"t\"\n", "name = \"t\"\ncompare = [[\"ggx\", \"beckmann\"]]\n"),
-              "study.compare: 'beckmann' is not one of fit.models");
+  ExpectError(
+      "f4.toml",
+      Replace(Base(), "name = \"t\"\n", "name = \"t\"\ncompare = [[\"ggx\", \"beckmann\"]]\n"),
+      "study.compare: 'beckmann' is not one of fit.models");
   ExpectError("f5.toml", Replace(Base(), "name = \"t\"\n", "name = \"t\"\ncompare = [\"ggx\"]\n"),
               "study.compare: expected a pair of model names");
+}
+
+// [fit] start = "brdf" (issue 32, item 2): read per model, written into the settings (and so the
+// job hashes) only when not the default; any other value is refused with its key.
+TEST(StudyFile, StartFromTheBrdfSpaceFit) {
+  const StudySpec plain = LoadStudy(WriteStudy("g1.toml", Base()));
+  EXPECT_EQ(plain.model_settings.at("ggx").start, "default");
+  EXPECT_FALSE(plain.model_settings.at("ggx").ToJson().contains("start"));
+  const StudySpec s =
+      LoadStudy(WriteStudy("g2.toml", Base("[fit.override.ggx]\nstart = \"brdf\"\n")));
+  EXPECT_EQ(s.model_settings.at("ggx").start, "brdf");
+  EXPECT_EQ(s.model_settings.at("ggx").ToJson()["start"], "brdf");
+  EXPECT_EQ(s.model_settings.at("blinn-phong").start, "default");
+  ExpectError("g3.toml", Base("start = \"ngan\"\n"),
+              "fit.start: expected \"default\" or \"brdf\"");
 }
 
 // fit.fixed is checked against every listed model's parameter table when the file is loaded
@@ -147,15 +165,17 @@ TEST(StudyFile, FixedNamesAParameterOfEveryModel) {
               "fit.override.blinn-phong.fixed: 'f0' is not a parameter of model 'blinn-phong'");
   ExpectError("g4.toml", Base("fixed = [\"kd=2\"]\n"),
               "fit.fixed: model 'ggx': kd: value 2 outside [0, 1]");
-  ExpectError("g5.toml", Base("fixed = [\"roughnes=0.3\"]\n[fit.override.blinn-phong]\nfixed = []\n"),
+  ExpectError("g5.toml",
+              Base("fixed = [\"roughnes=0.3\"]\n[fit.override.blinn-phong]\nfixed = []\n"),
               "'roughnes' is not a parameter of model 'ggx' (did you mean 'roughness'?)");
   // [quick] fixed replaces the list under --quick and is checked there.
   try {
     LoadStudy(WriteStudy("g6.toml", Base("[quick]\nfixed = [\"shininess=10\"]\n")), true);
     FAIL() << "no error for quick.fixed naming a parameter ggx lacks";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("quick.fixed: 'shininess' is not a parameter of model 'ggx'"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("quick.fixed: 'shininess' is not a parameter of model 'ggx'"),
+        std::string::npos)
         << e.what();
   }
 }

@@ -7,21 +7,20 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <optional>
-
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "job_kinds.h"
 #include "outputs.h"
+#include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/report.h"
 #include "shadefit/metrics/ssim.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/render/error.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/reference.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/image.h"
 #include "test_hooks.h"
@@ -53,23 +52,23 @@ json FitJobHeader(const RunContext& context, const Job& job, FitStatus status) {
 
 // The training references, each subsampled to every stride-th pixel by a mask (the images are
 // never resampled; metrics still use every pixel). A measured reference trains on its measured
-// pixels only (refs::IsMeasuredPixel): a fit must not chase values its reference's BRDF only
-// extrapolates (docs/measured_and_imported.md, "The measured domain").
+// pixels only (reference_images::IsMeasuredPixel): a fit must not chase values its reference's BRDF
+// only extrapolates (docs/measured_and_imported.md, "The measured domain").
 fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const ReferenceGroup& g,
-                             const std::vector<refs::Reference>& references) {
+                             const std::vector<reference_images::Reference>& references) {
   fit::FitProblem problem;
   problem.model = job.model;
   problem.fixed = s.fixed;
   for (std::size_t i = 0; i < references.size(); ++i) {
     if (!Trains(job, g.references[i].lighting)) continue;
-    refs::Reference ref = references[i];
+    reference_images::Reference ref = references[i];
     if (s.pixel_stride > 1 || !ref.extrapolated_share.empty()) {
       const int stride = std::max(1, s.pixel_stride);
       Image mask(ref.image.width, ref.image.height, 1, 0.0f);
       for (int y = 0; y < mask.height; y += stride) {
         for (int x = 0; x < mask.width; x += stride) {
           const bool use = (ref.mask.empty() || ref.mask.at(x, y, 0) > 0.5f) &&
-                           refs::IsMeasuredPixel(ref, x, y);
+                           reference_images::IsMeasuredPixel(ref, x, y);
           mask.at(x, y, 0) = use ? 1.f : 0.f;
         }
       }
@@ -99,11 +98,31 @@ fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
   return fo;
 }
 
+// [fit] start = "brdf": the material's BRDF-space fit of the same model (l2 on MERL's cells,
+// fixed exposure: fit/brdf_space.h) as one more start of its image fit; nothing for a group that
+// is not a [[measured]] material. Logged with its cost, so that a reader of study.log sees it.
+void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSettings& s,
+                       const std::string& material, fit::FitOptions* fo) {
+  const std::string path = MeasuredBrdfPath(context.spec, material);
+  if (path.empty()) return;
+  fit::FitOptions brdf_options = *fo;
+  brdf_options.loss = fit::Loss::kL2;
+  brdf_options.exposure = fit::Exposure::kFixed;
+  brdf_options.start_points.clear();
+  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+      reference_images::LoadMeasuredBrdf(path);
+  const fit::FitResult start = fit::FitBrdfSpace(
+      job.model, s.fixed, fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), brdf_options);
+  fo->start_points.push_back(start.values);
+  context.log->Line(fmt::format("{}: BRDF-space start (cost {:.6g}) added", job.id,
+                                start.final_cost));
+}
+
 // A quarter of the reference's 99th-percentile radiance (mean RGB over covered, lit pixels): one
 // scale per reference, shared by every model's error map so they compare by eye. Only lit
 // pixels count: under a rim light most of the sphere is black, and a percentile over all of it
 // gave a range near 0 that saturated every map.
-double ErrorScale(const refs::Reference& ref) {
+double ErrorScale(const reference_images::Reference& ref) {
   std::vector<float> v;
   const Image& im = ref.image;
   for (int y = 0; y < im.height; ++y) {
@@ -129,11 +148,11 @@ Image CoverageMask(const Image& image) {
 }
 
 // The covered pixels that lie in the reference's measured domain (all of them without one).
-Image MeasuredMask(const refs::Reference& ref, const Image& covered) {
+Image MeasuredMask(const reference_images::Reference& ref, const Image& covered) {
   Image mask = covered;
   for (int y = 0; y < mask.height; ++y) {
     for (int x = 0; x < mask.width; ++x) {
-      if (!refs::IsMeasuredPixel(ref, x, y)) mask.at(x, y, 0) = 0.f;
+      if (!reference_images::IsMeasuredPixel(ref, x, y)) mask.at(x, y, 0) = 0.f;
     }
   }
   return mask;
@@ -207,13 +226,13 @@ json NullMetricsSummary() {
 
 // The reference's preview with its extrapolated pixels (outside the measured domain) tinted
 // magenta, 60 % over the display value, so the viewer shows which pixels the metrics leave out.
-void WriteDomainPreview(const std::string& path, const refs::Reference& ref,
+void WriteDomainPreview(const std::string& path, const reference_images::Reference& ref,
                         const Image& covered, float exposure_stops) {
   const float scale = std::exp2(exposure_stops);
   Image display(ref.image.width, ref.image.height, 3);
   for (int y = 0; y < display.height; ++y) {
     for (int x = 0; x < display.width; ++x) {
-      const bool tint = covered.at(x, y, 0) > 0.5f && !refs::IsMeasuredPixel(ref, x, y);
+      const bool tint = covered.at(x, y, 0) > 0.5f && !reference_images::IsMeasuredPixel(ref, x, y);
       for (int c = 0; c < 3; ++c) {
         const float v = std::clamp(SrgbOetf(ref.image.at(x, y, c) * scale), 0.0f, 1.0f);
         const float magenta = c == 1 ? 0.0f : 1.0f;
@@ -227,8 +246,8 @@ void WriteDomainPreview(const std::string& path, const refs::Reference& ref,
 // The reference's preview, the fit's and the error map (images/), named in `e` and `outputs`;
 // for a measured reference also its domain preview (images/<reference>.domain.png).
 void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpec& rs,
-                   const refs::Reference& ref, const Image& prediction, const Image& covered,
-                   const metrics::MetricsMaps& maps, json* e, json* outputs) {
+                   const reference_images::Reference& ref, const Image& prediction,
+                   const Image& covered, const metrics::MetricsMaps& maps, json* e, json* outputs) {
   const StudySpec& spec = context.spec;
   const std::string ref_png = fmt::format("images/{}.reference.png", rs.name);
   const std::string fit_png = fmt::format("images/{}.{}.png", rs.name, FileSafe(job.label));
@@ -242,8 +261,8 @@ void WritePreviews(const RunContext& context, const Job& job, const ReferenceSpe
   fc.min = 0.0;
   fc.max = ErrorScale(ref);
   metrics::WriteFalseColorPng((dir / err_png).string(), maps.absolute_error, fc);
-  (*e)["images"] = {{"reference", ref_png}, {"fit", fit_png}, {"error", err_png},
-                    {"error_scale", fc.max}};
+  (*e)["images"] = {
+      {"reference", ref_png}, {"fit", fit_png}, {"error", err_png}, {"error_scale", fc.max}};
   outputs->push_back(ref_png);
   outputs->push_back(fit_png);
   outputs->push_back(err_png);
@@ -298,10 +317,9 @@ void CheckFinite(const Image& prediction, const Image& reference, const std::str
       if (reference.channels > 3 && !(reference.at(x, y, 3) > 0)) continue;
       for (int c = 0; c < 3; ++c) {
         if (!std::isfinite(prediction.at(x, y, c))) {
-          throw NonFiniteRenderError(
-              name, "render",
-              fmt::format("the fit renders {} at ({}, {}) channel {}", prediction.at(x, y, c), x,
-                          y, c));
+          throw NonFiniteRenderError(name, "render",
+                                     fmt::format("the fit renders {} at ({}, {}) channel {}",
+                                                 prediction.at(x, y, c), x, y, c));
         }
       }
     }
@@ -310,14 +328,15 @@ void CheckFinite(const Image& prediction, const Image& reference, const std::str
 
 // The fit rendered under one reference's lighting and compared with it.
 json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
-              const refs::Reference& ref, const fit::FitResult& result, Renderer& renderer,
-              json* outputs) {
+              const reference_images::Reference& ref, const fit::FitResult& result,
+              Renderer& renderer, json* outputs) {
   const StudySpec& spec = context.spec;
   Image prediction;
-  const double rmse = fit::EvaluateModelOnReference(ref, job.model, result.values,
-                                                    result.exposure, &renderer, &prediction);
-  if (FaultArmed("inf-render")) prediction.at(prediction.width / 2, prediction.height / 2, 0) =
-      std::numeric_limits<float>::infinity();
+  const double rmse = fit::EvaluateModelOnReference(ref, job.model, result.values, result.exposure,
+                                                    &renderer, &prediction);
+  if (FaultArmed("inf-render"))
+    prediction.at(prediction.width / 2, prediction.height / 2, 0) =
+        std::numeric_limits<float>::infinity();
   CheckFinite(prediction, ref.image, rs.name);
   // Two masks: every covered pixel, and those of them in the reference's measured domain (the
   // same without a domain). "metrics" are the measured pixels', "metrics_all" every covered
@@ -373,8 +392,11 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
 json ParametersJson(const fit::FitResult& result) {
   json params = json::array();
   for (const fit::ParameterEstimate& p : result.parameters) {
-    params.push_back({{"name", p.name}, {"value", Num(p.value)}, {"std_error", Num(p.std_error)},
-                      {"fixed", p.fixed}, {"undetermined", p.undetermined},
+    params.push_back({{"name", p.name},
+                      {"value", Num(p.value)},
+                      {"std_error", Num(p.std_error)},
+                      {"fixed", p.fixed},
+                      {"undetermined", p.undetermined},
                       {"at_bound", p.at_bound}});
   }
   return params;
@@ -387,12 +409,15 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const FitSettings& s = context.spec.model_settings.at(job.model);
   const auto t0 = Clock::now();
 
-  std::vector<refs::Reference> references;
+  std::vector<reference_images::Reference> references;
   for (const ReferenceSpec& r : g.references) {
-    references.push_back(refs::LoadReference(r.image_path));
+    references.push_back(reference_images::LoadReference(r.image_path));
   }
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
-  const fit::FitOptions fo = FitOptionsOf(s, renderer);
+  fit::FitOptions fo = FitOptionsOf(s, renderer);
+  if (s.start == "brdf" && !TrainsInBrdfSpace(job.train)) {
+    AddBrdfSpaceStart(context, job, s, g.material, &fo);
+  }
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.
@@ -400,8 +425,8 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
     if (TrainsInBrdfSpace(job.train)) {
       // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
       // the settings are l2 with a fixed exposure.
-      const std::unique_ptr<refs::MeasuredBrdf> brdf =
-          refs::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, g.material));
+      const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+          reference_images::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, g.material));
       result = fit::FitBrdfSpace(job.model, s.fixed,
                                  fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
     } else if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
@@ -409,7 +434,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
       result = std::move(search.fit);
       encoding = fit::EncodingSearchToJson(search);
       // Every lighting, trained on or not, is evaluated in the chosen decoding.
-      for (refs::Reference& r : references) r = fit::Redecode(r, search.chosen);
+      for (reference_images::Reference& r : references) r = fit::Redecode(r, search.chosen);
       context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
                                     search.chosen.Name(), encoding["stored_rmse"].get<double>()));
     } else {
@@ -426,12 +451,14 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   }
   if (!std::isfinite(result.final_cost)) {
     WriteFailedFit(context, job, FitStatus::kNanResiduals,
-                   fmt::format("the solve ended with a non-finite cost ({})", result.termination));
+                   fmt::format("the solve ended with a non-finite cost ({})",
+                               fit::TerminationName(result.termination)));
     return;
   }
   if (!result.converged) {
-    context.log->Line(fmt::format("{}: fit did not converge ({}); recorded as such", job.id,
-                                  result.termination));
+    context.log->Line(
+        fmt::format("{}: fit did not converge ({}); recorded as such", job.id,
+                    fit::TerminationName(result.termination)));
   }
 
   json evaluations = json::array();
@@ -453,11 +480,10 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
     WriteFailedFit(context, job, FitStatus::kNonFiniteRender, e.what());
     return;
   }
-  json j = FitJobHeader(context, job,
-                        result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
+  json j = FitJobHeader(context, job, result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
   j.update({{"settings", s.ToJson()},
             {"converged", result.converged},
-            {"termination", result.termination},
+            {"termination", fit::TerminationName(result.termination)},
             {"values", result.values},
             {"exposure", result.exposure},
             {"parameters", ParametersJson(result)},
@@ -476,8 +502,8 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
 
 void WriteFailedFit(const RunContext& context, const Job& job, FitStatus status,
                     const std::string& error) {
-  context.log->Say(fmt::format("{}: {}: {}; recorded, the study goes on", job.id,
-                               FitStatusName(status), error));
+  context.log->Say(
+      fmt::format("{}: {}: {}; recorded, the study goes on", job.id, FitStatusName(status), error));
   json j = FitJobHeader(context, job, status);
   j.update({{"error", error},
             {"converged", false},

@@ -4,14 +4,13 @@
 
 #include <algorithm>
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "job_cost.h"
+#include "shadefit/base/files.h"
 #include "shadefit/probes/probes.h"
-#include "shadefit/refs/measured_brdf.h"
-#include "shadefit/refs/sidecar.h"
-#include "shadefit/render/files.h"
+#include "shadefit/reference_images/measured_brdf.h"
+#include "shadefit/reference_images/sidecar.h"
 #include "shadefit/studies/runner.h"
 
 namespace shadefit::studies::internal {
@@ -22,8 +21,7 @@ namespace {
 
 // A fit job's hash context: everything its results depend on besides shadefit's version.
 json FitContext(const StudySpec& spec, const std::string& model,
-                const std::vector<std::string>& train, const std::string& label,
-                const json& refs) {
+                const std::vector<std::string>& train, const std::string& label, const json& refs) {
   return {{"kind", "fit"},
           {"model", model},
           {"label", label},
@@ -35,10 +33,11 @@ json FitContext(const StudySpec& spec, const std::string& model,
           {"references", refs}};
 }
 
-// SHA-256 of a measured BRDF's files (refs::MeasuredBrdfFiles).
+// SHA-256 of a measured BRDF's files (reference_images::MeasuredBrdfFiles).
 json BrdfHashes(const std::string& brdf) {
   json out = json::array();
-  for (const std::string& f : refs::MeasuredBrdfFiles(brdf)) out.push_back(Sha256File(f));
+  for (const std::string& f : reference_images::MeasuredBrdfFiles(brdf))
+    out.push_back(Sha256File(f));
   return out;
 }
 
@@ -57,7 +56,7 @@ std::map<std::string, InputHashes> HashInputs(const StudySpec& spec) {
       InputHashes h;
       h.image = Sha256File(r.image_path);
       if (!r.sidecar_path.empty()) h.sidecar = Sha256File(r.sidecar_path);
-      h.scene_path = refs::SceneOfSidecar(r.sidecar_path);
+      h.scene_path = reference_images::SceneOfSidecar(r.sidecar_path);
       if (!h.scene_path.empty() && fs::exists(h.scene_path)) h.scene = Sha256File(h.scene_path);
       hashes[r.image_path] = h;
     }
@@ -74,8 +73,11 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
     json refs = json::array();
     for (const ReferenceSpec& r : g.references) {
       const InputHashes& h = hashes.at(r.image_path);
-      refs.push_back({{"name", r.name}, {"lighting", r.lighting}, {"image", h.image},
-                      {"sidecar", h.sidecar}, {"scene", h.scene}});
+      refs.push_back({{"name", r.name},
+                      {"lighting", r.lighting},
+                      {"image", h.image},
+                      {"sidecar", h.sidecar},
+                      {"scene", h.scene}});
     }
     std::vector<int> fit_jobs;
     std::vector<std::string> fit_hashes;
@@ -89,8 +91,13 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
         job.label = spec.Label(model, train);
         job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model, JoinTrain(train)));
         json context = FitContext(spec, model, train, job.label, refs);
-        // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it.
-        if (TrainsInBrdfSpace(train)) context["brdf"] = BrdfHashes(MeasuredBrdfPath(spec, g.material));
+        // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it; so
+        // does an image fit that starts from one.
+        const std::string brdf_path = MeasuredBrdfPath(spec, g.material);
+        if (TrainsInBrdfSpace(train) ||
+            (spec.model_settings.at(model).start == "brdf" && !brdf_path.empty())) {
+          context["brdf"] = BrdfHashes(brdf_path);
+        }
         job.hash = Sha256String(version + "\n" + context.dump());
         job.weight = FitJobCost(spec.model_settings.at(model), train.size(), g.references.size());
         fit_jobs.push_back(static_cast<int>(jobs.size()));
@@ -106,10 +113,9 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
       job.deps = fit_jobs;
       // The result schema too: a probe job written in an older format must run again, even by
       // a build whose version string did not change (a stale configure).
-      const json context = {{"kind", "probe"}, {"probes", ProbeNamesOf(spec)},
-                            {"plots", spec.probe_plots},
-                            {"schema", probes::kProbeResultSchema},
-                            {"references", refs}, {"fits", fit_hashes}};
+      const json context = {{"kind", "probe"},           {"probes", ProbeNamesOf(spec)},
+                            {"plots", spec.probe_plots}, {"schema", probes::kProbeResultSchema},
+                            {"references", refs},        {"fits", fit_hashes}};
       job.hash = Sha256String(version + "\n" + context.dump());
       job.weight = ProbeJobCost(spec.probes.size());
       jobs.push_back(job);

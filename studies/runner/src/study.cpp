@@ -3,6 +3,7 @@
 
 #include <fmt/core.h>
 #include <fnmatch.h>
+#include <toml++/toml.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -11,15 +12,13 @@
 #include <optional>
 #include <set>
 #include <sstream>
-#include <toml++/toml.h>
 
-#include "shadefit/render/error.h"
+#include "shadefit/base/error.h"
 #include "shadefit/render/models.h"
 
 namespace shadefit::studies {
 namespace fs = std::filesystem;
 namespace {
-
 
 // Reading helpers: every key is checked; an unknown key or a wrong type is an error naming the
 // file, the line and the key.
@@ -114,7 +113,7 @@ class Reader {
 const std::set<std::string> kFitKeys = {"loss",           "loss_scale",   "starts",
                                         "seed",           "exposure",     "path",
                                         "max_iterations", "pixel_stride", "environment_samples",
-                                        "fixed",          "encoding"};
+                                        "fixed",          "encoding",     "start"};
 
 void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& prefix,
                      FitSettings* s) {
@@ -134,6 +133,7 @@ void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& p
       static_cast<int>(r.Integer(t, prefix, "environment_samples", s->environment_samples, 0));
   if (t.contains("fixed")) s->fixed = r.Strings(t, prefix, "fixed");
   s->encoding = r.String(t, prefix, "encoding", s->encoding);
+  s->start = r.String(t, prefix, "start", s->start);
   const std::set<std::string> losses = {"l2", "log", "cuberoot", "huber", "cauchy"};
   if (!losses.contains(s->loss)) {
     r.Fail(t.get("loss"), prefix + "loss",
@@ -148,6 +148,9 @@ void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& p
   }
   if (s->encoding != "as-imported" && s->encoding != "fit") {
     r.Fail(t.get("encoding"), prefix + "encoding", "expected \"as-imported\" or \"fit\"");
+  }
+  if (s->start != "default" && s->start != "brdf") {
+    r.Fail(t.get("start"), prefix + "start", "expected \"default\" or \"brdf\"");
   }
   if (s->encoding == "fit" && s->exposure != "free") {
     r.Fail(t.get("encoding"), prefix + "encoding",
@@ -167,8 +170,7 @@ std::vector<fs::path> Glob(const fs::path& base, const std::string& pattern) {
   }
   if (!fs::is_directory(dir)) return out;
   for (const auto& entry : fs::directory_iterator(dir)) {
-    if (entry.is_regular_file() &&
-        fnmatch(leaf.c_str(), entry.path().filename().c_str(), 0) == 0) {
+    if (entry.is_regular_file() && fnmatch(leaf.c_str(), entry.path().filename().c_str(), 0) == 0) {
       out.push_back(entry.path());
     }
   }
@@ -200,18 +202,19 @@ std::string LightingOf(const std::string& stem, const std::string& material,
 
 nlohmann::json FitSettings::ToJson() const {
   nlohmann::json j = {{"loss", loss},
-          {"loss_scale", loss_scale},
-          {"starts", starts},
-          {"seed", seed},
-          {"exposure", exposure},
-          {"path", path},
-          {"max_iterations", max_iterations},
-          {"pixel_stride", pixel_stride},
-          {"environment_samples", environment_samples},
-          {"fixed", fixed}};
+                      {"loss_scale", loss_scale},
+                      {"starts", starts},
+                      {"seed", seed},
+                      {"exposure", exposure},
+                      {"path", path},
+                      {"max_iterations", max_iterations},
+                      {"pixel_stride", pixel_stride},
+                      {"environment_samples", environment_samples},
+                      {"fixed", fixed}};
   // Only when not the default, so that the settings (and job hashes) of studies that predate
   // the key are unchanged.
   if (encoding != "as-imported") j["encoding"] = encoding;
+  if (start != "default") j["start"] = start;
   return j;
 }
 
@@ -286,9 +289,10 @@ nlohmann::json StudySpec::ToJson() const {
           {"verdicts", verdicts},
           {"baseline", baseline},
           {"compare", comparisons},
-          {"outputs", {{"previews", previews},
-                       {"report", report},
-                       {"floor", floor.has_value() ? nlohmann::json(*floor) : nlohmann::json()}}}};
+          {"outputs",
+           {{"previews", previews},
+            {"report", report},
+            {"floor", floor.has_value() ? nlohmann::json(*floor) : nlohmann::json()}}}};
 }
 
 namespace {
@@ -355,7 +359,8 @@ QuickFilter ReadQuick(const Reader& r, const toml::table& root, bool quick) {
   QuickFilter q;
   if (const toml::table* qt = r.Table(root, "", "quick")) {
     std::set<std::string> allowed = kFitKeys;
-    for (const char* k : {"materials", "lightings", "models", "probes", "training_sets"}) allowed.insert(k);
+    for (const char* k : {"materials", "lightings", "models", "probes", "training_sets"})
+      allowed.insert(k);
     r.CheckKeys(*qt, "quick.", allowed);
   }
   q.table = quick ? r.Table(root, "", "quick") : nullptr;
@@ -412,8 +417,7 @@ void ReadMeasuredBrdfs(const Reader& r, const toml::table& t,
   for (const fs::path& f : files) {
     const std::string material = f.stem().string();
     if (!q.KeepsMaterial(material)) continue;
-    if (std::find(src->materials.begin(), src->materials.end(), material) !=
-        src->materials.end()) {
+    if (std::find(src->materials.begin(), src->materials.end(), material) != src->materials.end()) {
       r.Fail(&t, "measured.folder", "material '" + material + "' is there twice (.binary and .h5)");
     }
     src->brdfs.push_back(f.string());
@@ -567,8 +571,7 @@ void CheckFixed(const Reader& r, const std::string& model_name, const FitSetting
 }
 
 // [fit] models and their settings: the defaults, [fit.override.<model>], then [quick].
-void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q,
-                   StudySpec* spec) {
+void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q, StudySpec* spec) {
   const toml::table* qt = q.table;
   spec->models = r.Strings(fit, "fit.", "models");
   if (qt != nullptr && qt->contains("models")) spec->models = r.Strings(*qt, "quick.", "models");
@@ -729,8 +732,7 @@ void ReadMetrics(const Reader& r, const toml::table& root, StudySpec* spec) {
 }
 
 // [probes]: names parsed into kinds here, once.
-void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q,
-                StudySpec* spec) {
+void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q, StudySpec* spec) {
   const toml::table* qt = q.table;
   std::vector<std::string> names;
   if (const toml::table* p = r.Table(root, "", "probes")) {
@@ -744,7 +746,7 @@ void ReadProbes(const Reader& r, const toml::table& root, const QuickFilter& q,
     const std::optional<probes::ProbeKind> kind = probes::ParseProbeKind(p);
     if (!kind) {
       const toml::table* probes_table = r.Table(root, "", "probes");
-      const toml::node* where = from_quick ? qt->get("probes")
+      const toml::node* where = from_quick     ? qt->get("probes")
                                 : probes_table ? probes_table->get("run")
                                                : nullptr;
       r.Fail(where, from_quick ? "quick.probes" : "probes.run",
@@ -760,7 +762,8 @@ nlohmann::json ReadVerdict(const Reader& r, const std::string& name, const toml:
   const std::string prefix = "verdicts." + name + ".";
   if (!node.is_table()) r.Fail(&node, "verdicts." + name, "expected a table");
   const toml::table& t = *node.as_table();
-  r.CheckKeys(t, prefix, {"question", "source", "kind", "tolerance", "floor", "keys", "metric", "split"});
+  r.CheckKeys(t, prefix,
+              {"question", "source", "kind", "tolerance", "floor", "keys", "metric", "split"});
   nlohmann::json j;
   j["question"] = r.String(t, prefix, "question", name);
   j["source"] = r.String(t, prefix, "source", "");
@@ -826,7 +829,8 @@ void ReadComparisons(const Reader& r, const toml::table& root, const toml::table
   spec->baseline = spec->models.front();
   if (study.contains("baseline")) {
     const std::string b = r.String(study, "study.", "baseline", "");
-    if (!known(b)) r.Fail(study.get("baseline"), "study.baseline", "'" + b + "' is not one of fit.models");
+    if (!known(b))
+      r.Fail(study.get("baseline"), "study.baseline", "'" + b + "' is not one of fit.models");
     if (kept(b)) spec->baseline = b;
   }
   const toml::node* n = study.get("compare");

@@ -24,9 +24,9 @@
 #include <nlohmann/json.hpp>
 
 #include "shadefit/fit/defaults.h"
-#include "shadefit/refs/reference.h"
-#include "shadefit/render/error.h"
-#include "shadefit/render/files.h"
+#include "shadefit/reference_images/reference.h"
+#include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/render/image.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/render/scene.h"
@@ -62,8 +62,8 @@ inline constexpr double kRobustScaleFraction = 0.05;
 
 // References and their loading live with the references (reference_images/, refs/reference.h);
 // the fitter's names for them:
-using FitReference = refs::Reference;
-using refs::LoadReference;
+using FitReference = reference_images::Reference;
+using reference_images::LoadReference;
 
 // A reference the fit cannot use: no valid pixel, every valid pixel black, or non-finite pixels
 // on the object. A property of the data, not of the fitter: the study runner records it as the
@@ -97,6 +97,9 @@ struct FitOptions {
                                      // (kRobustScaleFraction of the references' p99).
   int starts = kDefaultStarts;       // Start 0 = table defaults; 1.. = scrambled Halton points.
   std::uint64_t seed = 1;            // Scrambles the Halton starts (Cranley-Patterson shift).
+  // More starts after those: natural parameters, flattened as FitResult::values (a measured
+  // material's BRDF-space fit, a study's [fit] start = "brdf"; Parametrization::StartAt).
+  std::vector<std::vector<double>> start_points;
   Exposure exposure = Exposure::kFixed;  // kFree: fit a global scale exp(e).
   DerivativePath path = DerivativePath::kAuto;
   int max_iterations = kDefaultMaxIterations;  // Per start.
@@ -145,13 +148,22 @@ struct ParameterEstimate {
   double spread_min = 0, spread_max = 0, spread_std = 0;
 };
 
+// How a solve ended: Ceres' three termination types, onto which the bounded LM's reasons map
+// (LmTermination). The fit JSON writes them by TerminationName.
+enum class Termination { kConvergence, kNoConvergence, kFailure };
+// "CONVERGENCE", "NO_CONVERGENCE", "FAILURE" (Ceres' words, as the JSON has always had them).
+std::string TerminationName(Termination termination);
+
+// Whether the parameters' standard errors were computed (fit/src/uncertainty.h).
+enum class CovarianceStatus { kOk, kRankDeficient, kFailed, kSkipped };
+
 struct StartResult {
   std::vector<double> start;   // Natural units, flattened.
   std::vector<double> params;  // Natural units, flattened.
   double exposure = 1.0;
   double initial_cost = 0, final_cost = 0;
   int iterations = 0;
-  std::string termination;     // ceres::TerminationTypeToString.
+  Termination termination = Termination::kFailure;
   bool converged = false;
   bool reached_best = false;
   // Coarse-to-fine (FitOptions::coarse_to_fine): the cost on the pixel subsample, and whether the
@@ -183,7 +195,7 @@ struct FitResult {
   double rmse = 0;                  // Over all references' valid pixels, linear radiance.
   std::vector<ReferenceResult> references;
   int iterations = 0;
-  std::string termination;
+  Termination termination = Termination::kFailure;
   bool converged = false;
   std::string solver_message;
   std::string solver_name;          // "bounded-lm", "bounded-lm (variable projection)", "ceres".
@@ -199,7 +211,10 @@ struct FitResult {
   double second_basin_cost = std::numeric_limits<double>::quiet_NaN();
   bool coarse_to_fine = false;      // Whether the coarse stage ran.
   std::vector<StartResult> start_results;
-  std::string covariance_status;    // "ok", "rank deficient", "failed: ...", "skipped".
+  CovarianceStatus covariance_status = CovarianceStatus::kSkipped;
+  std::string covariance_failure;   // Why, when covariance_status is kFailed.
+  // "ok", "rank deficient", "failed: <why>", "skipped": the JSON's words.
+  std::string CovarianceStatusText() const;
   std::string covariance_method;    // How the standard errors were computed (the JSON says).
   long renders = 0;                 // GL renders of the model (not counting G-buffers/outputs).
   long gbuffer_renders = 0;
@@ -229,7 +244,7 @@ double EvaluateModelOnReference(const FitReference& reference, const std::string
                                 const std::vector<double>& params, double exposure = 1.0,
                                 Renderer* renderer = nullptr, Image* prediction = nullptr);
 
-// SHA-256 (FIPS 180-4), lowercase hex: the one implementation in render/files.h.
+// SHA-256 (FIPS 180-4), lowercase hex: the one implementation in base/files.h.
 using shadefit::Sha256File;
 inline std::string Sha256(const std::string& bytes) { return Sha256String(bytes); }
 

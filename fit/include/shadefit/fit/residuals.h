@@ -103,6 +103,10 @@ class Parametrization {
   // from `seed` (Cranley-Patterson rotation) so that seeds give different, deterministic sets.
   // Starts 2 and 3 then take the lobe width from fixed strata, broad first (StartWidth).
   std::vector<double> Start(int s, std::uint64_t seed) const;
+  // A start at natural parameters `p` (flattened; a BRDF-space fit's result): fixed entries keep
+  // their value, the others are moved into their box and, like the defaults, at least 1% of it
+  // from a bound (kStartInside).
+  std::vector<double> StartAt(const std::vector<double>& p) const;
 
  private:
   void StartWidth(int s, const std::vector<double>& shifts, std::vector<double>* u) const;

@@ -52,6 +52,10 @@ struct FitSettings {
   // "as-imported" (the references' own decoding) | "fit": choose sRGB, linear or a fitted gamma
   // on the training references (fit/encoding_search.h) and decode every reference with it.
   std::string encoding = "as-imported";
+  // "default" | "brdf": an image fit of a [[measured]] material also starts from the material's
+  // BRDF-space fit (Ngan et al. 2005's objective, fit/brdf_space.h) of the same model; fits of
+  // other groups start as by default (docs/studies.md, "Fits").
+  std::string start = "default";
 
   nlohmann::json ToJson() const;
 };
