@@ -12,10 +12,12 @@ near-Lambertian):
     and two, and their ratio (two over one; below 1: the second lobe helps);
   * on how many materials the second lobe lowers the new-lighting error by more than 5%;
   * how many two-lobe fits have every free parameter determined (a finite standard error, not
-    flagged undetermined): whether the data pins the extra lobe down.
-
-The image probes (highlight, Fresnel) are not valid on measured references (docs/studies.md,
-"Comparative answers"), so the lobes' shapes are compared through the errors only.
+    flagged undetermined): whether the data pins the extra lobe down;
+  * with the study's `brdf` probe (docs/probes.md, "BRDF-space probes"), the fitted BRDF against
+    the measured one: the median over the class of |log hwhm_ratio| (the highlight's half-width,
+    model over measured; 0 is exact), of |tail_fraction_difference| (the highlight's tail) and of
+    |log rim_centre_ratio_to_limit_ratio| (the Fresnel rise to theta_d = 75 degrees), one lobe
+    and two. (The image probes are not valid on measured references.)
 
     /usr/bin/python3 bench/second_lobe.py STUDY_OUT [--shared ../shared] [--train key+mirror60]
         [--markdown OUT.md]
@@ -23,6 +25,7 @@ The image probes (highlight, Fresnel) are not valid on measured references (docs
 import argparse
 import csv
 import json
+import math
 import pathlib
 import re
 import statistics
@@ -74,6 +77,34 @@ def determined(out, material, model, train):
     return True
 
 
+def brdf_probe(out, material, model, train):
+    """The brdf probe's vs_measured numbers of one fit (None without the probe)."""
+    path = out / "jobs" / f"probe.{material}.json"
+    if not path.exists():
+        return None
+    probes = json.loads(path.read_text())["probes"]
+    if "brdf" not in probes:
+        return None
+    numbers = probes["brdf"]["numbers"].get(f"{model}@{train}")
+    return None if numbers is None else numbers.get("vs_measured")
+
+
+def probe_medians(out, mats, model, train):
+    """Median |log hwhm ratio|, |tail difference|, |log rim ratio| over the materials."""
+    logs = {"hwhm": [], "tail": [], "rim": []}
+    for m in mats:
+        v = brdf_probe(out, m, model, train)
+        if not v:
+            continue
+        if v.get("hwhm_ratio"):
+            logs["hwhm"].append(abs(math.log(v["hwhm_ratio"])))
+        if v.get("tail_fraction_difference") is not None:
+            logs["tail"].append(abs(v["tail_fraction_difference"]))
+        if v.get("rim_centre_ratio_to_limit_ratio"):
+            logs["rim"].append(abs(math.log(v["rim_centre_ratio_to_limit_ratio"])))
+    return {k: statistics.median(x) if x else float("nan") for k, x in logs.items()}
+
+
 def class_rows(out, classes, train):
     errors = read_errors(out, train)
     rows = []
@@ -100,6 +131,8 @@ def class_rows(out, classes, train):
                 "train_one": med(one, "train"), "train_two": med(two, "train"),
                 "test_one": med(one, "test"), "test_two": med(two, "test"),
                 "helps": helps, "determined": sum(1 for d in det if d),
+                "probe_one": probe_medians(out, mats, one, train),
+                "probe_two": probe_medians(out, mats, two, train),
             })
     return rows
 
@@ -117,6 +150,15 @@ def markdown(rows, train):
             f"{r['train_two']:.3f} | {r['test_one']:.3f} / {r['test_two']:.3f} "
             f"({r['test_two'] / r['test_one']:.2f}) | {r['helps']} of {r['materials']} | "
             f"{r['determined']} of {r['materials']} |")
+    if any(not math.isnan(r["probe_one"]["hwhm"]) for r in rows):
+        lines += ["", "Fitted BRDF against the measured one (brdf probe; medians over the class; "
+                  "0 is exact):", "",
+                  "| models | class | abs log HWHM ratio: 1 / 2 lobes | abs tail-fraction "
+                  "difference: 1 / 2 | abs log Fresnel-rise ratio: 1 / 2 |", "|---|---|---|---|---|"]
+        for r in rows:
+            a, b = r["probe_one"], r["probe_two"]
+            lines.append(f"| {r['pair']} | {r['class']} | {a['hwhm']:.2f} / {b['hwhm']:.2f} | "
+                         f"{a['tail']:.3f} / {b['tail']:.3f} | {a['rim']:.2f} / {b['rim']:.2f} |")
     return "\n".join(lines) + "\n"
 
 
