@@ -16,71 +16,64 @@
 namespace shadefit::fit {
 namespace fs = std::filesystem;
 
-nlohmann::json FitResultToJson(const FitResult& r) {
-  using nlohmann::json;
-  auto num = [](double v) -> json { return std::isfinite(v) ? json(v) : json(nullptr); };
-  json j;
-  j["shadefit_version"] = SHADEFIT_VERSION_STRING;
-  j["model"] = r.model;
-  j["derivative_path"] = PathName(r.path);
-  j["parameters"] = json::array();
-  json values = json::object();
-  const ModelInfo& model = FindModel(r.model);
+namespace {
+using nlohmann::json;
+
+// A finite number, or null.
+json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+// Every parameter's estimate, its standard error and the spread of the starts that reached
+// the best.
+json ParametersJson(const FitResult& r) {
+  json params = json::array();
   for (std::size_t i = 0; i < r.parameters.size(); ++i) {
     const ParameterEstimate& p = r.parameters[i];
     json e{{"name", p.name},
-           {"value", num(p.value)},
-           {"std_error", num(p.std_error)},
+           {"value", Num(p.value)},
+           {"std_error", Num(p.std_error)},
            {"fixed", p.fixed},
            {"undetermined", p.undetermined},
            {"at_bound", p.at_bound},
            {"spread",
-            {{"min", num(p.spread_min)}, {"max", num(p.spread_max)}, {"std", num(p.spread_std)}}}};
-    j["parameters"].push_back(e);
+            {{"min", Num(p.spread_min)}, {"max", Num(p.spread_max)}, {"std", Num(p.spread_std)}}}};
+    params.push_back(e);
   }
+  return params;
+}
+
+// The fitted values by parameter name: a number, or an array for a colour.
+json ValuesJson(const FitResult& r) {
+  json values = json::object();
+  const ModelInfo& model = FindModel(r.model);
   int offset = 0;
   for (const ParamSpec& spec : model.params) {
     if (spec.size == 1) {
-      values[spec.name] = num(r.values[offset]);
+      values[spec.name] = Num(r.values[offset]);
     } else {
       values[spec.name] = json::array();
-      for (int c = 0; c < spec.size; ++c) values[spec.name].push_back(num(r.values[offset + c]));
+      for (int c = 0; c < spec.size; ++c) values[spec.name].push_back(Num(r.values[offset + c]));
     }
     offset += spec.size;
   }
-  j["values"] = values;
-  j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
-                   {"value", num(r.exposure)},
-                   {"std_error", num(r.exposure_std_error)}};
-  j["loss"] = {{"name", LossName(r.loss)},
-               {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
-  j["cost"] = {{"initial", num(r.initial_cost)}, {"final", num(r.final_cost)}};
-  json per_ref = json::array();
-  for (const auto& ref : r.references) {
-    per_ref.push_back({{"name", ref.name}, {"rmse", num(ref.rmse)}, {"pixels", ref.pixels}});
-  }
-  j["rmse"] = {{"overall", num(r.rmse)},
-               {"per_reference", per_ref},
-               {"units", "linear radiance, valid pixels, RGB channels"}};
-  j["solver"] = {{"iterations", r.iterations},      {"termination", TerminationName(r.termination)},
-                 {"converged", r.converged},        {"message", r.solver_message},
-                 {"method", r.solver_name},         {"seconds", r.seconds},
-                 {"solve_seconds", r.solve_seconds}};
-  j["converged"] = r.converged;
+  return values;
+}
+
+// The starts: how many, how chosen, each one's outcome and the best other basin.
+json StartsJson(const FitResult& r) {
   json starts = json::array();
   for (const auto& s : r.start_results) {
     starts.push_back({{"start", s.start},
                       {"params", s.params},
-                      {"exposure", num(s.exposure)},
-                      {"initial_cost", num(s.initial_cost)},
-                      {"final_cost", num(s.final_cost)},
+                      {"exposure", Num(s.exposure)},
+                      {"initial_cost", Num(s.initial_cost)},
+                      {"final_cost", Num(s.final_cost)},
                       {"iterations", s.iterations},
                       {"termination", TerminationName(s.termination)},
-                      {"coarse_cost", num(s.coarse_cost)},
+                      {"coarse_cost", Num(s.coarse_cost)},
                       {"polished", s.polished},
                       {"reached_best", s.reached_best}});
   }
-  j["starts"] = {
+  json j = {
       {"count", r.starts},
       {"seed", r.seed},
       {"reached_best", r.starts_reached_best},
@@ -94,13 +87,44 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   // relative to the best, so that a study can flag an optimum that is not clearly separated.
   if (r.second_basin_start >= 0) {
     const StartResult& s = r.start_results[r.second_basin_start];
-    j["starts"]["second_basin"] = {{"start", r.second_basin_start},
-                                   {"cost", num(r.second_basin_cost)},
-                                   {"cost_ratio", num(r.second_basin_cost / r.final_cost)},
-                                   {"params", s.params}};
+    j["second_basin"] = {{"start", r.second_basin_start},
+                         {"cost", Num(r.second_basin_cost)},
+                         {"cost_ratio", Num(r.second_basin_cost / r.final_cost)},
+                         {"params", s.params}};
   } else {
-    j["starts"]["second_basin"] = nullptr;
+    j["second_basin"] = nullptr;
   }
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json FitResultToJson(const FitResult& r) {
+  json j;
+  j["shadefit_version"] = SHADEFIT_VERSION_STRING;
+  j["model"] = r.model;
+  j["derivative_path"] = PathName(r.path);
+  j["parameters"] = ParametersJson(r);
+  j["values"] = ValuesJson(r);
+  j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
+                   {"value", Num(r.exposure)},
+                   {"std_error", Num(r.exposure_std_error)}};
+  j["loss"] = {{"name", LossName(r.loss)},
+               {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
+  j["cost"] = {{"initial", Num(r.initial_cost)}, {"final", Num(r.final_cost)}};
+  json per_ref = json::array();
+  for (const auto& ref : r.references) {
+    per_ref.push_back({{"name", ref.name}, {"rmse", Num(ref.rmse)}, {"pixels", ref.pixels}});
+  }
+  j["rmse"] = {{"overall", Num(r.rmse)},
+               {"per_reference", per_ref},
+               {"units", "linear radiance, valid pixels, RGB channels"}};
+  j["solver"] = {{"iterations", r.iterations},      {"termination", TerminationName(r.termination)},
+                 {"converged", r.converged},        {"message", r.solver_message},
+                 {"method", r.solver_name},         {"seconds", r.seconds},
+                 {"solve_seconds", r.solve_seconds}};
+  j["converged"] = r.converged;
+  j["starts"] = StartsJson(r);
   j["covariance"] = {{"status", r.CovarianceStatusText()}, {"method", r.covariance_method}};
   j["evaluations"] = {{"model_renders", r.renders},
                       {"gbuffer_renders", r.gbuffer_renders},

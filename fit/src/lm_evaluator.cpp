@@ -179,6 +179,48 @@ struct RowBlock {
   }
 };
 
+// The slot of each of the model's entries in the pass's Jets, and the unknown each (group, slot)
+// stands for; the last slot is the log exposure. kCompressed: one slot per table row, a colour
+// row's channels in groups 0-2; else one slot per entry, in one group.
+template <typename ModelOfDouble, bool kCompressed, int kGroups, int K>
+void MapSlots(int (&slot_of)[ModelOfDouble::kParamCount], int (&unknown_of)[kGroups][K]) {
+  constexpr int kParams = ModelOfDouble::kParamCount;
+  int entry = 0, row = 0;
+  for (const ParamSpec& spec : ModelOfDouble::Table()) {
+    for (int c = 0; c < spec.size; ++c, ++entry) {
+      slot_of[entry] = kCompressed ? row : entry;
+      if (!kCompressed) {
+        unknown_of[0][entry] = entry;
+      } else if (spec.size == 1) {
+        for (int g = 0; g < kGroups; ++g) unknown_of[g][row] = entry;
+      } else {
+        unknown_of[c][row] = entry;
+      }
+    }
+    ++row;
+  }
+  for (int g = 0; g < kGroups; ++g) unknown_of[g][K - 1] = kParams;
+}
+
+// Appends each group's Gram matrix to `out`, its chunks' partial sums added in chunk order
+// (thread-count independent); `active` slots stand for the unknowns `unknown_of` names.
+template <int C, int kGroups, int K>
+void AddGroups(const std::vector<std::array<Eigen::Matrix<double, C, C>, kGroups>>& partial,
+               const int (&unknown_of)[kGroups][K], int active, bool mixed, const TermRows& rows,
+               Sums* out) {
+  using Gram = Eigen::Matrix<double, C, C>;
+  for (int grp = 0; grp < kGroups; ++grp) {
+    Gram total = Gram::Zero();
+    for (const auto& part : partial) total += part[grp];
+    GroupGram& group = out->groups.emplace_back();
+    group.unknown.assign(unknown_of[grp], unknown_of[grp] + active);
+    group.mixed = mixed;
+    group.fresnel = rows.fresnel;
+    group.lobe = rows.lobe;
+    group.gram = total;
+  }
+}
+
 // Cost, gradient and Gauss-Newton matrix in one pass: AutoDiff over the parameters only (the
 // geometry enters as plain numbers), each residual's Jacobian row folded into its group's Gram
 // matrix at once (GroupGram), the groups then scattered onto the unknowns (ScatterGroups).
@@ -199,21 +241,7 @@ Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
   // Slot of each entry, and the unknown each (group, slot) stands for.
   int slot_of[kParams];
   int unknown_of[kGroups][K];
-  int entry = 0, row = 0;
-  for (const ParamSpec& spec : ModelOfDouble::Table()) {
-    for (int c = 0; c < spec.size; ++c, ++entry) {
-      slot_of[entry] = kCompressed ? row : entry;
-      if (!kCompressed) {
-        unknown_of[0][entry] = entry;
-      } else if (spec.size == 1) {
-        for (int g = 0; g < kGroups; ++g) unknown_of[g][row] = entry;
-      } else {
-        unknown_of[c][row] = entry;
-      }
-    }
-    ++row;
-  }
-  for (int g = 0; g < kGroups; ++g) unknown_of[g][K - 1] = kParams;
+  MapSlots<ModelOfDouble, kCompressed>(slot_of, unknown_of);
   Jet yj[kParams], p[kParams];
   for (int i = 0; i < kParams; ++i) yj[i] = Jet(y[i], slot_of[i]);
   NaturalOfBox(*problem.param, yj, p);
@@ -261,17 +289,7 @@ Sums JacobianPass(const BoundedLmProblem& problem, const Geometry& geo,
         partial[ci][grp] = blocks[grp].gram;
       }
     });
-    // Partial sums in chunk order (thread-count independent).
-    for (int grp = 0; grp < kGroups; ++grp) {
-      Gram total = Gram::Zero();
-      for (const auto& part : partial) total += part[grp];
-      GroupGram& group = out.groups.emplace_back();
-      group.unknown.assign(unknown_of[grp], unknown_of[grp] + kActive);
-      group.mixed = kMixed;
-      group.fresnel = rows.fresnel;
-      group.lobe = rows.lobe;
-      group.gram = total;
-    }
+    AddGroups<C, kGroups, K>(partial, unknown_of, kActive, kMixed, rows, &out);
   };
   if (problem.exposure_free) {
     run.template operator()<K, false>();

@@ -114,8 +114,10 @@ double DisplayWhite(const LoadedImage& loaded, const Image& linear) {
   return std::max(1e-12, static_cast<double>(lum[k]));
 }
 
-ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
-  // --- Validate the request before touching any input.
+namespace {
+
+// Validates the request before touching any input.
+void CheckImportRequest(const ImportOptions& options) {
   if (options.output.empty()) throw Error("", "output", "no output file given");
   if (fs::path(options.output).extension() != ".exr") {
     throw Error(options.output, "output", "the output must be an .exr file");
@@ -138,12 +140,10 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   if (!options.mask_path.empty() && !fs::exists(options.mask_path)) {
     throw Error(options.mask_path, "mask", "file not found");
   }
+}
 
-  // --- Inputs.
-  const LoadedImage loaded = LoadImageForImport(options.image_path);
-  const Image& raw = loaded.rgb;
-  ImportResult result;
-  const Image linear = DecodeToLinear(loaded, options.encoding, &result.encoding);
+// The --mask image (empty without one), checked to be the image's size.
+Image ReadImportMask(const ImportOptions& options, const Image& raw) {
   Image mask;
   if (!options.mask_path.empty()) {
     try {
@@ -157,34 +157,45 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
                               options.image_path, raw.width, raw.height));
     }
   }
+  return mask;
+}
 
+// The scene of the image: --scene, or with --auto-sphere one made from the detected sphere (its
+// TOML in `scene_toml_text`, its estimate in `result`); its camera must match the image.
+Scene ImportScene(const ImportOptions& options, const LoadedImage& loaded, const Image& linear,
+                  const Image& mask, ImportResult* result, std::string* scene_toml_text) {
+  const Image& raw = loaded.rgb;
   Scene scene;
-  std::string scene_toml_text;
   if (options.auto_sphere) {
     // With --mask the sphere is the mask's disc (DetectSphere): the user has said where it is.
-    result.sphere = DetectSphere(linear, DisplayWhite(loaded, linear), options.image_path,
-                                 mask.empty() ? nullptr : &mask);
-    result.has_sphere = true;
-    result.scene_path = fs::path(options.output).replace_extension(".toml").string();
-    scene_toml_text = OrthographicSphereSceneToml(result.sphere, raw.width, raw.height,
-                                                  fs::path(options.image_path).filename().string());
-    scene = ParseScene(scene_toml_text, result.scene_path);
-    scene.path = result.scene_path;
+    result->sphere = DetectSphere(linear, DisplayWhite(loaded, linear), options.image_path,
+                                  mask.empty() ? nullptr : &mask);
+    result->has_sphere = true;
+    result->scene_path = fs::path(options.output).replace_extension(".toml").string();
+    *scene_toml_text = OrthographicSphereSceneToml(
+        result->sphere, raw.width, raw.height, fs::path(options.image_path).filename().string());
+    scene = ParseScene(*scene_toml_text, result->scene_path);
+    scene.path = result->scene_path;
   } else {
     scene = LoadScene(options.scene_path);
-    result.scene_path = options.scene_path;
+    result->scene_path = options.scene_path;
   }
   if (scene.camera.width != raw.width || scene.camera.height_px != raw.height) {
     throw Error(options.image_path, "resolution",
                 fmt::format("image is {}x{}, the camera of {} is {}x{}", raw.width, raw.height,
-                            result.scene_path, scene.camera.width, scene.camera.height_px));
+                            result->scene_path, scene.camera.width, scene.camera.height_px));
   }
-  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+  return scene;
+}
 
-  // --- Validity, coverage, counts.
-  ImportCounts& n = result.counts;
-  result.image = Image(raw.width, raw.height, 4);
-  const bool clip_rule = !loaded.is_float && options.clip_threshold <= 255;
+// Validity, coverage, counts: result->image's RGB is the linear value where valid (0 elsewhere),
+// its A validity x G-buffer coverage. `clip_rule`: pixels at or above the clip threshold are
+// invalid.
+void MarkValidPixels(const ImportOptions& options, const Image& raw, const Image& linear,
+                     const Image& mask, const GBuffer& gbuffer, bool clip_rule,
+                     ImportResult* result) {
+  ImportCounts& n = result->counts;
+  result->image = Image(raw.width, raw.height, 4);
   // The decoded value of code c is c / 255 (16-bit files: c / 65535, compared on the same scale).
   const double clip_level = options.clip_threshold / 255.0 - 0.25 / 255.0;
   for (int y = 0; y < raw.height; ++y) {
@@ -206,8 +217,8 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
       if (valid) {
         ++n.valid;
         if (coverage > 0) ++n.valid_covered;
-        for (int c = 0; c < 3; ++c) result.image.at(x, y, c) = linear.at(x, y, c);
-        result.image.at(x, y, 3) = coverage;
+        for (int c = 0; c < 3; ++c) result->image.at(x, y, c) = linear.at(x, y, c);
+        result->image.at(x, y, 3) = coverage;
       }
     }
   }
@@ -215,8 +226,31 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
     throw Error(options.image_path, "pixels",
                 "no valid pixel on the object (all masked out, clipped or off the object)");
   }
+}
 
-  // --- Sidecar.
+// The sidecar's record of an --auto-sphere estimate.
+nlohmann::json AutoSphereJson(const ImportOptions& options, const SphereEstimate& s) {
+  return {
+      {"center_px", {s.center_x, s.center_y}},
+      {"radius_px", s.radius},
+      {"found_by", s.found_by},
+      {"contour_points_used", s.contour_points_used},
+      {"fit_rms_px", s.fit_rms_px},
+      {"light_found", s.light_found},
+      {"highlight_px", {s.highlight_x, s.highlight_y}},
+      {"light_direction_to_light", {s.light_direction.x, s.light_direction.y, s.light_direction.z}},
+      {"assumptions",
+       options.mask_path.empty()
+           ? "one sphere, orthographic view, differing from the background; the light is "
+             "the mirror of the view about the normal at the highlight (initial guess)"
+           : "the sphere is the mask's disc, orthographic view; the light is the mirror of "
+             "the view about the normal at the highlight (initial guess)"}};
+}
+
+// The sidecar: where the image came from, how it was decoded and which pixels count.
+nlohmann::json ImportSidecar(const ImportOptions& options, const LoadedImage& loaded,
+                             const Scene& scene, bool clip_rule, const ImportResult& result) {
+  const ImportCounts& n = result.counts;
   nlohmann::json sidecar;
   sidecar["kind"] = "imported";
   sidecar["generator"] = "shadefit refs import";
@@ -239,27 +273,14 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   sidecar["notes"] =
       "Exposure and white balance of the source are unknown: a fit must free a global scale. "
       "RGB = linear value where valid (0 elsewhere); A = validity x G-buffer coverage.";
-  if (result.has_sphere) {
-    const SphereEstimate& s = result.sphere;
-    sidecar["auto_sphere"] = {
-        {"center_px", {s.center_x, s.center_y}},
-        {"radius_px", s.radius},
-        {"found_by", s.found_by},
-        {"contour_points_used", s.contour_points_used},
-        {"fit_rms_px", s.fit_rms_px},
-        {"light_found", s.light_found},
-        {"highlight_px", {s.highlight_x, s.highlight_y}},
-        {"light_direction_to_light",
-         {s.light_direction.x, s.light_direction.y, s.light_direction.z}},
-        {"assumptions",
-         options.mask_path.empty()
-             ? "one sphere, orthographic view, differing from the background; the light is "
-               "the mirror of the view about the normal at the highlight (initial guess)"
-             : "the sphere is the mask's disc, orthographic view; the light is the mirror of "
-               "the view about the normal at the highlight (initial guess)"}};
-  }
+  if (result.has_sphere) sidecar["auto_sphere"] = AutoSphereJson(options, result.sphere);
+  return sidecar;
+}
 
-  // --- Write: each file atomically, all or nothing (base/files.h).
+// Writes the image, its sidecar and a made scene: each file atomically, all or nothing
+// (base/files.h).
+void WriteImport(const ImportOptions& options, const ImportResult& result, const Scene& scene,
+                 const std::string& scene_toml_text, const nlohmann::json& sidecar) {
   ImageMetadata meta{{"shadefit:kind", "imported"},
                      {"shadefit:source", fs::path(options.image_path).filename().string()},
                      {"shadefit:encoding", EncodingName(result.encoding)},
@@ -275,6 +296,23 @@ ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
   writes.push_back(
       {sidecar_path, [&] { WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n"); }});
   WriteAllOrNothing(writes);
+}
+
+}  // namespace
+
+ImportResult ImportReference(const ImportOptions& options, Renderer& renderer) {
+  CheckImportRequest(options);
+  const LoadedImage loaded = LoadImageForImport(options.image_path);
+  ImportResult result;
+  const Image linear = DecodeToLinear(loaded, options.encoding, &result.encoding);
+  const Image mask = ReadImportMask(options, loaded.rgb);
+  std::string scene_toml_text;
+  const Scene scene = ImportScene(options, loaded, linear, mask, &result, &scene_toml_text);
+  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+  const bool clip_rule = !loaded.is_float && options.clip_threshold <= 255;
+  MarkValidPixels(options, loaded.rgb, linear, mask, gbuffer, clip_rule, &result);
+  const nlohmann::json sidecar = ImportSidecar(options, loaded, scene, clip_rule, result);
+  WriteImport(options, result, scene, scene_toml_text, sidecar);
   return result;
 }
 

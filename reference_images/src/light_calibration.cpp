@@ -249,14 +249,10 @@ Vec3d MirrorBallLight(const SphereEstimate& ball, const Camera& camera) {
   return Normalize(sum);
 }
 
-std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibrationOptions& o) {
-  // --- Validate the request before reading any image.
-  if (o.ball_paths.empty()) throw Error("", "ball", "no mirror-ball photograph given");
-  if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
-    throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
-  }
-  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
-  const std::string stem = fs::path(o.scene_template).stem().string();
+namespace {
+
+// One entry per mirror-ball photograph: its lighting (one photograph each) and scene path.
+std::vector<CalibratedLight> NameBalls(const LightCalibrationOptions& o, const std::string& stem) {
   std::vector<CalibratedLight> out;
   std::set<std::string> lightings;
   for (const std::string& path : o.ball_paths) {
@@ -269,35 +265,40 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
     c.scene_path = (fs::path(o.output_dir) / (stem + "-" + c.lighting + ".toml")).string();
     out.push_back(c);
   }
-  const Image mask = o.mask_path.empty() ? Image() : ReadMask(o.mask_path);
+  return out;
+}
 
-  // --- Every ball: disc, highlight, direction.
-  for (CalibratedLight& c : out) {
-    const LoadedImage loaded = LoadImageForImport(c.ball_path);
-    const Image linear = DecodeToLinear(loaded, o.encoding, nullptr);
-    if (linear.width != tmpl.camera.width || linear.height != tmpl.camera.height_px) {
-      throw Error(
-          c.ball_path, "resolution",
-          fmt::format("image is {}x{}, the camera of {} is {}x{}", linear.width, linear.height,
-                      o.scene_template, tmpl.camera.width, tmpl.camera.height_px));
-    }
-    if (!mask.empty() && (mask.width != linear.width || mask.height != linear.height)) {
-      throw Error(o.mask_path, "resolution",
-                  fmt::format("mask is {}x{}, the image {} is {}x{}", mask.width, mask.height,
-                              c.ball_path, linear.width, linear.height));
-    }
-    c.ball = DetectSphere(linear, DisplayWhite(loaded, linear), c.ball_path,
-                          mask.empty() ? nullptr : &mask, kMirrorHighlightFraction);
-    if (!c.ball.light_found || c.ball.peak_code - c.ball.median_code < o.min_highlight_contrast) {
-      throw Error(c.ball_path, "highlight",
-                  fmt::format("no highlight on the ball: its brightest pixel (code {:.0f}) is not "
-                              "{:.0f} codes above the ball's median ({:.0f})",
-                              c.ball.peak_code, o.min_highlight_contrast, c.ball.median_code));
-    }
-    c.to_light = MirrorBallLight(c.ball, tmpl.camera);
+// One ball: its disc, its highlight and the direction towards the light.
+void FindBallLight(const LightCalibrationOptions& o, const Scene& tmpl, const Image& mask,
+                   CalibratedLight* c) {
+  const LoadedImage loaded = LoadImageForImport(c->ball_path);
+  const Image linear = DecodeToLinear(loaded, o.encoding, nullptr);
+  if (linear.width != tmpl.camera.width || linear.height != tmpl.camera.height_px) {
+    throw Error(
+        c->ball_path, "resolution",
+        fmt::format("image is {}x{}, the camera of {} is {}x{}", linear.width, linear.height,
+                    o.scene_template, tmpl.camera.width, tmpl.camera.height_px));
   }
+  if (!mask.empty() && (mask.width != linear.width || mask.height != linear.height)) {
+    throw Error(o.mask_path, "resolution",
+                fmt::format("mask is {}x{}, the image {} is {}x{}", mask.width, mask.height,
+                            c->ball_path, linear.width, linear.height));
+  }
+  c->ball = DetectSphere(linear, DisplayWhite(loaded, linear), c->ball_path,
+                         mask.empty() ? nullptr : &mask, kMirrorHighlightFraction);
+  if (!c->ball.light_found || c->ball.peak_code - c->ball.median_code < o.min_highlight_contrast) {
+    throw Error(c->ball_path, "highlight",
+                fmt::format("no highlight on the ball: its brightest pixel (code {:.0f}) is not "
+                            "{:.0f} codes above the ball's median ({:.0f})",
+                            c->ball.peak_code, o.min_highlight_contrast, c->ball.median_code));
+  }
+  c->to_light = MirrorBallLight(c->ball, tmpl.camera);
+}
 
-  // --- Scenes: the template's text and one directional light, checked by the scene parser.
+// Writes the scenes, the template's text and one directional light each (checked by the scene
+// parser), and the summary of the balls.
+void WriteMirrorBallScenes(const LightCalibrationOptions& o, const Scene& tmpl,
+                           const std::string& stem, const std::vector<CalibratedLight>& out) {
   std::vector<std::string> texts;
   nlohmann::json summary = {{"generator", "shadefit refs lights"},
                             {"scene_template", fs::absolute(o.scene_template).string()},
@@ -332,17 +333,23 @@ std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibratio
 
   const std::string summary_path = (fs::path(o.output_dir) / (stem + "-lights.json")).string();
   WriteScenesAndSummary(o.output_dir, paths, texts, summary_path, summary);
-  return out;
 }
 
-std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOptions& o) {
-  // --- Validate the request and read every file before writing anything.
-  if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
-    throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
-  }
-  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
-  const std::vector<NumberLine> dirs = ReadNumberLines(o.directions_path, "directions");
-  const bool six = dirs.front().values.size() == 6;
+// The published files' lines: directions (x y z, or x y z r g b when `six`), intensities (one per
+// light, or none) and names (L0, L1, ... when not given).
+struct PublishedFiles {
+  std::vector<NumberLine> dirs;
+  bool six = false;
+  std::vector<NumberLine> intensities;
+  std::vector<std::string> names;
+};
+
+// Reads the directions, intensities and names files, one line per light in each.
+PublishedFiles ReadPublishedFiles(const PublishedLightsOptions& o) {
+  PublishedFiles f;
+  f.dirs = ReadNumberLines(o.directions_path, "directions");
+  const std::vector<NumberLine>& dirs = f.dirs;
+  const bool six = f.six = dirs.front().values.size() == 6;
   for (const NumberLine& d : dirs) {
     if (d.values.size() != (six ? 6u : 3u)) {
       throw Error(fmt::format("{}:{}", o.directions_path, d.line), "directions",
@@ -355,64 +362,75 @@ std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOption
                 fmt::format("{} already gives each light's intensity (6 columns)",
                             o.directions_path));
   }
-  std::vector<NumberLine> intensities;
   if (!o.intensities_path.empty()) {
-    intensities = ReadNumberLines(o.intensities_path, "intensities");
-    if (intensities.size() != dirs.size()) {
+    f.intensities = ReadNumberLines(o.intensities_path, "intensities");
+    if (f.intensities.size() != dirs.size()) {
       throw Error(o.intensities_path, "intensities",
-                  fmt::format("{} lights, {} has {}", intensities.size(), o.directions_path,
+                  fmt::format("{} lights, {} has {}", f.intensities.size(), o.directions_path,
                               dirs.size()));
     }
   }
-  std::vector<std::string> names;
   if (!o.names_path.empty()) {
-    names = ReadNames(o.names_path);
-    if (names.size() != dirs.size()) {
+    f.names = ReadNames(o.names_path);
+    if (f.names.size() != dirs.size()) {
       throw Error(o.names_path, "names",
-                  fmt::format("{} names, {} has {} lights", names.size(), o.directions_path,
+                  fmt::format("{} names, {} has {} lights", f.names.size(), o.directions_path,
                               dirs.size()));
     }
   } else {
-    for (std::size_t i = 0; i < dirs.size(); ++i) names.push_back(fmt::format("L{}", i));
+    for (std::size_t i = 0; i < dirs.size(); ++i) f.names.push_back(fmt::format("L{}", i));
   }
+  return f;
+}
 
-  // --- Every light: the file's direction in the camera frame, then in the world.
+// Light i's colour from the directions' r g b or the intensities file (white without either);
+// `where` is its directions line.
+Vec3d PublishedColour(const PublishedLightsOptions& o, const PublishedFiles& f, std::size_t i,
+                      const std::string& where) {
+  const std::vector<double>& v = f.dirs[i].values;
+  Vec3d rgb{1, 1, 1};
+  if (f.six) rgb = {v[3], v[4], v[5]};
+  if (!f.intensities.empty()) {
+    const NumberLine& n = f.intensities[i];
+    if (n.values.size() != 1 && n.values.size() != 3) {
+      throw Error(
+          fmt::format("{}:{}", o.intensities_path, n.line), "intensities",
+          fmt::format("{} numbers; expected r g b (or one for a grey light)", n.values.size()));
+    }
+    rgb = n.values.size() == 1 ? Vec3d{n.values[0], n.values[0], n.values[0]}
+                               : Vec3d{n.values[0], n.values[1], n.values[2]};
+  }
+  if (!(rgb.x >= 0 && rgb.y >= 0 && rgb.z >= 0) || !(rgb.x + rgb.y + rgb.z > 0)) {
+    throw Error(f.six ? where : fmt::format("{}:{}", o.intensities_path, f.intensities[i].line),
+                "intensities", "an intensity must be >= 0 in every channel and > 0 in one");
+  }
+  return rgb;
+}
+
+// Every light: the file's direction in the camera frame, then in the world; the files'
+// directions in `file_dirs`.
+std::vector<PublishedLight> PublishedLightsInWorld(const PublishedLightsOptions& o,
+                                                   const Scene& tmpl, const PublishedFiles& f,
+                                                   std::vector<Vec3d>* file_dirs) {
   Vec3d right, up, forward;
   tmpl.camera.Basis(&right, &up, &forward);
   const std::string stem = fs::path(o.scene_template).stem().string();
   std::vector<PublishedLight> out;
-  std::vector<Vec3d> file_dirs;
   bool any_facing_camera = false;
-  for (std::size_t i = 0; i < dirs.size(); ++i) {
-    const std::vector<double>& v = dirs[i].values;
-    const std::string where = fmt::format("{}:{}", o.directions_path, dirs[i].line);
+  for (std::size_t i = 0; i < f.dirs.size(); ++i) {
+    const std::vector<double>& v = f.dirs[i].values;
+    const std::string where = fmt::format("{}:{}", o.directions_path, f.dirs[i].line);
     const Vec3d file{v[0], v[1], v[2]};
     if (!(Length(file) > 1e-9)) throw Error(where, "directions", "a zero direction");
     const Vec3d cam = o.axes.ToCamera(file) * (1.0 / Length(file));
     any_facing_camera = any_facing_camera || cam.z > 0.0;
     PublishedLight l;
-    l.lighting = names[i];
+    l.lighting = f.names[i];
     l.scene_path = (fs::path(o.output_dir) / (stem + "-" + l.lighting + ".toml")).string();
     l.to_light = Normalize(right * cam.x + up * cam.y - forward * cam.z);
-    Vec3d rgb{1, 1, 1};
-    if (six) rgb = {v[3], v[4], v[5]};
-    if (!intensities.empty()) {
-      const NumberLine& n = intensities[i];
-      if (n.values.size() != 1 && n.values.size() != 3) {
-        throw Error(fmt::format("{}:{}", o.intensities_path, n.line), "intensities",
-                    fmt::format("{} numbers; expected r g b (or one for a grey light)",
-                                n.values.size()));
-      }
-      rgb = n.values.size() == 1 ? Vec3d{n.values[0], n.values[0], n.values[0]}
-                                 : Vec3d{n.values[0], n.values[1], n.values[2]};
-    }
-    if (!(rgb.x >= 0 && rgb.y >= 0 && rgb.z >= 0) || !(rgb.x + rgb.y + rgb.z > 0)) {
-      throw Error(six ? where : fmt::format("{}:{}", o.intensities_path, intensities[i].line),
-                  "intensities", "an intensity must be >= 0 in every channel and > 0 in one");
-    }
-    l.irradiance = rgb * o.irradiance;
+    l.irradiance = PublishedColour(o, f, i, where) * o.irradiance;
     out.push_back(l);
-    file_dirs.push_back(file);
+    file_dirs->push_back(file);
   }
   // Photographs see the lit side: with every light behind the object the mapping is wrong.
   if (!any_facing_camera) {
@@ -421,8 +439,15 @@ std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOption
                             "<= 0): is the data set's z into the scene (then -z)?",
                             o.axes.text));
   }
+  return out;
+}
 
-  // --- Scenes and the summary, as the mirror-ball path writes them.
+// Writes the scenes and the summary, as the mirror-ball path writes them.
+void WritePublishedScenes(const PublishedLightsOptions& o, const Scene& tmpl,
+                          const std::vector<NumberLine>& dirs,
+                          const std::vector<PublishedLight>& out,
+                          const std::vector<Vec3d>& file_dirs) {
+  const std::string stem = fs::path(o.scene_template).stem().string();
   std::vector<std::string> paths, texts;
   nlohmann::json summary = {{"generator", "shadefit refs lights"},
                             {"scene_template", fs::absolute(o.scene_template).string()},
@@ -455,6 +480,35 @@ std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOption
   }
   const std::string summary_path = (fs::path(o.output_dir) / (stem + "-lights.json")).string();
   WriteScenesAndSummary(o.output_dir, paths, texts, summary_path, summary);
+}
+
+}  // namespace
+
+std::vector<CalibratedLight> CalibrateLightsFromMirrorBall(const LightCalibrationOptions& o) {
+  // --- Validate the request before reading any image.
+  if (o.ball_paths.empty()) throw Error("", "ball", "no mirror-ball photograph given");
+  if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
+    throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
+  }
+  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
+  const std::string stem = fs::path(o.scene_template).stem().string();
+  std::vector<CalibratedLight> out = NameBalls(o, stem);
+  const Image mask = o.mask_path.empty() ? Image() : ReadMask(o.mask_path);
+  for (CalibratedLight& c : out) FindBallLight(o, tmpl, mask, &c);
+  WriteMirrorBallScenes(o, tmpl, stem, out);
+  return out;
+}
+
+std::vector<PublishedLight> LightsFromPublishedFiles(const PublishedLightsOptions& o) {
+  // --- Validate the request and read every file before writing anything.
+  if (!(o.irradiance > 0) || !std::isfinite(o.irradiance)) {
+    throw Error("", "irradiance", fmt::format("{} is not a finite number > 0", o.irradiance));
+  }
+  const Scene tmpl = LoadLightlessTemplate(o.scene_template, o.output_dir);
+  const PublishedFiles files = ReadPublishedFiles(o);
+  std::vector<Vec3d> file_dirs;
+  const std::vector<PublishedLight> out = PublishedLightsInWorld(o, tmpl, files, &file_dirs);
+  WritePublishedScenes(o, tmpl, files.dirs, out, file_dirs);
   return out;
 }
 

@@ -81,15 +81,14 @@ std::vector<float> ReadDataset(hid_t file, const std::string& file_path, const s
   return out;
 }
 
-}  // namespace
+// One Dense layer of the Keras config: its name (and so its dataset paths), activation, width.
+struct DenseLayer {
+  std::string name, activation;
+  int units;
+};
 
-NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
-    : h5_path_(h5_path), json_path_(json_path) {
-  namespace fs = std::filesystem;
-  if (!fs::exists(json_path)) throw Error(json_path, "", "file not found");
-  if (!fs::exists(h5_path)) throw Error(h5_path, "", "file not found");
-
-  // The model config names the layers (and so the dataset paths) and their activations.
+// The model config's three Dense layers, checked to be relu, relu, linear with 3 outputs.
+std::vector<DenseLayer> ReadDenseLayers(const std::string& json_path) {
   nlohmann::json config;
   try {
     std::ifstream in(json_path);
@@ -105,8 +104,7 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
     layers = &config["config"];  // Keras < 2.2 wrote the layer list directly.
   }
   if (!layers) throw Error(json_path, "config.layers", "missing: expected a Keras Sequential");
-  std::vector<std::pair<std::string, std::string>> dense;  // name, activation
-  std::vector<int> units;
+  std::vector<DenseLayer> dense;
   for (std::size_t i = 0; i < layers->size(); ++i) {
     const nlohmann::json& layer = (*layers)[i];
     const std::string field = "config.layers[" + std::to_string(i) + "]";
@@ -132,8 +130,8 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
     if (!units_ok) {
       throw Error(json_path, field + ".config.units", "expected an integer in [1, 4096]");
     }
-    dense.emplace_back(c["name"].get<std::string>(), c["activation"].get<std::string>());
-    units.push_back(c["units"].get<int>());
+    dense.push_back(
+        {c["name"].get<std::string>(), c["activation"].get<std::string>(), c["units"].get<int>()});
   }
   static const char* kActivation[3] = {"relu", "relu", "linear"};
   if (dense.size() != 3) {
@@ -141,14 +139,27 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
                 std::to_string(dense.size()) + " Dense layers, expected 3");
   }
   for (int l = 0; l < 3; ++l) {
-    if (dense[l].second != kActivation[l]) {
-      throw Error(json_path, "config.layers[" + dense[l].first + "].activation",
-                  "\"" + dense[l].second + "\", expected \"" + kActivation[l] + "\"");
+    if (dense[l].activation != kActivation[l]) {
+      throw Error(json_path, "config.layers[" + dense[l].name + "].activation",
+                  "\"" + dense[l].activation + "\", expected \"" + kActivation[l] + "\"");
     }
   }
-  if (units[2] != 3)
-    throw Error(json_path, "config.layers[" + dense[2].first + "].units",
+  if (dense[2].units != 3)
+    throw Error(json_path, "config.layers[" + dense[2].name + "].units",
                 "expected 3 outputs (RGB)");
+  return dense;
+}
+
+}  // namespace
+
+NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
+    : h5_path_(h5_path), json_path_(json_path) {
+  namespace fs = std::filesystem;
+  if (!fs::exists(json_path)) throw Error(json_path, "", "file not found");
+  if (!fs::exists(h5_path)) throw Error(h5_path, "", "file not found");
+
+  // The model config names the layers (and so the dataset paths) and their activations.
+  const std::vector<DenseLayer> dense = ReadDenseLayers(json_path);
 
   std::lock_guard<std::mutex> lock(Hdf5Mutex());
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // Errors come back as ours, not printed stacks.
@@ -157,10 +168,10 @@ NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
   if (!file.ok()) throw Error(h5_path, "format", "cannot open HDF5 file (truncated or corrupt?)");
   int in = 6;  // (sin theta_h, 0, cos theta_h, d.x, d.y, d.z)
   for (int l = 0; l < 3; ++l) {
-    const std::string& name = dense[l].first;
+    const std::string& name = dense[l].name;
     Layer& layer = layers_[l];
     layer.in = in;
-    layer.out = units[l];
+    layer.out = dense[l].units;
     if (layer.out <= 0) {
       throw Error(json_path, "config.layers[" + name + "].units", "missing or not positive");
     }

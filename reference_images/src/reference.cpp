@@ -84,6 +84,45 @@ bool IsMeasuredPixel(const Reference& ref, int x, int y) {
          ref.extrapolated_share.at(x, y, 0) <= ref.measured_share_max;
 }
 
+namespace {
+
+// The scene the reference's sidecar names (scene_file, relative to the sidecar), with the
+// sidecar's record of the decoding and of the measured domain.
+void ReadSidecarScene(const fs::path& sidecar, Reference* ref) {
+  if (!fs::exists(sidecar)) {
+    throw Error(sidecar.string(), "",
+                "missing sidecar JSON (it names the reference's scene; or give --scene)");
+  }
+  ref->sidecar_path = sidecar.string();
+  nlohmann::json meta;
+  try {
+    std::ifstream in(sidecar);
+    meta = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(sidecar.string(), "json", fmt::format("cannot parse: {}", e.what()));
+  }
+  ref->sha256["sidecar"] = Sha256File(sidecar.string());
+  // `shadefit refs import` records how it decoded the source (import.cpp).
+  if (meta.is_object() && meta.contains("encoding") && meta["encoding"] == "srgb") {
+    ref->decoded_from = Encoding::kSrgb;
+  }
+  const std::string scene_field = internal::SceneFieldOf(meta);
+  if (scene_field.empty()) {
+    throw Error(sidecar.string(), "scene_file",
+                "missing: the sidecar must name the scene TOML (or give --scene)");
+  }
+  fs::path scene_path(scene_field);
+  if (scene_path.is_relative()) scene_path = sidecar.parent_path() / scene_path;
+  if (!fs::exists(scene_path)) {
+    throw Error(sidecar.string(), "scene_file",
+                fmt::format("scene '{}' does not exist", scene_path.string()));
+  }
+  ref->scene_path = scene_path.lexically_normal().string();
+  if (meta.contains("measured_domain")) ReadMeasuredDomain(meta["measured_domain"], sidecar, ref);
+}
+
+}  // namespace
+
 Reference LoadReference(const std::string& image_path, const std::string& scene_override,
                         const std::string& mask_path) {
   Reference ref;
@@ -112,37 +151,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   if (!scene_override.empty()) {
     ref.scene_path = scene_override;
   } else {
-    if (!fs::exists(sidecar)) {
-      throw Error(sidecar.string(), "",
-                  "missing sidecar JSON (it names the reference's scene; or give --scene)");
-    }
-    ref.sidecar_path = sidecar.string();
-    nlohmann::json meta;
-    try {
-      std::ifstream in(sidecar);
-      meta = nlohmann::json::parse(in);
-    } catch (const std::exception& e) {
-      throw Error(sidecar.string(), "json", fmt::format("cannot parse: {}", e.what()));
-    }
-    ref.sha256["sidecar"] = Sha256File(sidecar.string());
-    // `shadefit refs import` records how it decoded the source (import.cpp).
-    if (meta.is_object() && meta.contains("encoding") && meta["encoding"] == "srgb") {
-      ref.decoded_from = Encoding::kSrgb;
-    }
-    const std::string scene_field = internal::SceneFieldOf(meta);
-    if (scene_field.empty()) {
-      throw Error(sidecar.string(), "scene_file",
-                  "missing: the sidecar must name the scene TOML (or give --scene)");
-    }
-    fs::path scene_path(scene_field);
-    if (scene_path.is_relative()) scene_path = sidecar.parent_path() / scene_path;
-    if (!fs::exists(scene_path)) {
-      throw Error(sidecar.string(), "scene_file",
-                  fmt::format("scene '{}' does not exist", scene_path.string()));
-    }
-    ref.scene_path = scene_path.lexically_normal().string();
-    if (meta.contains("measured_domain"))
-      ReadMeasuredDomain(meta["measured_domain"], sidecar, &ref);
+    ReadSidecarScene(sidecar, &ref);
   }
   if (!fs::exists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
   ref.scene = LoadScene(ref.scene_path);

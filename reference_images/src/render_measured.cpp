@@ -132,137 +132,206 @@ std::string DomainPath(const std::string& exr_path) {
   return std::filesystem::path(exr_path).replace_extension(".domain.png").string();
 }
 
+namespace {
+
+// What every pixel of one measured render shares: the BRDF, the scene and its G-buffer, and the
+// distant light with the way it is sampled.
+struct MeasuredShading {
+  const MeasuredBrdf& brdf;
+  const Scene& scene;
+  const GBuffer& g;
+  const DistantLight& distant;
+  int n_samples;       // Per technique; 0 without a distant light.
+  double lobe_alpha;   // Of the GGX lobe technique; 0 leaves it out.
+  bool occlusion;      // Whether another object can block a sample ray.
+  std::uint64_t seed;  // Of the per-pixel random streams.
+};
+
+// One shaded pixel: its radiance, the standard error of its Monte Carlo part, and the share of
+// it that depends on the BRDF beyond the measured domain.
+struct ShadedPixel {
+  Vec3d radiance{0, 0, 0};
+  Vec3d se{0, 0, 0};
+  float share = 0;
+};
+
+// The distant light, set up from the scene's environment light (none: no samples); fills the
+// stats' environment, samples and ambient fields.
+DistantLight DistantLightOf(const Scene& scene, int env_index, const RenderMeasuredOptions& options,
+                            RenderMeasuredStats* stats) {
+  for (const Light& light : scene.lights) {
+    if (light.type == Light::Type::kAmbient) stats->ambient_ignored = true;
+  }
+  DistantLight distant;
+  if (env_index >= 0) {
+    const Light& light = scene.lights[env_index];
+    stats->environment = true;
+    if (light.type == Light::Type::kEnvironment) {
+      distant.map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
+    } else {
+      distant.uniform = light.value;
+    }
+    stats->samples_per_technique = options.samples > 0 ? options.samples : light.samples;
+    if (stats->samples_per_technique < 2) {
+      throw Error(scene.path, "samples", "need at least 2 samples per technique (noise estimate)");
+    }
+  }
+  return distant;
+}
+
+// Background of uncovered pixels (and of partly covered ones, weighted by 1 - coverage).
+void FillBackground(const Scene& scene, const GBuffer& g, const DistantLight& distant,
+                    int env_index, Image* out) {
+  if (scene.background.transparent) return;
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      const Ray ray = CameraRay(scene.camera, x + 0.5, y + 0.5);
+      const Vec3d bg = distant.map      ? distant.map->Radiance(ray.direction)
+                       : env_index >= 0 ? distant.uniform
+                                        : scene.background.color;
+      const double w = 1.0 - g.Coverage(x, y);
+      for (int c = 0; c < 3; ++c) out->at(x, y, c) = static_cast<float>(bg[c] * w);
+      out->at(x, y, 3) = 1.0f;
+    }
+  }
+}
+
+// The distant light's Monte Carlo estimate at one point, added to `px`'s radiance, with its
+// standard error; returns the sum over samples of the luminance of the extrapolated ones.
+double EstimateDistant(const MeasuredShading& m, const ShadingPoint& sp, const Frame& frame,
+                       const Vec3d& wo, ShadedPixel* px) {
+  const GBuffer& g = m.g;
+  double beyond_y = 0;  // Sum over samples of the luminance of the extrapolated ones.
+  const Vec3d p{g.position.at(sp.x, sp.y, 0), g.position.at(sp.x, sp.y, 1),
+                g.position.at(sp.x, sp.y, 2)};
+  PixelRng rng(m.seed, static_cast<std::uint64_t>(sp.y) * g.width + sp.x);
+  // One MIS sample of a world direction. With equal sample counts the balance heuristic
+  // (Veach 1997, eq. 9.13) weights a sample by its pdf over the sum of all techniques'
+  // pdfs, so each technique's weighted estimate is f L cos / (p_env + p_cos [+ p_lobe]).
+  // Samples beyond the measured domain add their luminance to beyond_y.
+  auto contribution = [&](const Vec3d& dir) -> Vec3d {
+    const Vec3d wi = frame.ToLocal(dir);
+    if (wi.z <= 0 || wo.z <= 0) return {0, 0, 0};
+    double pdf = m.distant.Pdf(dir) + wi.z / kPi;
+    if (m.lobe_alpha > 0) pdf += LobePdf(m.lobe_alpha, wi, wo);
+    if (!(pdf > 0)) return {0, 0, 0};
+    if (m.occlusion && Intersect(m.scene, Ray{p + sp.n * kRayEpsilon, dir}, 1e-4, 1e30, nullptr)) {
+      return {0, 0, 0};
+    }
+    const Vec3d f = m.brdf.Eval(wi, wo);
+    const Vec3d l = m.distant.Radiance(dir);
+    const Vec3d c{f.x * l.x * wi.z / pdf, f.y * l.y * wi.z / pdf, f.z * l.z * wi.z / pdf};
+    if (Extrapolated(wi, wo)) beyond_y += Luminance(c);
+    return c;
+  };
+  // Welford running mean and variance of the per-pair estimate X_j (one sample of each
+  // technique); the standard error of the mean is sqrt(var / N).
+  const int n_samples = m.n_samples;
+  double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0};
+  for (int j = 0; j < n_samples; ++j) {
+    const Vec3d d_env = m.distant.Sample(rng.Uniform(), rng.Uniform());
+    // Cosine-weighted hemisphere (Malley's method).
+    const double u1 = rng.Uniform(), u2 = rng.Uniform();
+    const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+    const Vec3d d_cos =
+        frame.ToWorld({r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1.0 - u1))});
+    Vec3d x = contribution(d_env) + contribution(d_cos);
+    if (m.lobe_alpha > 0) {
+      const Vec3d wi = SampleLobe(m.lobe_alpha, wo, rng.Uniform(), rng.Uniform());
+      if (wi.z > 0) x += contribution(frame.ToWorld(wi));
+    }
+    for (int c = 0; c < 3; ++c) {
+      const double delta = x[c] - mean[c];
+      mean[c] += delta / (j + 1);
+      m2[c] += delta * (x[c] - mean[c]);
+    }
+  }
+  for (int c = 0; c < 3; ++c) {
+    px->radiance[c] += mean[c];
+    px->se[c] = std::sqrt(m2[c] / (n_samples - 1) / n_samples);
+  }
+  return beyond_y;
+}
+
+// Shades one point: point and directional lights exactly, the distant light by Monte Carlo.
+ShadedPixel ShadePoint(const MeasuredShading& m, const ShadingPoint& sp) {
+  ShadedPixel px;
+  const Frame frame(sp.n);
+  const Vec3d wo = frame.ToLocal(sp.v);
+  // Point and directional lights: exact. PrepareShading already dropped lights below the
+  // surface or occluded; E is the irradiance at normal incidence, so the cosine is applied.
+  // One light beyond the measured domain makes the whole pixel extrapolated, whatever f is
+  // there (the share must not depend on values the table only extrapolates).
+  bool light_extrapolated = false;
+  for (const PixelLight& light : sp.lights) {
+    const Vec3d wi = frame.ToLocal(light.l);
+    const Vec3d f = m.brdf.Eval(wi, wo);
+    for (int c = 0; c < 3; ++c) px.radiance[c] += f[c] * light.irradiance[c] * wi.z;
+    const bool lit = light.irradiance.x > 0 || light.irradiance.y > 0 || light.irradiance.z > 0;
+    if (lit && Extrapolated(wi, wo)) light_extrapolated = true;
+  }
+  const double beyond_y = m.n_samples > 0 ? EstimateDistant(m, sp, frame, wo, &px) : 0.0;
+  // The environment's extrapolated luminance (the mean of beyond_y over the sample sets)
+  // over the pixel's whole radiance; 0 for a pixel that reflects nothing.
+  const double total_y = Luminance(px.radiance);
+  const double env_share =
+      m.n_samples > 0 && total_y > 0 ? std::min(1.0, beyond_y / m.n_samples / total_y) : 0.0;
+  px.share = light_extrapolated ? 1.0f : static_cast<float>(env_share);
+  return px;
+}
+
+// The mean standard error and the relative one, over the shaded pixels, of an environment render.
+void SummariseNoise(const std::vector<ShadingPoint>& points, const Image& out, const Image& error,
+                    RenderMeasuredStats* stats) {
+  if (!stats->environment || points.empty()) return;
+  double mean_value = 0;
+  for (const ShadingPoint& sp : points) {
+    for (int c = 0; c < 3; ++c) {
+      stats->mean_standard_error[c] += error.at(sp.x, sp.y, c) / points.size();
+      mean_value += out.at(sp.x, sp.y, c) / (3.0 * points.size());
+    }
+  }
+  const double mean_se = (stats->mean_standard_error[0] + stats->mean_standard_error[1] +
+                          stats->mean_standard_error[2]) /
+                         3.0;
+  stats->relative_standard_error = mean_value > 0 ? mean_se / mean_value : 0.0;
+}
+
+}  // namespace
+
 Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer& g,
                      const RenderMeasuredOptions& options, Image* standard_error,
                      RenderMeasuredStats* stats_out, Image* extrapolated_share) {
   const auto start = std::chrono::steady_clock::now();
   RenderMeasuredStats stats;
   const std::vector<ShadingPoint> points = PrepareShading(scene, g, 0.0f);
-  for (const Light& light : scene.lights) {
-    if (light.type == Light::Type::kAmbient) stats.ambient_ignored = true;
-  }
-  DistantLight distant;
   const int env_index = scene.EnvironmentLight();
-  if (env_index >= 0) {
-    const Light& light = scene.lights[env_index];
-    stats.environment = true;
-    if (light.type == Light::Type::kEnvironment) {
-      distant.map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
-    } else {
-      distant.uniform = light.value;
-    }
-    stats.samples_per_technique = options.samples > 0 ? options.samples : light.samples;
-    if (stats.samples_per_technique < 2) {
-      throw Error(scene.path, "samples", "need at least 2 samples per technique (noise estimate)");
-    }
-  }
+  const DistantLight distant = DistantLightOf(scene, env_index, options, &stats);
   const int n_samples = stats.samples_per_technique;
   const double lobe_alpha = !stats.environment        ? 0.0
                             : options.lobe_alpha >= 0 ? options.lobe_alpha
                                                       : EstimateLobeAlpha(brdf);
   stats.lobe_alpha = lobe_alpha;
   const bool occlusion = scene.objects.size() > 1;
+  const MeasuredShading shading{brdf,      scene,      g,         distant,
+                                n_samples, lobe_alpha, occlusion, options.seed};
 
   Image out(g.width, g.height, 4);
   Image error(g.width, g.height, 3);
   Image share(g.width, g.height, 1);
-  // Background of uncovered pixels (and of partly covered ones, weighted by 1 - coverage).
-  if (!scene.background.transparent) {
-    for (int y = 0; y < g.height; ++y) {
-      for (int x = 0; x < g.width; ++x) {
-        const Ray ray = CameraRay(scene.camera, x + 0.5, y + 0.5);
-        const Vec3d bg = distant.map      ? distant.map->Radiance(ray.direction)
-                         : env_index >= 0 ? distant.uniform
-                                          : scene.background.color;
-        const double w = 1.0 - g.Coverage(x, y);
-        for (int c = 0; c < 3; ++c) out.at(x, y, c) = static_cast<float>(bg[c] * w);
-        out.at(x, y, 3) = 1.0f;
-      }
-    }
-  }
+  FillBackground(scene, g, distant, env_index, &out);
 
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
     for (std::size_t idx = next++; idx < points.size(); idx = next++) {
       const ShadingPoint& sp = points[idx];
-      const Frame frame(sp.n);
-      const Vec3d wo = frame.ToLocal(sp.v);
-      Vec3d radiance{0, 0, 0};
-      // Point and directional lights: exact. PrepareShading already dropped lights below the
-      // surface or occluded; E is the irradiance at normal incidence, so the cosine is applied.
-      // One light beyond the measured domain makes the whole pixel extrapolated, whatever f is
-      // there (the share must not depend on values the table only extrapolates).
-      bool light_extrapolated = false;
-      for (const PixelLight& light : sp.lights) {
-        const Vec3d wi = frame.ToLocal(light.l);
-        const Vec3d f = brdf.Eval(wi, wo);
-        for (int c = 0; c < 3; ++c) radiance[c] += f[c] * light.irradiance[c] * wi.z;
-        const bool lit = light.irradiance.x > 0 || light.irradiance.y > 0 || light.irradiance.z > 0;
-        if (lit && Extrapolated(wi, wo)) light_extrapolated = true;
-      }
-      double beyond_y = 0;  // Sum over samples of the luminance of the extrapolated ones.
-      Vec3d se{0, 0, 0};
-      if (n_samples > 0) {
-        const Vec3d p{g.position.at(sp.x, sp.y, 0), g.position.at(sp.x, sp.y, 1),
-                      g.position.at(sp.x, sp.y, 2)};
-        PixelRng rng(options.seed, static_cast<std::uint64_t>(sp.y) * g.width + sp.x);
-        // One MIS sample of a world direction. With equal sample counts the balance heuristic
-        // (Veach 1997, eq. 9.13) weights a sample by its pdf over the sum of all techniques'
-        // pdfs, so each technique's weighted estimate is f L cos / (p_env + p_cos [+ p_lobe]).
-        // Samples beyond the measured domain add their luminance to beyond_y.
-        auto contribution = [&](const Vec3d& dir) -> Vec3d {
-          const Vec3d wi = frame.ToLocal(dir);
-          if (wi.z <= 0 || wo.z <= 0) return {0, 0, 0};
-          double pdf = distant.Pdf(dir) + wi.z / kPi;
-          if (lobe_alpha > 0) pdf += LobePdf(lobe_alpha, wi, wo);
-          if (!(pdf > 0)) return {0, 0, 0};
-          if (occlusion &&
-              Intersect(scene, Ray{p + sp.n * kRayEpsilon, dir}, 1e-4, 1e30, nullptr)) {
-            return {0, 0, 0};
-          }
-          const Vec3d f = brdf.Eval(wi, wo);
-          const Vec3d l = distant.Radiance(dir);
-          const Vec3d c{f.x * l.x * wi.z / pdf, f.y * l.y * wi.z / pdf, f.z * l.z * wi.z / pdf};
-          if (Extrapolated(wi, wo)) beyond_y += Luminance(c);
-          return c;
-        };
-        // Welford running mean and variance of the per-pair estimate X_j (one sample of each
-        // technique); the standard error of the mean is sqrt(var / N).
-        double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0};
-        for (int j = 0; j < n_samples; ++j) {
-          const Vec3d d_env = distant.Sample(rng.Uniform(), rng.Uniform());
-          // Cosine-weighted hemisphere (Malley's method).
-          const double u1 = rng.Uniform(), u2 = rng.Uniform();
-          const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
-          const Vec3d d_cos = frame.ToWorld(
-              {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1.0 - u1))});
-          Vec3d x = contribution(d_env) + contribution(d_cos);
-          if (lobe_alpha > 0) {
-            const Vec3d wi = SampleLobe(lobe_alpha, wo, rng.Uniform(), rng.Uniform());
-            if (wi.z > 0) x += contribution(frame.ToWorld(wi));
-          }
-          for (int c = 0; c < 3; ++c) {
-            const double delta = x[c] - mean[c];
-            mean[c] += delta / (j + 1);
-            m2[c] += delta * (x[c] - mean[c]);
-          }
-        }
-        for (int c = 0; c < 3; ++c) {
-          radiance[c] += mean[c];
-          se[c] = std::sqrt(m2[c] / (n_samples - 1) / n_samples);
-        }
-      }
+      const ShadedPixel px = ShadePoint(shading, sp);
       const float coverage = g.Coverage(sp.x, sp.y);
       for (int c = 0; c < 3; ++c) {
-        out.at(sp.x, sp.y, c) += static_cast<float>(radiance[c] * coverage);
-        error.at(sp.x, sp.y, c) = static_cast<float>(se[c] * coverage);
+        out.at(sp.x, sp.y, c) += static_cast<float>(px.radiance[c] * coverage);
+        error.at(sp.x, sp.y, c) = static_cast<float>(px.se[c] * coverage);
       }
-      // The environment's extrapolated luminance (the mean of beyond_y over the sample sets)
-      // over the pixel's whole radiance; 0 for a pixel that reflects nothing.
-      const double total_y = Luminance(radiance);
-      const double env_share =
-          n_samples > 0 && total_y > 0 ? std::min(1.0, beyond_y / n_samples / total_y) : 0.0;
-      share.at(sp.x, sp.y, 0) = light_extrapolated ? 1.0f : static_cast<float>(env_share);
+      share.at(sp.x, sp.y, 0) = px.share;
       out.at(sp.x, sp.y, 3) = scene.background.transparent ? coverage : 1.0f;
     }
   };
@@ -276,19 +345,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
 
   stats.threads = threads;
   stats.shaded_pixels = static_cast<int>(points.size());
-  if (stats.environment && !points.empty()) {
-    double mean_value = 0;
-    for (const ShadingPoint& sp : points) {
-      for (int c = 0; c < 3; ++c) {
-        stats.mean_standard_error[c] += error.at(sp.x, sp.y, c) / points.size();
-        mean_value += out.at(sp.x, sp.y, c) / (3.0 * points.size());
-      }
-    }
-    const double mean_se = (stats.mean_standard_error[0] + stats.mean_standard_error[1] +
-                            stats.mean_standard_error[2]) /
-                           3.0;
-    stats.relative_standard_error = mean_value > 0 ? mean_se / mean_value : 0.0;
-  }
+  SummariseNoise(points, out, error, &stats);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   for (const ShadingPoint& sp : points) {
     if (share.at(sp.x, sp.y, 0) <= kExtrapolatedShareMax) ++stats.measured_pixels;
@@ -299,10 +356,11 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
   return out;
 }
 
-RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& request,
-                                          Renderer& renderer) {
+namespace {
+
+// The outputs must be .exr files in existing folders; checked before any work.
+void CheckMeasuredOutputs(const MeasuredReferenceRequest& request) {
   namespace fs = std::filesystem;
-  const auto start = std::chrono::steady_clock::now();
   for (const std::string* path : {&request.output, &request.noise_output}) {
     if (path->empty()) continue;
     if (fs::path(*path).extension() != ".exr") {
@@ -314,33 +372,58 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
     }
   }
   if (request.output.empty()) throw Error("", "output", "no output file given");
-  const std::unique_ptr<MeasuredBrdf> brdf = LoadMeasuredBrdf(request.brdf_path);
-  const Scene scene = LoadScene(request.scene_path);
-  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
-  Image noise, share;
-  RenderMeasuredStats stats;
-  const Image image =
-      RenderMeasured(*brdf, scene, gbuffer, request.options, &noise, &stats, &share);
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  // The counts are of the share as the file stores it, so that a reader of the file agrees.
-  share = QuantiseShare(share);
-  stats.measured_pixels = 0;
+}
+
+// Covered pixels whose stored extrapolated share is within kExtrapolatedShareMax.
+int CountMeasuredPixels(const GBuffer& gbuffer, const Image& share) {
+  int measured = 0;
   for (int y = 0; y < gbuffer.height; ++y) {
     for (int x = 0; x < gbuffer.width; ++x) {
       if (gbuffer.Coverage(x, y) > 0 && share.at(x, y, 0) <= kExtrapolatedShareMax) {
-        ++stats.measured_pixels;
+        ++measured;
       }
     }
   }
+  return measured;
+}
 
+// The sidecar's measured_domain record, but for the domain file's SHA-256 (added when written).
+nlohmann::json MeasuredDomainJson(const std::string& domain_path,
+                                  const RenderMeasuredStats& stats) {
+  namespace fs = std::filesystem;
+  nlohmann::json domain;
+  domain["rule"] = kMeasuredDomainRule;
+  domain["theta_d_max_deg"] = kMeasuredThetaDMaxDeg;
+  domain["file"] = fs::path(domain_path).filename().string();  // relative to the sidecar
+  domain["value"] =
+      "8-bit grey, code / 255 = the share of the pixel's radiance (luminance) that depends on the "
+      "BRDF beyond theta_d_max_deg; 0 where no surface is seen";
+  domain["share"] = {
+      {"point_directional",
+       "exact: 1 when any light reaching the pixel is seen at theta_d beyond the limit, else 0 "
+       "(independent of the BRDF's values)"},
+      {"environment",
+       "Monte Carlo: the share of the estimate's luminance from samples beyond "
+       "the limit"}};
+  domain["measured_share_max"] = kExtrapolatedShareMax;
+  domain["counts"] = {{"covered", stats.shaded_pixels}, {"measured", stats.measured_pixels}};
+  return domain;
+}
+
+// The sidecar of a measured reference: the BRDF and scene it was rendered from, how, its noise
+// and its measured domain.
+nlohmann::json MeasuredSidecar(const MeasuredReferenceRequest& request, const MeasuredBrdf& brdf,
+                               const Scene& scene, const Image& image,
+                               const RenderMeasuredStats& stats, const std::string& domain_path) {
+  namespace fs = std::filesystem;
   nlohmann::json sidecar;
   sidecar["kind"] = "measured-brdf";
   sidecar["generator"] = "shadefit refs measured";
-  sidecar["brdf"]["format"] = brdf->Format();
-  if (brdf->Format() == "merl-binary") {
+  sidecar["brdf"]["format"] = brdf.Format();
+  if (brdf.Format() == "merl-binary") {
     sidecar["brdf"]["lookup"] = "trilinear in (sqrt theta_h index, theta_d, phi_d)";
   }
-  for (const std::string& file : brdf->SourceFiles()) {
+  for (const std::string& file : brdf.SourceFiles()) {
     sidecar["brdf"]["files"].push_back(
         {{"path", fs::absolute(file).lexically_normal().string()}, {"sha256", Sha256File(file)}});
   }
@@ -370,23 +453,31 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
   sidecar["threads"] = stats.threads;
   sidecar["render_seconds"] = stats.seconds;
   sidecar["pixel_value"] = "RGB radiance at the pixel centre x coverage; A = coverage";
-  const std::string domain_path = DomainPath(request.output);
-  nlohmann::json& domain = sidecar["measured_domain"];
-  domain["rule"] = kMeasuredDomainRule;
-  domain["theta_d_max_deg"] = kMeasuredThetaDMaxDeg;
-  domain["file"] = fs::path(domain_path).filename().string();  // relative to the sidecar
-  domain["value"] =
-      "8-bit grey, code / 255 = the share of the pixel's radiance (luminance) that depends on the "
-      "BRDF beyond theta_d_max_deg; 0 where no surface is seen";
-  domain["share"] = {
-      {"point_directional",
-       "exact: 1 when any light reaching the pixel is seen at theta_d beyond the limit, else 0 "
-       "(independent of the BRDF's values)"},
-      {"environment", "Monte Carlo: the share of the estimate's luminance from samples beyond "
-                      "the limit"}};
-  domain["measured_share_max"] = kExtrapolatedShareMax;
-  domain["counts"] = {{"covered", stats.shaded_pixels}, {"measured", stats.measured_pixels}};
+  sidecar["measured_domain"] = MeasuredDomainJson(domain_path, stats);
+  return sidecar;
+}
 
+}  // namespace
+
+RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& request,
+                                          Renderer& renderer) {
+  namespace fs = std::filesystem;
+  const auto start = std::chrono::steady_clock::now();
+  CheckMeasuredOutputs(request);
+  const std::unique_ptr<MeasuredBrdf> brdf = LoadMeasuredBrdf(request.brdf_path);
+  const Scene scene = LoadScene(request.scene_path);
+  const GBuffer gbuffer = renderer.RenderGBuffer(scene);
+  Image noise, share;
+  RenderMeasuredStats stats;
+  const Image image =
+      RenderMeasured(*brdf, scene, gbuffer, request.options, &noise, &stats, &share);
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // The counts are of the share as the file stores it, so that a reader of the file agrees.
+  share = QuantiseShare(share);
+  stats.measured_pixels = CountMeasuredPixels(gbuffer, share);
+
+  const std::string domain_path = DomainPath(request.output);
+  nlohmann::json sidecar = MeasuredSidecar(request, *brdf, scene, image, stats, domain_path);
   ImageMetadata meta{{"shadefit:kind", "measured-brdf"},
                      {"shadefit:brdf", fs::path(request.brdf_path).filename().string()},
                      {"shadefit:scene", scene.source_text},
@@ -403,7 +494,7 @@ RenderMeasuredStats MakeMeasuredReference(const MeasuredReferenceRequest& reques
   }
   writes.emplace_back(domain_path, [&] { WritePng8(domain_path, share); });
   writes.emplace_back(sidecar_path, [&] {
-    domain["sha256"] = Sha256File(domain_path);
+    sidecar["measured_domain"]["sha256"] = Sha256File(domain_path);
     WriteTextAtomic(sidecar_path, sidecar.dump(1) + "\n");
   });
   WriteAllOrNothing(writes);

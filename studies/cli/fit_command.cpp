@@ -82,29 +82,27 @@ void PrintFit(const fit::FitResult& result, const std::string& output) {
   }
 }
 
-}  // namespace
+// The fit command's options, as given.
+struct FitCommandOptions {
+  std::vector<std::string> refs, masks, fixed;
+  std::string brdf;
+  std::vector<int> brdf_cells;
+  double brdf_max_theta = fit::BrdfSpaceSampling{}.max_theta_deg;
+  std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
+  int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
+  int threads = fit::FitOptions{}.num_threads, env_samples = 0;
+  std::string solver = "auto";
+  std::string encoding = "as-imported";
+  int env_pixels = fit::FitOptions{}.environment_pixels;
+  int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
+  int env_rounds = fit::FitOptions{}.environment_rounds;
+  std::uint64_t seed = 1;
+  double loss_scale = 0;
+  bool no_images = false, central = false;
+};
 
-void RegisterFitCommand(CLI::App& app) {
-  auto* cmd =
-      app.add_subcommand("fit", "Fit a shading model to reference images (jointly, one material)");
-  struct Options {
-    std::vector<std::string> refs, masks, fixed;
-    std::string brdf;
-    std::vector<int> brdf_cells;
-    double brdf_max_theta = fit::BrdfSpaceSampling{}.max_theta_deg;
-    std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
-    int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
-    int threads = fit::FitOptions{}.num_threads, env_samples = 0;
-    std::string solver = "auto";
-    std::string encoding = "as-imported";
-    int env_pixels = fit::FitOptions{}.environment_pixels;
-    int env_twin_samples = fit::FitOptions{}.environment_twin_samples;
-    int env_rounds = fit::FitOptions{}.environment_rounds;
-    std::uint64_t seed = 1;
-    double loss_scale = 0;
-    bool no_images = false, central = false;
-  };
-  auto opt = std::make_shared<Options>();
+// The options that say what is fitted: references or a measured BRDF, the scene, masks, model.
+void AddInputOptions(CLI::App* cmd, FitCommandOptions* opt) {
   cmd->add_option("--ref", opt->refs,
                   "Reference image (EXR linear; PNG/JPEG sRGB, clipped pixels masked); "
                   "repeat for a joint fit. Its scene comes from <ref>.json (scene_file)");
@@ -121,6 +119,10 @@ void RegisterFitCommand(CLI::App& app) {
   cmd->add_option("--mask", opt->masks,
                   "Mask image per --ref, in order (channel 0 > 0.5 = fit this pixel)");
   cmd->add_option("--model", opt->model, "Shading model (see `shadefit models`)")->required();
+}
+
+// The options of the fit itself: loss, starts, exposure, encoding, path and solver.
+void AddSolverOptions(CLI::App* cmd, FitCommandOptions* opt) {
   cmd->add_option("--loss", opt->loss, "l2 | log | cuberoot | huber | cauchy")
       ->capture_default_str();
   cmd->add_option("--loss-scale", opt->loss_scale,
@@ -160,91 +162,120 @@ void RegisterFitCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--central-differences", opt->central,
                 "GL path: central instead of forward differences (2x renders)");
+}
+
+// Rejects combinations of --ref, --brdf, --scene and --mask that do not make one fit.
+void CheckInputs(const FitCommandOptions& opt) {
+  if (opt.refs.empty() == opt.brdf.empty()) {
+    throw Error("", "--ref",
+                "give reference images (--ref) or a measured BRDF (--brdf), one of them");
+  }
+  if (!opt.brdf.empty() && (!opt.scene.empty() || !opt.masks.empty())) {
+    throw Error("", opt.scene.empty() ? "--mask" : "--scene",
+                "a BRDF-space fit (--brdf) has no scene or mask");
+  }
+  if (opt.brdf.empty() &&
+      (!opt.brdf_cells.empty() || opt.brdf_max_theta != fit::BrdfSpaceSampling{}.max_theta_deg)) {
+    throw Error("", opt.brdf_cells.empty() ? "--brdf-max-theta" : "--brdf-cells",
+                "only valid with --brdf");
+  }
+  if (!opt.scene.empty() && opt.refs.size() != 1) {
+    throw Error("", "--scene", "only valid with a single --ref (each reference has a sidecar)");
+  }
+  if (!opt.masks.empty() && opt.masks.size() != opt.refs.size()) {
+    throw Error("", "--mask",
+                fmt::format("give one mask per --ref ({} refs, {} masks)", opt.refs.size(),
+                            opt.masks.size()));
+  }
+}
+
+// The fitter's options from the command's, each checked; `encoding` is --encoding.
+fit::FitOptions ParseFitOptions(const FitCommandOptions& opt, fit::EncodingMode* encoding) {
+  fit::FitOptions options;
+  options.loss = fit::ParseLoss(opt.loss);
+  options.loss_scale = opt.loss_scale;
+  options.starts = opt.starts;
+  options.seed = opt.seed;
+  options.exposure = fit::ParseExposure(opt.exposure);
+  *encoding = fit::ParseEncodingMode(opt.encoding);
+  if (*encoding == fit::EncodingMode::kFit && options.exposure != fit::Exposure::kFree) {
+    throw Error("", "--encoding", "fit needs --exposure free (the exposure is unknown too)");
+  }
+  options.path = fit::ParsePath(opt.path);
+  options.max_iterations = opt.max_iterations;
+  options.num_threads = opt.threads;
+  options.environment_samples = opt.env_samples;
+  if (opt.env_pixels < 16) throw Error("", "--env-pixels", "must be >= 16");
+  if (opt.env_twin_samples < 1) throw Error("", "--env-twin-samples", "must be >= 1");
+  if (opt.env_rounds < 0) throw Error("", "--env-rounds", "must be >= 0");
+  options.environment_pixels = opt.env_pixels;
+  options.environment_twin_samples = opt.env_twin_samples;
+  options.environment_rounds = opt.env_rounds;
+  options.central_differences = opt.central;
+  options.solver = fit::ParseSolver(opt.solver, "--solver");
+  options.render_outputs = !opt.no_images;
+  if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+  if (opt.max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");
+  if (opt.threads < 1) throw Error("", "--threads", "must be >= 1");
+  if (opt.env_samples < 0) throw Error("", "--env-samples", "must be >= 0");
+  if (!(opt.loss_scale >= 0) || !std::isfinite(opt.loss_scale)) {
+    throw Error("", "--loss-scale", fmt::format("{} is not a finite number >= 0", opt.loss_scale));
+  }
+  return options;
+}
+
+// Fits the --brdf measured BRDF in BRDF space.
+fit::FitResult FitBrdf(const FitCommandOptions& opt, const fit::FitProblem& problem,
+                       const fit::FitOptions& options) {
+  fit::BrdfSpaceSampling sampling;
+  if (!opt.brdf_cells.empty()) {
+    sampling.theta_h_cells = opt.brdf_cells[0];
+    sampling.theta_d_cells = opt.brdf_cells[1];
+    sampling.phi_d_cells = opt.brdf_cells[2];
+  }
+  sampling.max_theta_deg = opt.brdf_max_theta;
+  fit::ValidateBrdfSpaceSampling(sampling, "");
+  fit::CheckBrdfSpaceOptions(options);
+  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+      reference_images::LoadMeasuredBrdf(opt.brdf);
+  return fit::FitBrdfSpace(problem.model, problem.fixed, fit::SampleBrdfSpace(*brdf, sampling),
+                           options);
+}
+
+// Runs the command: checks, fits and writes.
+void RunFitCommand(const FitCommandOptions& opt) {
+  CheckInputs(opt);
+  fit::EncodingMode encoding;
+  const fit::FitOptions options = ParseFitOptions(opt, &encoding);
+  fit::FitProblem problem;
+  problem.model = opt.model;
+  problem.fixed = opt.fixed;
+  FindModel(problem.model);  // Unknown model: fail before reading anything.
+  fit::FitResult result;
+  nlohmann::json extra;
+  if (!opt.brdf.empty()) {
+    if (encoding == fit::EncodingMode::kFit) {
+      throw Error("", "--encoding", "a BRDF-space fit (--brdf) reads no stored image values");
+    }
+    result = FitBrdf(opt, problem, options);
+  } else {
+    result = FitImages(problem, opt.refs, opt.scene, opt.masks, options, encoding, &extra);
+  }
+  fit::WriteFitOutputs(result, opt.output, extra);
+  PrintFit(result, opt.output);
+}
+
+}  // namespace
+
+void RegisterFitCommand(CLI::App& app) {
+  auto* cmd =
+      app.add_subcommand("fit", "Fit a shading model to reference images (jointly, one material)");
+  auto opt = std::make_shared<FitCommandOptions>();
+  AddInputOptions(cmd, opt.get());
+  AddSolverOptions(cmd, opt.get());
   cmd->add_flag("--no-images", opt->no_images, "Write only the JSON (no fit/error images)");
   cmd->add_option("-o,--output", opt->output, "Output JSON (images go next to it)")->required();
-  cmd->callback([opt] {
-    if (opt->refs.empty() == opt->brdf.empty()) {
-      throw Error("", "--ref",
-                  "give reference images (--ref) or a measured BRDF (--brdf), one of them");
-    }
-    if (!opt->brdf.empty() && (!opt->scene.empty() || !opt->masks.empty())) {
-      throw Error("", opt->scene.empty() ? "--mask" : "--scene",
-                  "a BRDF-space fit (--brdf) has no scene or mask");
-    }
-    if (opt->brdf.empty() && (!opt->brdf_cells.empty() ||
-                              opt->brdf_max_theta != fit::BrdfSpaceSampling{}.max_theta_deg)) {
-      throw Error("", opt->brdf_cells.empty() ? "--brdf-max-theta" : "--brdf-cells",
-                  "only valid with --brdf");
-    }
-    if (!opt->scene.empty() && opt->refs.size() != 1) {
-      throw Error("", "--scene", "only valid with a single --ref (each reference has a sidecar)");
-    }
-    if (!opt->masks.empty() && opt->masks.size() != opt->refs.size()) {
-      throw Error("", "--mask",
-                  fmt::format("give one mask per --ref ({} refs, {} masks)", opt->refs.size(),
-                              opt->masks.size()));
-    }
-    fit::FitOptions options;
-    options.loss = fit::ParseLoss(opt->loss);
-    options.loss_scale = opt->loss_scale;
-    options.starts = opt->starts;
-    options.seed = opt->seed;
-    options.exposure = fit::ParseExposure(opt->exposure);
-    const fit::EncodingMode encoding = fit::ParseEncodingMode(opt->encoding);
-    if (encoding == fit::EncodingMode::kFit && options.exposure != fit::Exposure::kFree) {
-      throw Error("", "--encoding", "fit needs --exposure free (the exposure is unknown too)");
-    }
-    options.path = fit::ParsePath(opt->path);
-    options.max_iterations = opt->max_iterations;
-    options.num_threads = opt->threads;
-    options.environment_samples = opt->env_samples;
-    if (opt->env_pixels < 16) throw Error("", "--env-pixels", "must be >= 16");
-    if (opt->env_twin_samples < 1) throw Error("", "--env-twin-samples", "must be >= 1");
-    if (opt->env_rounds < 0) throw Error("", "--env-rounds", "must be >= 0");
-    options.environment_pixels = opt->env_pixels;
-    options.environment_twin_samples = opt->env_twin_samples;
-    options.environment_rounds = opt->env_rounds;
-    options.central_differences = opt->central;
-    options.solver = fit::ParseSolver(opt->solver, "--solver");
-    options.render_outputs = !opt->no_images;
-    if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
-    if (opt->max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");
-    if (opt->threads < 1) throw Error("", "--threads", "must be >= 1");
-    if (opt->env_samples < 0) throw Error("", "--env-samples", "must be >= 0");
-    if (!(opt->loss_scale >= 0) || !std::isfinite(opt->loss_scale)) {
-      throw Error("", "--loss-scale",
-                  fmt::format("{} is not a finite number >= 0", opt->loss_scale));
-    }
-
-    fit::FitProblem problem;
-    problem.model = opt->model;
-    problem.fixed = opt->fixed;
-    FindModel(problem.model);  // Unknown model: fail before reading anything.
-    fit::FitResult result;
-    nlohmann::json extra;
-    if (!opt->brdf.empty()) {
-      if (encoding == fit::EncodingMode::kFit) {
-        throw Error("", "--encoding", "a BRDF-space fit (--brdf) reads no stored image values");
-      }
-      fit::BrdfSpaceSampling sampling;
-      if (!opt->brdf_cells.empty()) {
-        sampling.theta_h_cells = opt->brdf_cells[0];
-        sampling.theta_d_cells = opt->brdf_cells[1];
-        sampling.phi_d_cells = opt->brdf_cells[2];
-      }
-      sampling.max_theta_deg = opt->brdf_max_theta;
-      fit::ValidateBrdfSpaceSampling(sampling, "");
-      fit::CheckBrdfSpaceOptions(options);
-      const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
-          reference_images::LoadMeasuredBrdf(opt->brdf);
-      result = fit::FitBrdfSpace(problem.model, problem.fixed,
-                                 fit::SampleBrdfSpace(*brdf, sampling), options);
-    } else {
-      result = FitImages(problem, opt->refs, opt->scene, opt->masks, options, encoding, &extra);
-    }
-    fit::WriteFitOutputs(result, opt->output, extra);
-    PrintFit(result, opt->output);
-  });
+  cmd->callback([opt] { RunFitCommand(*opt); });
 }
 
 }  // namespace shadefit::cli

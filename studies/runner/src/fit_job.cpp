@@ -402,6 +402,65 @@ json ParametersJson(const fit::FitResult& result) {
   return params;
 }
 
+// Solves the fit the job's training set asks for: in BRDF space, with the encoding search (then
+// `references` are redecoded and `encoding` is the search's record), or on the images.
+fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitSettings& s,
+                           const std::string& material, const fit::FitProblem& problem,
+                           const fit::FitOptions& fo,
+                           std::vector<reference_images::Reference>* references, json* encoding) {
+  if (TrainsInBrdfSpace(job.train)) {
+    // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
+    // the settings are l2 with a fixed exposure.
+    const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+        reference_images::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, material));
+    return fit::FitBrdfSpace(job.model, s.fixed,
+                             fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
+  }
+  if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
+    fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
+    *encoding = fit::EncodingSearchToJson(search);
+    // Every lighting, trained on or not, is evaluated in the chosen decoding.
+    for (reference_images::Reference& r : *references) r = fit::Redecode(r, search.chosen);
+    context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
+                                  search.chosen.Name(), (*encoding)["stored_rmse"].get<double>()));
+    return std::move(search.fit);
+  }
+  return fit::Fit(problem, fo);
+}
+
+// Removes the fit's previews of the references evaluated before a failure: a failed fit leaves
+// no image of its own (the reference previews are every fit's of the material, and stay).
+void RemoveFitPreviews(const RunContext& context, const json& outputs) {
+  for (const json& o : outputs) {
+    const std::string& name = o.get_ref<const std::string&>();
+    if (name.ends_with(".reference.png") || name.ends_with(".domain.png")) continue;
+    std::error_code ec;
+    std::filesystem::remove(context.paths.dir / o.get<std::string>(), ec);
+  }
+}
+
+// The job JSON of a fit that ran to the end, converged or not.
+json FitJobJson(const RunContext& context, const Job& job, const FitSettings& s,
+                const fit::FitResult& result, const json& evaluations, const json& outputs,
+                const json& encoding) {
+  json j = FitJobHeader(context, job, result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
+  j.update({{"settings", s.ToJson()},
+            {"converged", result.converged},
+            {"termination", fit::TerminationName(result.termination)},
+            {"values", result.values},
+            {"exposure", result.exposure},
+            {"parameters", ParametersJson(result)},
+            {"fit", fit::FitResultToJson(result)},
+            {"evaluations", evaluations},
+            {"outputs", outputs}});
+  // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
+  // is the same bytes on every run.
+  j["fit"]["solver"].erase("seconds");
+  j["fit"]["solver"].erase("solve_seconds");
+  if (!encoding.is_null()) j["encoding"] = encoding;
+  return j;
+}
+
 }  // namespace
 
 void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
@@ -422,24 +481,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.
   try {
-    if (TrainsInBrdfSpace(job.train)) {
-      // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
-      // the settings are l2 with a fixed exposure.
-      const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
-          reference_images::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, g.material));
-      result = fit::FitBrdfSpace(job.model, s.fixed,
-                                 fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
-    } else if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
-      fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
-      result = std::move(search.fit);
-      encoding = fit::EncodingSearchToJson(search);
-      // Every lighting, trained on or not, is evaluated in the chosen decoding.
-      for (reference_images::Reference& r : references) r = fit::Redecode(r, search.chosen);
-      context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
-                                    search.chosen.Name(), encoding["stored_rmse"].get<double>()));
-    } else {
-      result = fit::Fit(problem, fo);
-    }
+    result = SolveFitJob(context, job, s, g.material, problem, fo, &references, &encoding);
   } catch (const fit::DegenerateReferenceError& e) {
     WriteFailedFit(context, job, FitStatus::kDegenerateReference, e.what());
     return;
@@ -469,32 +511,11 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
           Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs));
     }
   } catch (const NonFiniteRenderError& e) {
-    // The previews of the references evaluated before it go too: a failed fit leaves no image
-    // of its own (the reference previews are every fit's of the material, and stay).
-    for (const json& o : outputs) {
-      const std::string& name = o.get_ref<const std::string&>();
-      if (name.ends_with(".reference.png") || name.ends_with(".domain.png")) continue;
-      std::error_code ec;
-      std::filesystem::remove(context.paths.dir / o.get<std::string>(), ec);
-    }
+    RemoveFitPreviews(context, outputs);
     WriteFailedFit(context, job, FitStatus::kNonFiniteRender, e.what());
     return;
   }
-  json j = FitJobHeader(context, job, result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
-  j.update({{"settings", s.ToJson()},
-            {"converged", result.converged},
-            {"termination", fit::TerminationName(result.termination)},
-            {"values", result.values},
-            {"exposure", result.exposure},
-            {"parameters", ParametersJson(result)},
-            {"fit", fit::FitResultToJson(result)},
-            {"evaluations", evaluations},
-            {"outputs", outputs}});
-  // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
-  // is the same bytes on every run.
-  j["fit"]["solver"].erase("seconds");
-  j["fit"]["solver"].erase("solve_seconds");
-  if (!encoding.is_null()) j["encoding"] = encoding;
+  const json j = FitJobJson(context, job, s, result, evaluations, outputs, encoding);
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(),
               result.seconds);
   WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");

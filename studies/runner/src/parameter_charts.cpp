@@ -131,6 +131,49 @@ json AxisJson(const Axis& a) {
   return {{"parameter", a.parameter}, {"values", a.values}, {"scale", a.log ? "log" : "linear"}};
 }
 
+// The number of charts of a manifest with this hash whose every image exists; none when the
+// charts are to be rendered again.
+std::optional<int> UpToDateCharts(const fs::path& manifest, const std::string& study_dir,
+                                  const std::string& hash) {
+  if (!fs::exists(manifest)) return std::nullopt;
+  try {
+    std::ifstream in(manifest);
+    const json old = json::parse(in);
+    bool complete = old.value("hash", "") == hash;
+    for (const json& c : old.value("charts", json::array())) {
+      for (const json& row : c["images"]) {
+        for (const json& f : row)
+          complete = complete && fs::exists(fs::path(study_dir) / f.get<std::string>());
+      }
+    }
+    if (complete) return static_cast<int>(old["charts"].size());
+  } catch (const json::exception&) {
+    // Unreadable manifest: render it again.
+  }
+  return std::nullopt;
+}
+
+// One model's chart images, a row per y value and an image per x value, paths relative to the
+// study; `rendered` counts them.
+json RenderChartImages(const std::string& name, const ModelInfo& info, const ChartDef& def,
+                       const Scene& scene, Renderer& renderer, const std::string& study_dir,
+                       int* rendered) {
+  json images = json::array();
+  for (std::size_t i = 0; i < def.y.values.size(); ++i) {
+    json row = json::array();
+    for (std::size_t j = 0; j < def.x.values.size(); ++j) {
+      const std::vector<double> p = def.params(info, def.x.values[j], def.y.values[i]);
+      const std::string rel = fmt::format("charts/{}-{}-{}.png", name, i, j);
+      WritePngPreview((fs::path(study_dir) / rel).string(), renderer.Render(scene, info.id, p),
+                      kExposureStops);
+      row.push_back(rel);
+      ++*rendered;
+    }
+    images.push_back(row);
+  }
+  return images;
+}
+
 }  // namespace
 
 ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& study_dir) {
@@ -145,24 +188,9 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
                                 Sha256File(scene_path));
   for (const std::string& m : spec.models) key += m + ",";
   const std::string hash = Sha256String(key);
-  if (fs::exists(manifest)) {
-    try {
-      std::ifstream in(manifest);
-      const json old = json::parse(in);
-      bool complete = old.value("hash", "") == hash;
-      for (const json& c : old.value("charts", json::array())) {
-        for (const json& row : c["images"]) {
-          for (const json& f : row)
-            complete = complete && fs::exists(fs::path(study_dir) / f.get<std::string>());
-        }
-      }
-      if (complete) {
-        summary.charts = static_cast<int>(old["charts"].size());
-        return summary;
-      }
-    } catch (const json::exception&) {
-      // Unreadable manifest: render it again.
-    }
+  if (const std::optional<int> charts = UpToDateCharts(manifest, study_dir, hash)) {
+    summary.charts = *charts;
+    return summary;
   }
 
   Scene scene = LoadScene(scene_path);
@@ -184,19 +212,8 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
     const ModelInfo& info = FindModel(name);
     const std::optional<ChartDef> def = ChartOf(info);
     if (!def) continue;
-    json images = json::array();
-    for (std::size_t i = 0; i < def->y.values.size(); ++i) {
-      json row = json::array();
-      for (std::size_t j = 0; j < def->x.values.size(); ++j) {
-        const std::vector<double> p = def->params(info, def->x.values[j], def->y.values[i]);
-        const std::string rel = fmt::format("charts/{}-{}-{}.png", name, i, j);
-        WritePngPreview((fs::path(study_dir) / rel).string(), renderer.Render(scene, info.id, p),
-                        kExposureStops);
-        row.push_back(rel);
-        ++summary.rendered;
-      }
-      images.push_back(row);
-    }
+    const json images =
+        RenderChartImages(name, info, *def, scene, renderer, study_dir, &summary.rendered);
     charts.push_back({{"model", name},
                       {"x", AxisJson(def->x)},
                       {"y", AxisJson(def->y)},
