@@ -1,4 +1,4 @@
-// Field readers of the sidecar schema (refs/sidecar.h), shared by LoadReference and the
+// Field readers of the sidecar schema (reference_images/sidecar.h), shared by LoadReference and the
 // sidecar functions so that each field is read in one place.
 #pragma once
 

@@ -60,7 +60,7 @@ Exposure ParseExposure(const std::string& name);       // "fixed", "free".
 // 0.05 * p99 count as outliers (Huber: linear growth; Cauchy: logarithmic).
 inline constexpr double kRobustScaleFraction = 0.05;
 
-// References and their loading live with the references (reference_images/, refs/reference.h);
+// References and their loading live with the references (reference_images/, reference_images/reference.h);
 // the fitter's names for them:
 using FitReference = reference_images::Reference;
 using reference_images::LoadReference;

@@ -1,6 +1,6 @@
 // A reference read from its files: the image, its sidecar JSON (which names the scene), the
 // scene TOML and an optional mask. The fitter, the probes and the study runner read references
-// through LoadReference; the sidecar's schema lives with the references (refs/sidecar.h).
+// through LoadReference; the sidecar's schema lives with the references (reference_images/sidecar.h).
 #pragma once
 
 #include <limits>
@@ -41,7 +41,7 @@ struct Reference {
   float clip_level = std::numeric_limits<float>::infinity();
   // Measured references (sidecar "measured_domain", written by MakeMeasuredReference): per pixel,
   // the share of its radiance that depends on the BRDF outside the region its data measured
-  // (1 channel, in [0, 1], the image's size; refs/render_measured.h). Empty for every other
+  // (1 channel, in [0, 1], the image's size; reference_images/render_measured.h). Empty for every other
   // reference. A pixel is measured when its share is at most measured_share_max.
   Image extrapolated_share;
   double measured_share_max = 0.0;

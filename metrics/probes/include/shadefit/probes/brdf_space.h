@@ -60,7 +60,7 @@ struct BrdfSpaceOptions {
   int model_strata_per_axis = 128;
 
   // --- Extrapolation.
-  // MERL data beyond this theta_d is extrapolated (refs/measured_brdf.h: the rule's one
+  // MERL data beyond this theta_d is extrapolated (reference_images/measured_brdf.h: the rule's one
   // definition, shared with the measured renderer's per-pixel domain).
   double extrapolated_theta_d_deg = reference_images::kMeasuredThetaDMaxDeg;
   // An albedo point is marked extrapolated when more than this fraction of it comes from there.

@@ -22,7 +22,7 @@
 #include "shadefit/render/scene.h"
 
 namespace shadefit::reference_images {
-class MeasuredBrdf;  // refs/measured_brdf.h
+class MeasuredBrdf;  // reference_images/measured_brdf.h
 }
 
 namespace shadefit::probes {
