@@ -109,6 +109,8 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
                    {"value", Num(r.exposure)},
                    {"std_error", Num(r.exposure_std_error)}};
+  if (r.exposure_free) j["exposure"]["pinned"] = r.exposure_pin.text;
+  if (!r.held.empty()) j["held"] = r.held;
   j["loss"] = {{"name", LossName(r.loss)},
                {"scale", r.loss_scale > 0 ? json(r.loss_scale) : json(nullptr)}};
   j["cost"] = {{"initial", Num(r.initial_cost)}, {"final", Num(r.final_cost)}};

@@ -12,7 +12,9 @@
 #include <chrono>
 #include <cmath>
 
+#include "exposure_gauge.h"
 #include "fit_result.h"
+#include "model_structure.h"
 #include "multistart.h"
 #include "prepared_reference.h"
 #include "problem.h"
@@ -106,6 +108,31 @@ Exposure ParseExposure(const std::string& name) {
   throw Error("", "--exposure", fmt::format("unknown exposure '{}' (known: fixed, free)", name));
 }
 
+namespace {
+
+// An entry only the ambient term reads (classic Blinn-Phong's ka) has no effect on any pixel
+// when no reference has ambient light: left free it would end wherever its start was and be
+// reported undetermined. It is held at 0, and the result says so.
+void HoldWithoutAmbient(const FitProblem& problem, Parametrization* param, FitResult* result) {
+  for (const FitReference& ref : problem.references) {
+    for (const Light& light : ref.scene.lights) {
+      const Vec3d& v = light.value;
+      if (light.type == Light::Type::kAmbient && (v.x > 0 || v.y > 0 || v.z > 0)) return;
+    }
+  }
+  const ModelInfo& model = param->model();
+  const std::vector<bool> ambient_only = internal::AmbientOnlyEntries(model.id);
+  for (int i = 0; i < param->size(); ++i) {
+    if (!ambient_only[i] || param->entry(i).fixed) continue;
+    param->Pin(i, 0.0);
+    const std::string text =
+        model.SpecOfEntry(i).name + " = 0: no reference has ambient light, so it has no effect";
+    if (result->held.empty() || result->held.back() != text) result->held.push_back(text);
+  }
+}
+
+}  // namespace
+
 namespace internal {
 
 void SolvePrepared(const ModelInfo& model, const Parametrization& param, const FitOptions& options,
@@ -118,6 +145,9 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
   MultiStartResult solved = RunMultiStart(model, param, options, environment, refs, &problems);
   result->solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
+  if (problems.exposure_free && result->exposure_pin.kind == PinKind::kExposure) {
+    MoveToExposureGauge(param, result->exposure_pin, &solved, &problems);
+  }
   RecordStarts(param, problems, std::move(solved), result);
 
   // Uncertainty at the best start (the bounded LM's J^T J, or ceres::Covariance), scaled by the
@@ -134,14 +164,28 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
 FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const ModelInfo& model = FindModel(problem.model);
-  const Parametrization param(model, problem.fixed);
+  Parametrization param(model, problem.fixed);
   if (problem.references.empty()) throw Error("", "--ref", "no reference given");
   if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
-  if (param.FreeCount() == 0 && options.exposure == Exposure::kFixed) {
-    throw Error("", "--fix", "every parameter is fixed (and the exposure): nothing to fit");
-  }
-
   FitResult result;
+  HoldWithoutAmbient(problem, &param, &result);
+  if (param.FreeCount() == 0 && options.exposure == Exposure::kFixed) {
+    throw Error("", "--fix",
+                result.held.empty()
+                    ? "every parameter is fixed (and the exposure): nothing to fit"
+                    : "every parameter is fixed (and the exposure; " + result.held.front() +
+                          "): nothing to fit");
+  }
+  // A free exposure and the reflectances share one scale: one value is pinned (exposure_pin.h).
+  FitOptions pinned = options;
+  if (options.exposure == Exposure::kFree) {
+    result.exposure_pin = ExposurePinOf(model.name, problem.fixed);
+    const ExposurePin& pin = result.exposure_pin;
+    if (pin.kind == PinKind::kFresnel) {
+      for (std::size_t k = 0; k < pin.entries.size(); ++k) param.Pin(pin.entries[k], pin.values[k]);
+    }
+    if (pin.kind == PinKind::kUnitExposure) pinned.exposure = Exposure::kFixed;
+  }
   result.model = model.name;
   result.loss = options.loss;
   result.starts = options.starts + static_cast<int>(options.start_points.size());
@@ -173,7 +217,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
         std::max(4, options.environment_twin_samples));
   }
 
-  internal::SolvePrepared(model, param, options, gl, environment, &renderer, refs, &result);
+  internal::SolvePrepared(model, param, pinned, gl, environment, &renderer, refs, &result);
   result.inputs = internal::Provenance(problem, options, refs);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 
 namespace shadefit::fit::internal {
 namespace {
@@ -153,6 +154,16 @@ TermRows TermRowsImpl() {
   return out;
 }
 
+// The range the affinity probes below draw a row's values from (its middle 40%, steps of a
+// quarter): the table's box, cut to 100 wide, and to 10 for log rows. A lobe exponent of 30-70
+// left Lafortune's lobe (C_xy, C_z in [-1, 1], raised to n) at 1e-35 of the diffuse term, so
+// every difference in C vanished "to rounding" and C_z was taken for a linear entry, which
+// variable projection then solved as one (a lafortune fit stopped at its start, cost 1e9 times
+// Ceres').
+std::pair<double, double> ProbeRange(const ParamSpec& row) {
+  return {row.min, std::min(row.max, row.min + (row.log_scale ? 10.0 : 100.0))};
+}
+
 // Which entries the model's radiance is affine in, jointly (variable projection, below): the
 // second difference along each entry and the mixed difference of each pair vanish at 24
 // generic configurations (as JetDependenceOf's), to rounding. Greedy in table order, so of
@@ -176,7 +187,7 @@ std::vector<bool> LinearEntriesImpl() {
   for (Config& cfg : configs) {
     for (int i = 0; i < P; ++i) {
       const ParamSpec& row = *spec_of[i];
-      const double lo = row.min, hi = std::min(row.max, row.min + 100.0);
+      const auto [lo, hi] = ProbeRange(row);
       cfg.p[i] = lo + (0.3 + 0.4 * rng.Uniform()) * (hi - lo);
       cfg.step[i] = 0.25 * (hi - lo);
     }
@@ -223,7 +234,68 @@ std::vector<bool> LinearEntriesImpl() {
   return linear;
 }
 
+// Whether the radiance is linear, not only affine, in its linear entries jointly: zero when they
+// are all zero, at kProbeConfigurations generic configurations (ambient light 1), to rounding.
+// Then exposure * radiance(x) = radiance(exposure * x) for those entries x: a free exposure and
+// they share one scale exactly (exposure_pin.h).
+template <typename Tag>
+bool HomogeneousImpl() {
+  using M = typename Tag::template Of<double, double>;
+  constexpr int P = M::kParamCount;
+  const std::vector<ParamSpec> table = M::Table();
+  const std::vector<bool> linear = LinearEntriesImpl<Tag>();
+  if (std::find(linear.begin(), linear.end(), true) == linear.end()) return false;
+  StructureRng rng(0x9fb21c651e98df25ull);
+  for (int k = 0; k < kProbeConfigurations; ++k) {
+    double p[P];
+    int i = 0;
+    for (const ParamSpec& row : table) {
+      const auto [lo, hi] = ProbeRange(row);
+      for (int c = 0; c < row.size; ++c, ++i) p[i] = lo + (0.3 + 0.4 * rng.Uniform()) * (hi - lo);
+    }
+    const ShadingDots<double> d =
+        ComputeShadingDots(Vec3d{0, 0, 1}, rng.Hemisphere(), rng.Hemisphere());
+    const Rgb<double> full = Reflected<M, double>(M::Load(p), d) + M::Ambient(M::Load(p));
+    for (int j = 0; j < P; ++j) {
+      if (linear[j]) p[j] = 0;
+    }
+    const Rgb<double> zero = Reflected<M, double>(M::Load(p), d) + M::Ambient(M::Load(p));
+    for (int c = 0; c < 3; ++c) {
+      if (!(std::abs(zero[c]) <= 1e-12 * std::abs(full[c]) + 1e-300)) return false;
+    }
+  }
+  return true;
+}
+
+// AmbientOnlyEntries (model_structure.h): read by the ambient term and by no other.
+template <typename Tag>
+std::vector<bool> AmbientOnlyImpl() {
+  const JetDependence dep = JetDependenceOf<Tag>();
+  std::vector<bool> out(dep.row_of.size(), false);
+  for (int e = 0; e < static_cast<int>(out.size()); ++e) {
+    bool ambient = false, other = dep.reads[2][0][e];
+    for (int c = 0; c < 3; ++c) {
+      ambient = ambient || dep.reads[3][c][e];
+      other = other || dep.reads[0][c][e] || dep.reads[1][c][e];
+    }
+    out[e] = ambient && !other;
+  }
+  return out;
+}
+
 }  // namespace
+
+std::vector<bool> AmbientOnlyEntries(ModelId model) {
+  return VisitModel(model, [](auto tag) -> std::vector<bool> {
+    return OncePerModel<decltype(tag)>([](auto t) { return AmbientOnlyImpl<decltype(t)>(); });
+  });
+}
+
+bool HomogeneousInLinearEntries(ModelId model) {
+  return VisitModel(model, [](auto tag) -> bool {
+    return OncePerModel<decltype(tag)>([](auto t) { return HomogeneousImpl<decltype(t)>(); });
+  });
+}
 
 bool ChannelSeparable(ModelId model) {
   return VisitModel(model, [](auto tag) -> bool {

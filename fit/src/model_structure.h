@@ -37,4 +37,13 @@ const TermRows& RowsOfTerms(ModelId model);
 // entries marked (ggx: kd and f0; not roughness).
 std::vector<bool> LinearEntries(ModelId model);
 
+// Whether the radiance is moreover zero when those entries are (linear, not only affine, in
+// them): lambert, phong, the Blinn-Phongs, ward, lafortune; not ggx, whose Schlick Fresnel
+// f0 + (1 - f0)(1 - l.h)^5 is not zero at f0 = 0.
+bool HomogeneousInLinearEntries(ModelId model);
+
+// Per flattened entry: whether only the ambient term reads it (the classic models' ka). Under
+// references without ambient light it has no effect on any pixel.
+std::vector<bool> AmbientOnlyEntries(ModelId model);
+
 }  // namespace shadefit::fit::internal

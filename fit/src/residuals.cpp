@@ -117,6 +117,12 @@ Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::
   }
 }
 
+void Parametrization::Pin(int i, double p) {
+  entries_[i].fixed = true;
+  entries_[i].fixed_value = p;
+  entries_[i].default_u = ToInternal(i, p);
+}
+
 std::vector<double> Parametrization::StartAt(const std::vector<double>& p) const {
   if (static_cast<int>(p.size()) != size()) {
     throw Error("", "start", fmt::format("{} parameters given, model {} has {}", p.size(),

@@ -9,7 +9,7 @@ SF_INFO("ashikhmin-shirley", "isotropic Ashikhmin-Shirley 2000: Phong lobe with 
 
 #define ASHIKHMIN_SHIRLEY_PARAMS(X)                                                                \
   X(Color, rd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse reflectance")                                \
-  X(Color, rs, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+  X(Color, rs, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative | kFresnelParam,                   \
     "specular reflectance at normal incidence")                                                    \
   X(Real, n, 1.0, 100000.0, 32.0, kWidthParam | kLogScale, "Phong exponent of the lobe")
 SF_PARAMS(ASHIKHMIN_SHIRLEY_PARAMS)

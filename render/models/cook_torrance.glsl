@@ -10,7 +10,7 @@ SF_INFO("cook-torrance", "Cook-Torrance 1982: Beckmann D, V-cavity G, dielectric
 
 #define COOK_TORRANCE_PARAMS(X)                                                                    \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
-  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam | kMultiplicative,                                \
+  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam | kMultiplicative | kFresnelParam,                \
     "Fresnel reflectance at normal incidence")                                                     \
   X(Real, m, 0.01, 1.0, 0.25, kWidthParam | kMultiplicative,                                       \
     "Beckmann rms slope of the microfacets")

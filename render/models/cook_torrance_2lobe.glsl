@@ -12,7 +12,7 @@ SF_INFO("cook-torrance-2lobe", "Ngan 2005 two-lobe Cook-Torrance: Beckmann D, V-
 
 #define COOK_TORRANCE_2LOBE_PARAMS(X)                                                              \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
-  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam | kMultiplicative,                                \
+  X(Color, f0, 0.001, 0.99, 0.04, kSpecularParam | kMultiplicative | kFresnelParam,                \
     "Fresnel reflectance at normal incidence")                                                     \
   X(Real, m, 0.01, 1.0, 0.1, kWidthParam | kMultiplicative,                                        \
     "Beckmann rms slope of the narrow lobe")                                                            \

@@ -9,8 +9,8 @@ SF_INFO("cycles-principled",
 // base_color and metallic carry kSpecularParam: base 1 and metallic 1 give cspec0 = 1, no diffuse.
 #define CYCLES_PRINCIPLED_PARAMS(X)                                                                \
   X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                               \
-  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                        \
-  X(Real, specular, 0.0, 1.0, 0.5, kPlainParam, "Cycles specular; F0 = 0.08 specular")             \
+  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam | kFresnelParam, "0 dielectric, 1 metal")        \
+  X(Real, specular, 0.0, 1.0, 0.5, kFresnelParam, "Cycles specular; F0 = 0.08 specular")           \
   X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
     "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(CYCLES_PRINCIPLED_PARAMS)

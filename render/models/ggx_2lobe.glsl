@@ -12,7 +12,7 @@ SF_INFO("ggx-2lobe", "Lambert + two GGX lobes (narrow and wide) sharing F_Schlic
 
 #define GGX_2LOBE_PARAMS(X)                                                                        \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
-  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative | kFresnelParam,                   \
     "Fresnel reflectance at normal incidence of both lobes together")                              \
   X(Real, roughness, 0.01, 1.0, 0.15, kWidthParam | kMultiplicative,                               \
     "perceptual roughness of the narrow lobe; alpha_1 = roughness^2")                                   \

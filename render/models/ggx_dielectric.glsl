@@ -5,7 +5,7 @@ SF_INFO("ggx-dielectric", "Lambert + GGX with exact dielectric Fresnel from an I
 
 #define GGX_DIELECTRIC_PARAMS(X)                                                                   \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
-  X(Real, ior, 1.0, 3.0, 1.5, kPlainParam, "index of refraction")                                  \
+  X(Real, ior, 1.0, 3.0, 1.5, kFresnelParam, "index of refraction")                                \
   X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
     "perceptual roughness; alpha = roughness^2")
 SF_PARAMS(GGX_DIELECTRIC_PARAMS)

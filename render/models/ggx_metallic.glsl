@@ -8,10 +8,11 @@ SF_INFO("ggx-metallic",
 // base_color and metallic carry kSpecularParam: base 1 and metallic 1 give f0 = 1 and kd = 0.
 #define GGX_METALLIC_PARAMS(X)                                                                     \
   X(Color, base_color, 0.0, 1.0, 0.8, kSpecularParam, "base colour")                               \
-  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam, "0 dielectric, 1 metal")                        \
+  X(Real, metallic, 0.0, 1.0, 0.0, kSpecularParam | kFresnelParam, "0 dielectric, 1 metal")        \
   X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
     "perceptual roughness; alpha = roughness^2")                                                   \
-  X(Real, f0_dielectric, 0.0, 1.0, 0.04, kMultiplicative, "F0 of the dielectric part")
+  X(Real, f0_dielectric, 0.0, 1.0, 0.04, kMultiplicative | kFresnelParam,                          \
+    "F0 of the dielectric part")
 SF_PARAMS(GGX_METALLIC_PARAMS)
 #undef GGX_METALLIC_PARAMS
 

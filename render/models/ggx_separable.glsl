@@ -5,7 +5,7 @@ SF_INFO("ggx-separable", "ggx with separable Smith G (Walter 2007)")
 
 #define GGX_SEPARABLE_PARAMS(X)                                                                    \
   X(Color, kd, 0.0, 1.0, 0.5, kDiffuseParam, "diffuse albedo (Lambert: f = kd / pi)")              \
-  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative,                                   \
+  X(Color, f0, 0.0, 1.0, 0.04, kSpecularParam | kMultiplicative | kFresnelParam,                   \
     "Fresnel reflectance at normal incidence")                                                     \
   X(Real, roughness, 0.01, 1.0, 0.5, kWidthParam | kMultiplicative,                                \
     "perceptual roughness; alpha = roughness^2")

@@ -71,7 +71,9 @@ void PrintFit(const fit::FitResult& result, const std::string& output) {
   if (result.exposure_free) {
     fmt::print("  {:<16} {:>12.6g}  +- {:.3g}\n", "exposure", result.exposure,
                result.exposure_std_error);
+    fmt::print("  pinned: {}\n", result.exposure_pin.text);
   }
+  for (const std::string& held : result.held) fmt::print("  held: {}\n", held);
   fmt::print("wrote {}\n", output);
   if (!result.converged) {
     std::fprintf(stderr,

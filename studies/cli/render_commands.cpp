@@ -10,6 +10,7 @@
 #include "commands.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
+#include "shadefit/fit/exposure_pin.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/models.h"
 #include "shadefit/render/renderer.h"
@@ -41,7 +42,8 @@ void RegisterModelsCommand(CLI::App& app) {
         fmt::print("  {:<14} {:>4} {:>10g} {:>10g} {:>9g}  {}{}\n", p.name, p.size, p.min, p.max,
                    p.default_value, p.description, p.log_scale ? " (fitted in log space)" : "");
       }
-      fmt::print("\n");
+      // docs/fitting.md, "Free exposure".
+      fmt::print("  with a free exposure, pinned: {}\n\n", fit::ExposurePinOf(m.name).text);
     }
   });
 }

@@ -4,11 +4,13 @@
 // Also: every loss runs, --fix holds a parameter.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "fit_test_util.h"
 #include "shadefit/base/error.h"
+#include "shadefit/fit/exposure_pin.h"
 
 namespace shadefit {
 namespace {
@@ -229,6 +231,84 @@ TEST(MultiStartTest, DeterministicAndReported) {
   for (const auto& p : a.parameters) {
     EXPECT_LE(p.spread_min, p.value);
     EXPECT_GE(p.spread_max, p.value);
+  }
+}
+
+// Issue 33 item 2: with a free exposure, each model pins one scale, chosen from its structure
+// (model_structure.h) and roles (kFresnelParam), not from a list of names (exposure_pin.h).
+TEST(ExposurePinTest, ChosenFromStructureAndRoles) {
+  using fit::PinKind;
+  const fit::ExposurePin bp = fit::ExposurePinOf("blinn-phong");
+  EXPECT_EQ(bp.kind, PinKind::kExposure);
+  EXPECT_EQ(bp.entries, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8}));  // ka, kd, ks
+  EXPECT_EQ(fit::ExposurePinOf("ward").kind, PinKind::kExposure);
+  EXPECT_EQ(fit::ExposurePinOf("lafortune").entries, (std::vector<int>{0, 1, 2, 3, 4, 5}));
+  const fit::ExposurePin ggx = fit::ExposurePinOf("ggx");
+  EXPECT_EQ(ggx.kind, PinKind::kFresnel);
+  EXPECT_EQ(ggx.entries, std::vector<int>{4});  // f0.g: a coloured highlight stays free.
+  EXPECT_EQ(ggx.values, std::vector<double>{0.04});
+  const fit::ExposurePin metallic = fit::ExposurePinOf("ggx-metallic");
+  EXPECT_EQ(metallic.entries, (std::vector<int>{3, 5}));  // metallic 0, f0_dielectric 0.04
+  EXPECT_EQ(metallic.values, (std::vector<double>{0.0, 0.04}));
+  EXPECT_EQ(fit::ExposurePinOf("ggx-dielectric").values, std::vector<double>{1.5});
+  EXPECT_EQ(fit::ExposurePinOf("ggx-conductor").kind, PinKind::kUnitExposure);
+  // The user's own values: a Fresnel row or a non-zero reflectance already sets the scale; a
+  // reflectance fixed at 0 does not.
+  EXPECT_EQ(fit::ExposurePinOf("ggx", {"f0=0.9"}).kind, PinKind::kNone);
+  EXPECT_EQ(fit::ExposurePinOf("ggx", {"kd=0.5"}).kind, PinKind::kNone);
+  EXPECT_EQ(fit::ExposurePinOf("blinn-phong", {"kd=0.3,0.2,0.1"}).kind, PinKind::kNone);
+  EXPECT_EQ(fit::ExposurePinOf("blinn-phong", {"ka=0"}).entries,
+            (std::vector<int>{3, 4, 5, 6, 7, 8}));
+  EXPECT_THROW(fit::ExposurePinOf("ggx", {"shininess=3"}), Error);
+}
+
+// The references are the truth's renders times an unknown exposure. A free-exposure fit of each
+// model must end on the image, with no parameter undetermined: the linear models at exposure 1
+// with their reflectances times the exposure (or, where that leaves the box, with the largest at
+// 99% of its bound), the Fresnel models at the true exposure with f0.g held at the truth.
+TEST(ExposurePinTest, FreeExposureLeavesNothingUndetermined) {
+  struct Case {
+    const char* model;
+    std::vector<double> truth;
+    double exposure;
+  };
+  const std::vector<Case> cases = {
+      {"blinn-phong", {0, 0, 0, 0.4, 0.25, 0.1, 0.6, 0.6, 0.6, 40}, 1.7},
+      {"blinn-phong", {0, 0, 0, 0.4, 0.25, 0.1, 0.6, 0.6, 0.6, 40}, 3.0},  // kd.r 1.2 > 1
+      {"blinn-phong-normalized", {0.4, 0.25, 0.1, 0.3, 0.3, 0.3, 40}, 1.7},
+      {"ggx", {0.4, 0.25, 0.1, 0.04, 0.04, 0.04, 0.3}, 1.7},
+      {"beckmann", {0.4, 0.25, 0.1, 0.04, 0.04, 0.04, 0.3}, 1.7},
+      {"cook-torrance", {0.4, 0.25, 0.1, 0.04, 0.04, 0.04, 0.3}, 1.7}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::string(c.model) + " x" + std::to_string(c.exposure));
+    auto refs = testing::SyntheticReferences(c.model, c.truth, TwoLightings());
+    for (auto& ref : refs) {
+      for (std::size_t p = 0; p < ref.image.PixelCount(); ++p) {
+        for (int ch = 0; ch < 3; ++ch) ref.image.data[4 * p + ch] *= static_cast<float>(c.exposure);
+      }
+    }
+    fit::FitOptions options = Options();
+    options.exposure = fit::Exposure::kFree;
+    options.starts = 2;
+    const fit::FitResult r = fit::Fit(fit::FitProblem{c.model, refs, {}}, options);
+    ExpectSane(r);
+    EXPECT_LT(r.final_cost, 1e-8 * r.initial_cost);
+    EXPECT_EQ(r.covariance_status, fit::CovarianceStatus::kOk) << r.CovarianceStatusText();
+    for (const auto& p : r.parameters) EXPECT_FALSE(p.undetermined) << p.name;
+    const ModelInfo& m = FindModel(c.model);
+    const int kd = m.Offset("kd");
+    if (r.exposure_pin.kind == fit::PinKind::kExposure) {
+      const double scale = std::max(1.0, c.exposure * c.truth[kd] / 0.99);
+      EXPECT_NEAR(r.exposure, scale, 1e-6 * scale);
+      for (int ch = 0; ch < 3; ++ch) {
+        EXPECT_NEAR(r.values[kd + ch], c.exposure * c.truth[kd + ch] / scale, 1e-4);
+      }
+    } else {
+      EXPECT_EQ(r.exposure_pin.kind, fit::PinKind::kFresnel);
+      EXPECT_NEAR(r.exposure, c.exposure, 1e-3 * c.exposure);
+      EXPECT_TRUE(r.parameters[m.Offset("f0") + 1].fixed);
+      for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(r.values[kd + ch], c.truth[kd + ch], 1e-4);
+    }
   }
 }
 

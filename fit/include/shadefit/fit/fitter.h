@@ -24,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include "shadefit/fit/defaults.h"
+#include "shadefit/fit/exposure_pin.h"
 #include "shadefit/reference_images/reference.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
@@ -189,6 +190,10 @@ struct FitResult {
   std::vector<ParameterEstimate> parameters;
   std::vector<double> values;      // Natural units, flattened (for Renderer::Render).
   bool exposure_free = false;
+  ExposurePin exposure_pin;        // With a free exposure: what holds the scale.
+  // Entries the fit held although not fixed by the user, each with why: an ambient reflectance
+  // (classic Blinn-Phong's ka) when no reference has ambient light, where it has no effect.
+  std::vector<std::string> held;
   double exposure = 1.0;
   double exposure_std_error = std::numeric_limits<double>::quiet_NaN();
   double initial_cost = 0, final_cost = 0;  // Best start, Ceres' 0.5 * sum rho(r^2).

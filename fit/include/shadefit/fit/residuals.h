@@ -108,6 +108,10 @@ class Parametrization {
   // from a bound (kStartInside).
   std::vector<double> StartAt(const std::vector<double>& p) const;
 
+  // Holds entry i at natural value p from now on, as a "name=value" of the constructor would
+  // (the free exposure's pin of a Fresnel entry, exposure_pin.h).
+  void Pin(int i, double p);
+
  private:
   void StartWidth(int s, const std::vector<double>& shifts, std::vector<double>* u) const;
 

@@ -43,6 +43,11 @@ inline constexpr unsigned kLogScale = 1u << 3;       // Spans decades: fitted in
 // Acts multiplicatively on the image (a lobe width, a specular scale): fitted in log space
 // although its range is linear (fit/src/residuals.cpp, LogSpaceOf, says why).
 inline constexpr unsigned kMultiplicative = 1u << 4;
+// Sets the Fresnel reflectance at normal incidence (f0, rs, ior, metallic, ...), with a
+// dielectric's value (F0 = 0.04) as its default. With a free exposure, a model whose radiance is
+// not linear in its reflectances keeps its scale by pinning these rows at their defaults, colour
+// rows in green only (fit/src/exposure_pin.cpp, docs/fitting.md "Free exposure").
+inline constexpr unsigned kFresnelParam = 1u << 5;
 
 // One row of a model's parameter table (as the `[type name min max default]` blocks of the Disney
 // BRDF Explorer). Colours have size 3 and share the row's bounds and default.
