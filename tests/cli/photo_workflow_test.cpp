@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -329,17 +330,32 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
                 dir_ / "photo.toml");
   ASSERT_EQ(Shadefit("study run photo.toml -o out -j 1 -q"), 0) << err_;
 
+  // Every model of the template fitted, each with its own pin of the free exposure's scale
+  // (fit/exposure_pin.h), and none left a parameter undetermined: the Blinn-Phongs at exposure 1
+  // (their reflectances in the photographs' units), the microfacet models with f0.g held at the
+  // truth's 0.04.
   const fs::path jobs = dir_ / "out" / "photo_set" / "jobs";
-  fs::path job_path;
+  std::map<std::string, json> fits;
   for (const auto& e : fs::directory_iterator(jobs)) {
     const std::string name = e.path().filename().string();
     if (name.rfind("fit.", 0) == 0 && name.find(".timing.") == std::string::npos) {
-      job_path = e.path();
+      const json j = ReadJson(e.path());
+      fits[j["model"].get<std::string>()] = j;
     }
   }
-  ASSERT_FALSE(job_path.empty());
-  const json job = ReadJson(job_path);
-  ASSERT_EQ(job["status"], "ok") << job.dump(1);
+  ASSERT_EQ(fits.size(), 5u);
+  for (const auto& [model, j] : fits) {
+    ASSERT_EQ(j["status"], "ok") << model << ": " << j.dump(1);
+    EXPECT_FALSE(j["fit"]["exposure"]["pinned"].get<std::string>().empty()) << model;
+    for (const json& p : j["parameters"]) {
+      EXPECT_FALSE(p["undetermined"].get<bool>()) << model << " " << p["name"];
+    }
+    std::printf("%s: exposure %.4g, pinned: %.60s...\n", model.c_str(),
+                j["exposure"].get<double>(),
+                j["fit"]["exposure"]["pinned"].get<std::string>().c_str());
+  }
+  EXPECT_EQ(fits["blinn-phong"]["exposure"].get<double>(), 1.0);
+  const json& job = fits["ggx"];
 
   // The encoding: the pure power wins, at 2.2.
   const json& enc = job["encoding"];
@@ -395,7 +411,7 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
     EXPECT_EQ(enc["scored_values"].get<long>(), n);
   }
 
-  // The material and the exposure (f0 held at the truth, 0.04, which fixes the scale).
+  // GGX's material and the exposure (f0.g held at the truth, 0.04, which fixes the scale).
   for (const json& p : job["parameters"]) {
     const std::string n = p["name"];
     const double v = p["value"];
