@@ -12,6 +12,7 @@
 #include "shadefit/render/image.h"
 #include "shadefit/render/models.h"
 #include "shadefit/version.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::fit {
 namespace fs = std::filesystem;
@@ -148,8 +149,7 @@ Image ErrorPreview(const Image& abs_error) {
   }
   float scale = 1.0f;
   if (!errors.empty()) {
-    std::nth_element(errors.begin(), errors.begin() + errors.size() * 99 / 100, errors.end());
-    const float p99 = errors[errors.size() * 99 / 100];
+    const float p99 = Percentile(errors, 0.99);
     if (p99 > 0) scale = 1.0f / p99;
   }
   Image preview(abs_error.width, abs_error.height, 3);

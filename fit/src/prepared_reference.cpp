@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "shadefit/base/error.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::fit::internal {
 namespace {
@@ -25,8 +26,7 @@ void SubsampleForEnvironment(PreparedReference* r, int want) {
     norms[k] = std::hypot(r->linear[3 * k], r->linear[3 * k + 1], r->linear[3 * k + 2]);
   }
   std::vector<double> sorted = norms;
-  std::nth_element(sorted.begin(), sorted.begin() + n * 9 / 10, sorted.end());
-  const double p90 = sorted[n * 9 / 10];
+  const double p90 = Percentile(sorted, 0.9);
   std::size_t bright = 0;
   for (double v : norms) bright += v >= p90 ? 1 : 0;
   const std::size_t half = static_cast<std::size_t>(want) / 2;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "shadefit/base/statistics.h"
+
 namespace shadefit::fit::internal {
 namespace {
 
@@ -77,8 +79,7 @@ void AddCoarseResiduals(const ResidualSettings& settings,
       norms.push_back(std::hypot(r.linear[3 * k], r.linear[3 * k + 1], r.linear[3 * k + 2]));
     }
     std::vector<double> sorted = norms;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() * 9 / 10, sorted.end());
-    const double p90 = sorted[sorted.size() * 9 / 10];
+    const double p90 = Percentile(sorted, 0.9);
     const long stride = std::max<long>(1, static_cast<long>(r.points.size()) / want);
     for (std::size_t k = 0; k < r.points.size(); ++k) {
       if (norms[k] < p90 && k % stride != 0) continue;

@@ -13,6 +13,7 @@
 
 #include "internal.h"
 #include "shadefit/metrics/common.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::metrics {
 namespace {
@@ -594,12 +595,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
       luminance.push_back(0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]);
       y_max = std::max(y_max, luminance.back());
     }
-    // The element at index size / 2 once sorted; 0 for no pixel.
-    const auto median = [](std::vector<float>& v) {
-      if (v.empty()) return 0.0f;
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      return v[v.size() / 2];
-    };
+    // The upper median (base/statistics.h); 0 for no pixel.
+    const auto median = [](std::vector<float>& v) { return v.empty() ? 0.0f : Percentile(v, 0.5); };
     float y_median = median(luminance);
     // Degenerate references: more than half of the evaluated pixels black -> the median of the
     // lit ones stands in (the darkest lit pixel would stretch the range by many stops of

@@ -10,6 +10,7 @@
 
 #include "shadefit/reference_images/import.h"
 #include "shadefit/base/error.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::reference_images {
 namespace {
@@ -127,10 +128,7 @@ std::vector<cv::Point> ContrastRegion(const cv::Mat& gray, const Image& linear, 
       }
     }
   }
-  auto median = [](std::vector<int> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return static_cast<double>(v[v.size() / 2]);
-  };
+  auto median = [](std::vector<int> v) { return static_cast<double>(Percentile(v, 0.5)); };
   const double level = median(border);
   std::vector<int> dev;
   for (int v : border) dev.push_back(static_cast<int>(std::lround(std::abs(v - level))));
@@ -198,8 +196,7 @@ void FindHighlight(const Image& linear, const cv::Mat& gray, const Image* mask, 
     }
   }
   if (peak <= 0 || peak_at.x < 0) return;
-  std::nth_element(codes.begin(), codes.begin() + codes.size() / 2, codes.end());
-  s->median_code = codes[codes.size() / 2];
+  s->median_code = Percentile(codes, 0.5);
   s->peak_code = gray.at<unsigned char>(peak_at.y, peak_at.x);
   const double threshold = fraction * peak;
   cv::Mat bright = cv::Mat::zeros(h, w, CV_8U);

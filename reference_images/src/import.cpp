@@ -13,6 +13,7 @@
 #include "shadefit/base/files.h"
 #include "shadefit/reference_images/render_measured.h"
 #include "shadefit/base/error.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::reference_images {
 namespace {
@@ -109,9 +110,7 @@ double DisplayWhite(const LoadedImage& loaded, const Image& linear) {
     lum[i] = 0.2126f * linear.data[3 * i] + 0.7152f * linear.data[3 * i + 1] +
              0.0722f * linear.data[3 * i + 2];
   }
-  const std::size_t k = lum.size() * 995 / 1000;
-  std::nth_element(lum.begin(), lum.begin() + k, lum.end());
-  return std::max(1e-12, static_cast<double>(lum[k]));
+  return std::max(1e-12, static_cast<double>(Percentile(lum, 0.995)));
 }
 
 namespace {

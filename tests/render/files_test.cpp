@@ -5,11 +5,15 @@
 
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
+#include <cmath>
 #include <iterator>
+#include <random>
 #include <stdexcept>
 #include <string>
 
 #include "shadefit/base/error.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit {
 namespace {
@@ -65,6 +69,31 @@ TEST(WriteAtomicTest, BadPathFailsBeforeFilling) {
   EXPECT_THROW(WriteAtomic("/nonexistent-dir/x.txt", [&](const std::string&) { filled = true; }),
                Error);
   EXPECT_FALSE(filled);
+}
+
+// base/statistics.h: the one percentile rule, the element of 0-based rank floor(q n) of the
+// sorted values. Its index against integer arithmetic (n * 995 / 1000, the exact floor) for every
+// n up to 20000 and the fractions the code uses, and its values on a shuffled 1..10.
+TEST(Percentile, OrderStatisticOfRankFloorQN) {
+  const std::pair<double, std::size_t> fractions[] = {{0.5, 2}, {0.9, 10}, {0.99, 100},
+                                                      {0.995, 1000}};
+  for (const auto& [q, den] : fractions) {
+    const std::size_t num = static_cast<std::size_t>(std::lround(q * den));
+    for (std::size_t n = 1; n <= 20000; ++n) {
+      ASSERT_EQ(PercentileIndex(n, q), std::min(n - 1, n * num / den)) << q << " " << n;
+    }
+  }
+  std::vector<double> v = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+  std::shuffle(v.begin(), v.end(), std::mt19937(7));
+  EXPECT_EQ(Percentile(v, 0.5), 6.0);  // The upper median of an even count.
+  EXPECT_EQ(Percentile(v, 0.0), 1.0);
+  EXPECT_EQ(Percentile(v, 0.25), 3.0);
+  EXPECT_EQ(Percentile(v, 0.9), 10.0);
+  EXPECT_EQ(Percentile(v, 1.0), 10.0);
+  std::vector<int> odd = {5, 1, 3};
+  EXPECT_EQ(Percentile(odd, 0.5), 3);
+  std::vector<float> none;
+  EXPECT_TRUE(std::isnan(Percentile(none, 0.5)));
 }
 
 }  // namespace

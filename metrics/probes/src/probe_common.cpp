@@ -7,6 +7,7 @@
 
 #include "shadefit/render/brdf.h"
 #include "shadefit/base/error.h"
+#include "shadefit/base/statistics.h"
 
 namespace shadefit::probes {
 
@@ -197,7 +198,9 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
         ratios.push_back(out.pixels[i].total / lambert_shading[i]);
       }
     }
-    double kd = ratios.empty() ? 0.0 : std::max(0.0, Percentile(ratios, diffuse_percentile));
+    // diffuse_percentile is in percent; the order statistic of base/statistics.h.
+    double kd =
+        ratios.empty() ? 0.0 : std::max(0.0, shadefit::Percentile(ratios, diffuse_percentile / 100));
     for (std::size_t i = 0; i < out.pixels.size(); ++i) {
       out.pixels[i].diffuse = kd * lambert_shading[i];
     }
@@ -226,15 +229,6 @@ std::vector<const ProbeReference*> SelectTwinReferences(const ProbeInputs& input
     out.push_back(&r);
   }
   return out;
-}
-
-double Percentile(std::vector<double> values, double p) {
-  if (values.empty()) return std::nan("");
-  std::sort(values.begin(), values.end());
-  const double pos = std::clamp(p, 0.0, 100.0) / 100.0 * (values.size() - 1);
-  const std::size_t lo = static_cast<std::size_t>(std::floor(pos));
-  const std::size_t hi = std::min(values.size() - 1, lo + 1);
-  return values[lo] + (values[hi] - values[lo]) * (pos - lo);
 }
 
 nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }

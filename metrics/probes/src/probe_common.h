@@ -63,9 +63,6 @@ std::vector<const ProbeReference*> SelectTwinReferences(const ProbeInputs& input
                                                         const std::vector<std::string>& lightings,
                                                         std::vector<std::string>* notes);
 
-// p-th percentile (0..100, linear interpolation) of values (copied); NaN when empty.
-double Percentile(std::vector<double> values, double p);
-
 // A JSON number, or null when not finite.
 nlohmann::json Num(double v);
 

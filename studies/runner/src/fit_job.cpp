@@ -23,6 +23,7 @@
 #include "shadefit/reference_images/reference.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/image.h"
+#include "shadefit/base/statistics.h"
 #include "test_hooks.h"
 
 namespace shadefit::studies::internal {
@@ -133,9 +134,7 @@ double ErrorScale(const reference_images::Reference& ref) {
     }
   }
   if (v.empty()) return 1.0;
-  const std::size_t k = static_cast<std::size_t>(0.99 * (v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return std::max(1e-6, 0.25 * v[k]);
+  return std::max(1e-6, 0.25 * static_cast<double>(Percentile(v, 0.99)));
 }
 
 Image CoverageMask(const Image& image) {
