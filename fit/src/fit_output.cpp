@@ -80,8 +80,13 @@ json StartsJson(const FitResult& r) {
       {"reached_best", r.starts_reached_best},
       {"tolerance", "final_cost <= best + 1e-6 best + 1e-12 * cost of a black prediction"},
       {"method",
-       "start 0 = table defaults; others Halton, Cranley-Patterson shift from seed; starts 2 and 3 "
-       "take the lobe width from the broad and middle strata"},
+       std::string("start 0 = table defaults; others Halton, Cranley-Patterson shift from seed; "
+                   "starts 2 and 3 take the lobe width from the broad and middle strata") +
+           (r.given_starts > 0
+                ? fmt::format("; the last {} given (a study's start = \"brdf\": the material's "
+                              "BRDF-space fit of the model)",
+                              r.given_starts)
+                : std::string())},
       {"coarse_to_fine", r.coarse_to_fine},
       {"results", starts}};
   // The best other basin: a start that ended above the best cost (on every pixel), with its cost

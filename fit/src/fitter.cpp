@@ -188,7 +188,8 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   }
   result.model = model.name;
   result.loss = options.loss;
-  result.starts = options.starts + static_cast<int>(options.start_points.size());
+  result.given_starts = static_cast<int>(options.start_points.size());
+  result.starts = options.starts + result.given_starts;
   result.seed = options.seed;
   result.exposure_free = options.exposure == Exposure::kFree;
 

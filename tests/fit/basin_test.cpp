@@ -106,6 +106,10 @@ TEST(StartPoints, AGivenStartIsSolvedFromAndRecorded) {
   const fit::FitResult result = fit::Fit(problem, options);
   ASSERT_EQ(result.starts, 2);
   ASSERT_EQ(result.start_results.size(), 2u);
+  // The JSON says which start was given.
+  EXPECT_NE(fit::FitResultToJson(result)["starts"]["method"].get<std::string>().find(
+                "the last 1 given"),
+            std::string::npos);
   for (std::size_t i = 0; i < truth.size(); ++i) {
     EXPECT_NEAR(result.start_results[1].start[i], truth[i], 1e-9 * truth[i]) << i;
     EXPECT_NEAR(result.values[i], truth[i], 0.01 * truth[i]) << i;

@@ -207,6 +207,7 @@ struct FitResult {
   double seconds = 0;               // Wall time of Fit().
   double solve_seconds = 0;         // Of which the solves (every start), nothing else.
   int starts = 1;
+  int given_starts = 0;             // Of which the last ones: FitOptions::start_points.
   std::uint64_t seed = 1;
   int starts_reached_best = 0;
   // The best end point among the starts that did not reach the best cost and were solved on every
