@@ -195,6 +195,9 @@ FIT_JOB = Object({
         "value": Field(NUMBER, nullable=True),      # null: not finite
         "std_error": Field(NUMBER, nullable=True),  # null: not determined
         "fixed": BOOLEAN,
+        # why a fit fixed it when the study did not ("free exposure", "no ambient light"), else
+        # ""; absent in jobs written before shadefit wrote it
+        "fixed_by": Optional(STRING),
         "at_bound": BOOLEAN,
         "undetermined": BOOLEAN,
     })),

@@ -36,7 +36,8 @@ def parameters_table(study, fits):
             for p in job["parameters"]:
                 note = []
                 if p["fixed"]:
-                    note.append("fixed")
+                    why = p.get("fixed_by")  # optional (report_inputs.FIT_JOB)
+                    note.append(f"fixed ({why})" if why else "fixed")
                 if p["at_bound"]:
                     note.append("at bound")
                 if p["undetermined"]:

@@ -113,11 +113,13 @@ namespace {
 // An entry only the ambient term reads (classic Blinn-Phong's ka) has no effect on any pixel
 // when no reference has ambient light: left free it would end wherever its start was and be
 // reported undetermined. It is held at 0, and the result says so.
-void HoldWithoutAmbient(const FitProblem& problem, Parametrization* param, FitResult* result) {
+std::vector<int> HoldWithoutAmbient(const FitProblem& problem, Parametrization* param,
+                                    FitResult* result) {
+  std::vector<int> held;
   for (const FitReference& ref : problem.references) {
     for (const Light& light : ref.scene.lights) {
       const Vec3d& v = light.value;
-      if (light.type == Light::Type::kAmbient && (v.x > 0 || v.y > 0 || v.z > 0)) return;
+      if (light.type == Light::Type::kAmbient && (v.x > 0 || v.y > 0 || v.z > 0)) return held;
     }
   }
   const ModelInfo& model = param->model();
@@ -125,10 +127,12 @@ void HoldWithoutAmbient(const FitProblem& problem, Parametrization* param, FitRe
   for (int i = 0; i < param->size(); ++i) {
     if (!ambient_only[i] || param->entry(i).fixed) continue;
     param->Pin(i, 0.0);
+    held.push_back(i);
     const std::string text =
         model.SpecOfEntry(i).name + " = 0: no reference has ambient light, so it has no effect";
     if (result->held.empty() || result->held.back() != text) result->held.push_back(text);
   }
+  return held;
 }
 
 }  // namespace
@@ -168,7 +172,7 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   if (problem.references.empty()) throw Error("", "--ref", "no reference given");
   if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
   FitResult result;
-  HoldWithoutAmbient(problem, &param, &result);
+  const std::vector<int> held = HoldWithoutAmbient(problem, &param, &result);
   if (param.FreeCount() == 0 && options.exposure == Exposure::kFixed) {
     throw Error("", "--fix",
                 result.held.empty()
@@ -219,6 +223,10 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   }
 
   internal::SolvePrepared(model, param, pinned, gl, environment, &renderer, refs, &result);
+  for (int i : held) result.parameters[i].fixed_by = "no ambient light";
+  if (result.exposure_pin.kind == PinKind::kFresnel) {
+    for (int i : result.exposure_pin.entries) result.parameters[i].fixed_by = "free exposure";
+  }
   result.inputs = internal::Provenance(problem, options, refs);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

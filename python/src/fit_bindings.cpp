@@ -171,6 +171,7 @@ py::dict ResultToPy(fit::FitResult&& r) {
     e["value"] = p.value;
     e["std_error"] = p.std_error;
     e["fixed"] = p.fixed;
+    e["fixed_by"] = p.fixed_by;
     e["undetermined"] = p.undetermined;
     e["at_bound"] = p.at_bound;
     e["spread_min"] = p.spread_min;

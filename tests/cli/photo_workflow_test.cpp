@@ -355,6 +355,13 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
                 j["fit"]["exposure"]["pinned"].get<std::string>().c_str());
   }
   EXPECT_EQ(fits["blinn-phong"]["exposure"].get<double>(), 1.0);
+  {  // The report's parameter table says why f0.g is fixed although the study fixes nothing.
+    std::ifstream in(dir_ / "out" / "photo_set" / "report" / "tables" / "parameters.md");
+    std::ostringstream table;
+    table << in.rdbuf();
+    EXPECT_NE(table.str().find("fixed (free exposure)"), std::string::npos) << table.str();
+    EXPECT_NE(table.str().find("fixed (no ambient light)"), std::string::npos);
+  }
   const json& job = fits["ggx"];
 
   // The encoding: the pure power wins, at 2.2.

@@ -297,6 +297,9 @@ TEST(ExposurePinTest, FreeExposureLeavesNothingUndetermined) {
     for (const auto& p : r.parameters) EXPECT_FALSE(p.undetermined) << p.name;
     const ModelInfo& m = FindModel(c.model);
     const int kd = m.Offset("kd");
+    if (m.Find("ka")) {  // The side lighting has ambient light: ka is fitted, not held.
+      EXPECT_FALSE(r.parameters[m.Offset("ka")].fixed);
+    }
     if (r.exposure_pin.kind == fit::PinKind::kExposure) {
       const double scale = std::max(1.0, c.exposure * c.truth[kd] / 0.99);
       EXPECT_NEAR(r.exposure, scale, 1e-6 * scale);
@@ -307,9 +310,33 @@ TEST(ExposurePinTest, FreeExposureLeavesNothingUndetermined) {
       EXPECT_EQ(r.exposure_pin.kind, fit::PinKind::kFresnel);
       EXPECT_NEAR(r.exposure, c.exposure, 1e-3 * c.exposure);
       EXPECT_TRUE(r.parameters[m.Offset("f0") + 1].fixed);
+      EXPECT_EQ(r.parameters[m.Offset("f0") + 1].fixed_by, "free exposure");
+      EXPECT_EQ(r.parameters[m.Offset("f0")].fixed_by, "");  // f0.r stays free.
       for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(r.values[kd + ch], c.truth[kd + ch], 1e-4);
     }
   }
+}
+
+// Without ambient light in any reference, classic Blinn-Phong's ka has no effect on a pixel: the
+// fit holds it at 0 and says why, instead of leaving it where its start put it, "undetermined".
+TEST(ExposurePinTest, AmbientReflectanceHeldWithoutAmbientLight) {
+  const std::vector<double> truth = {0, 0, 0, 0.4, 0.25, 0.1, 0.6, 0.6, 0.6, 40};
+  std::vector<Scene> key = testing::SyntheticScenes(64);
+  key.resize(1);
+  const fit::FitResult r =
+      fit::Fit(fit::FitProblem{"blinn-phong", testing::SyntheticReferences("blinn-phong", truth,
+                                                                           key), {}},
+               Options());
+  ExpectSane(r);
+  EXPECT_EQ(r.covariance_status, fit::CovarianceStatus::kOk) << r.CovarianceStatusText();
+  for (int ch = 0; ch < 3; ++ch) {
+    EXPECT_TRUE(r.parameters[ch].fixed);
+    EXPECT_EQ(r.parameters[ch].value, 0.0);
+    EXPECT_EQ(r.parameters[ch].fixed_by, "no ambient light");
+  }
+  ASSERT_EQ(r.held.size(), 1u);
+  EXPECT_EQ(r.held[0].rfind("ka = 0", 0), 0u) << r.held[0];
+  for (const auto& p : r.parameters) EXPECT_FALSE(p.undetermined) << p.name;
 }
 
 }  // namespace

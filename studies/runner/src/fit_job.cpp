@@ -395,6 +395,7 @@ json ParametersJson(const fit::FitResult& result) {
                       {"value", Num(p.value)},
                       {"std_error", Num(p.std_error)},
                       {"fixed", p.fixed},
+                      {"fixed_by", p.fixed_by},
                       {"undetermined", p.undetermined},
                       {"at_bound", p.at_bound}});
   }

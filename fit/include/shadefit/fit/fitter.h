@@ -143,6 +143,9 @@ struct ParameterEstimate {
   double value = 0;    // Natural units (after undoing the log reparametrisation).
   double std_error = std::numeric_limits<double>::quiet_NaN();  // NaN: fixed or undetermined.
   bool fixed = false;
+  // Why a fixed entry is fixed when the user did not fix it: "free exposure" (the exposure pin,
+  // exposure_pin.h) or "no ambient light" (an ambient-only entry); empty otherwise.
+  std::string fixed_by;
   bool undetermined = false;  // In the numerical null space of the Jacobian at the optimum.
   bool at_bound = false;      // On a box bound: the std error is not meaningful there.
   // Among the starts that reached the best cost: min, max, standard deviation.
