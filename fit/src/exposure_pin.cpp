@@ -41,8 +41,8 @@ ExposurePin FresnelPin(const ModelInfo& model) {
   }
   pin.text = fmt::format(
       "{} (a dielectric's Fresnel reflectance at normal incidence, F0 = 0.04): the radiance is "
-      "not linear in the reflectances, so the exposure is fitted and the other reflectances are "
-      "in the pinned value's units",
+      "not linear in the reflectances; with these held the exposure is fitted, and the other "
+      "reflectances are absolute if the material is a dielectric",
       fmt::join(held, ", "));
   return pin;
 }
