@@ -211,6 +211,12 @@ FIT_JOB = Object({
                                    "error": Optional(STRING), "error_scale": Optional(NUMBER),
                                    "domain": Optional(STRING)})),
     })),
+    # The fitter's own record (FitResultToJson, fit/src/fit_output.cpp); the report reads what a
+    # free exposure pinned (fit/exposure_pin.h), absent in jobs written before it was recorded.
+    "fit": Optional(Object({
+        "exposure": Object({"mode": Field(STRING, one_of=("fixed", "free")),
+                            "pinned": Optional(STRING)}),
+    })),
     # The encoding search's record (fit.encoding = "fit" only; fit/src/encoding_search.cpp).
     "encoding": Optional(Object({
         "chosen": STRING,

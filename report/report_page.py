@@ -13,6 +13,7 @@ import os
 import re
 
 import report_compare
+import report_summary
 
 PAGE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "page")
 
@@ -356,6 +357,18 @@ def encoding_html(tables):
             "values of the training photographs.</p>"]
 
 
+def pin_html(fits):
+    """What each fit pinned with a free exposure (report_summary.pin_sentences), in words."""
+    sentences = report_summary.pin_sentences(fits)
+    if not sentences:
+        return []
+    return ["<h2 id='free-exposure'>Free exposure</h2><p>The exposure is free (a photograph's "
+            "is unknown), and exposure times the reflectances is what the pixels determine, so "
+            "each model pinned one scale (docs/fitting.md, \"Free exposure\"):</p><ul>"
+            + "".join(f"<li>{esc(label)}: {esc(pinned)}</li>" for label, pinned in sentences)
+            + "</ul>"]
+
+
 def question_sections_html(study, families, titles, tables, summary, figures, charts, labels):
     """One section per family of questions, led by the figure that answers it."""
     verdicts, materials = study["verdicts"], [g["material"] for g in study["groups"]]
@@ -462,6 +475,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              answers_html(comparisons, figures, floor_lines)]
     parts += within_tolerance_html(study, summary, labels, comparisons)
     parts += encoding_html(tables)
+    parts += pin_html(fits)
     parts += question_sections_html(study, families, titles, tables, summary, figures, charts,
                                     labels)
     parts += charts_html(charts)

@@ -38,7 +38,8 @@ def summary_markdown(study, summary, matrix, provenance, comparisons, floor_line
     sf = provenance.get("shadefit", {})
     lines += ["", f"shadefit {sf.get('version', '?')}, GL: {provenance.get('gl_renderer', '?')}, "
               f"generated {datetime.date.today().isoformat()}.", ""]
-    return "\n".join(lines) + encoding_markdown(fits) + ngan_markdown(ngan)
+    return ("\n".join(lines) + encoding_markdown(fits) + pin_markdown(fits)
+            + ngan_markdown(ngan))
 
 
 def within_tolerance_lines(study, summary):
@@ -62,6 +63,29 @@ def within_tolerance_lines(study, summary):
             answer += f"; n/a on the other materials ({why[0]})"
         lines.append(f"- **{v['question']}** ({tol}) — materials reproduced: {answer}")
     return lines
+
+
+def pin_sentences(fits):
+    """One sentence per fit label with a free exposure: the scale its model pinned
+    (fit/exposure_pin.h; docs/fitting.md, "Free exposure")."""
+    out, seen = [], set()
+    for (material, label), job in sorted(fits.items(), key=lambda kv: kv[0][1]):
+        pinned = job.get("fit", {}).get("exposure", {}).get("pinned")
+        if pinned and label not in seen:
+            seen.add(label)
+            out.append((label, pinned))
+    return out
+
+
+def pin_markdown(fits):
+    """The free exposure's section: what each fit pinned to keep its reflectances determined."""
+    sentences = pin_sentences(fits)
+    if not sentences:
+        return ""
+    return ("\n## Free exposure\n\nThe exposure is free (a photograph's is unknown), and exposure "
+            "times the reflectances is what the pixels determine, so each model pinned one scale "
+            "(docs/fitting.md, \"Free exposure\"):\n\n"
+            + "\n".join(f"- {label}: {md_escape(pinned)}" for label, pinned in sentences) + "\n")
 
 
 def encoding_markdown(fits):

@@ -458,6 +458,12 @@ TEST_F(PhotoWorkflow, GammaSetEndToEnd) {
   EXPECT_NE(hss.str().find("the fit chose the encoding <b>gamma 2."), std::string::npos);
   // The template's free exposure turns on the data floor (docs/measured_and_imported.md, "Data
   // floor"): its sentence, in the decoding the fit chose, is under the answers of both pages.
+  // Each model's free-exposure pin is said in words on both pages.
+  EXPECT_NE(mss.str().find("## Free exposure"), std::string::npos);
+  EXPECT_NE(mss.str().find("- blinn-phong: the exposure: the radiance is linear in ka, kd, ks"),
+            std::string::npos);
+  EXPECT_NE(mss.str().find("- ggx: f0.g = 0.04 (a dielectric's"), std::string::npos);
+  EXPECT_NE(hss.str().find("<li>ggx: f0.g = 0.04"), std::string::npos);
   for (const std::string& page : {mss.str(), hss.str()}) {
     EXPECT_NE(page.find("Data floor"), std::string::npos);
     EXPECT_NE(page.find("in the decoding ggx chose (gamma 2."), std::string::npos);
