@@ -291,7 +291,7 @@ def compare_study(study, rows, summary, to_float):
         rec = {"name": q["name"], "question": q.get("question", q["name"]),
                "default": q["default"], "source": q["source"], "metric": q.get("metric"),
                "split": q.get("split"), "mode": mode, "n_a": sorted(set(why.values())),
-               "errors": {f"{m}|{l}": e for (m, l), e in errors.items()},
+               "errors": [{"material": m, "fit": l, "error": e} for (m, l), e in errors.items()],
                "comparisons": comparisons}
         # Measured references: the metrics above are over measured pixels; the same comparison
         # over every pixel (extrapolated data included) is printed beside it.
@@ -480,7 +480,9 @@ def method_text(records):
 
 
 def to_json(records):
-    return {"schema": "shadefit.comparisons/1",
+    # /2: each material's error per fit is a record {material, fit, error}, no longer a
+    # "material|fit" key (issue 35: labels carried as fields, not composed strings).
+    return {"schema": "shadefit.comparisons/2",
             "method": {"effect": "ratio: geometric mean over materials of baseline error / fit "
                                  "error (> 1: the fit is closer); difference: mean of baseline "
                                  "error - fit error",

@@ -88,10 +88,10 @@ def paired_errors_figure(rec, study, fig_dir, manifest, title, y_label):
         if f["label"] in used:
             groups.setdefault(tuple(f["train"]), []).append(f["label"])
     errors = {}
-    for key, e in rec["errors"].items():
-        m, label = key.split("|", 1)
+    for r in rec["errors"]:
+        e = r["error"]
         if e is not None and math.isfinite(e):
-            errors[(m, label)] = e
+            errors[(r["material"], r["fit"])] = e
     materials = sorted({m for m, _ in errors})
     log = rec["mode"] == "ratio" and all(e > 0 for e in errors.values())
     wide = len(order) > 4

@@ -164,6 +164,15 @@ def main(argv):
     figs = json.load(open(os.path.join(d, "report", "figures.json"), encoding="utf-8"))
     check(any(f.get("kind") == "comparison" and f.get("question") == "image" for f in figs),
           "2x: no comparison figure for the image question")
+    # Each material's error per fit is a record, the fit and material as fields (schema /2).
+    errs = question(comp, "image")["errors"]
+    check(comp["schema"] == "shadefit.comparisons/2" and len(errs) == 40
+          and all(set(r) == {"material", "fit", "error"} for r in errs)
+          and {r["fit"] for r in errs} == {"blinn-phong", "ggx"},
+          f"2x: errors are not 40 records {{material, fit, error}}: {errs[:2]}")
+    ratio = {r["material"]: r["error"] for r in errs if r["fit"] == "blinn-phong"}
+    check(all(abs(ratio[r["material"]] / r["error"] - 2) < 1e-9 for r in errs if r["fit"] == "ggx"),
+          "2x: the records' errors are not the 2x pair")
 
     # 2. Identical fits.
     d = os.path.join(out, "same")
