@@ -7,6 +7,7 @@
 
 #include "exposure_gauge.h"
 #include "model_structure.h"
+#include "shadefit/fit/residuals.h"
 #include "shadefit/render/models.h"
 
 namespace shadefit::fit {
@@ -52,18 +53,13 @@ ExposurePin FresnelPin(const ModelInfo& model) {
 ExposurePin ExposurePinOf(const std::string& model_name, const std::vector<std::string>& fixed) {
   const ModelInfo& model = FindModel(model_name);
   const std::vector<bool> linear = internal::LinearEntries(model.id);
-  std::vector<double> values = DefaultParams(model);
-  std::vector<bool> is_fixed(model.ParamCount(), false);
-  for (const std::string& assignment : fixed) {
-    SetParamFromString(model, assignment, "--fix", &values);
-    const std::string name = assignment.substr(0, assignment.find('='));
-    for (int c = 0; c < model.Find(name)->size; ++c) is_fixed[model.Offset(name) + c] = true;
-  }
+  const Parametrization user(model, fixed);  // The user's fixed entries, parsed and checked.
   ExposurePin pin;
   for (int i = 0; i < model.ParamCount(); ++i) {
+    const EntryMap& e = user.entry(i);
     const bool sets_scale =
-        (linear[i] && values[i] != 0.0) || (model.SpecOfEntry(i).roles & kFresnelParam);
-    if (is_fixed[i] && sets_scale) {
+        (linear[i] && e.fixed_value != 0.0) || (model.SpecOfEntry(i).roles & kFresnelParam);
+    if (e.fixed && sets_scale) {
       pin.text = fmt::format("nothing added: the fixed {} sets the scale", model.EntryName(i));
       return pin;
     }
@@ -71,7 +67,7 @@ ExposurePin ExposurePinOf(const std::string& model_name, const std::vector<std::
   if (internal::HomogeneousInLinearEntries(model.id)) {
     pin.kind = PinKind::kExposure;
     for (int i = 0; i < model.ParamCount(); ++i) {
-      if (linear[i] && !is_fixed[i]) pin.entries.push_back(i);
+      if (linear[i] && !user.entry(i).fixed) pin.entries.push_back(i);
     }
     pin.text = fmt::format(
         "the exposure: the radiance is linear in {} (exposure times them is one number), so the "
