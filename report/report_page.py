@@ -362,10 +362,8 @@ def pin_html(fits):
     sentences = report_summary.pin_sentences(fits)
     if not sentences:
         return []
-    return ["<h2 id='free-exposure'>Free exposure</h2><p>The exposure is free (a photograph's "
-            "is unknown), and exposure times the reflectances is what the pixels determine, so "
-            "each model pinned one scale (docs/fitting.md, \"Free exposure\"):</p><ul>"
-            + "".join(f"<li>{esc(label)}: {esc(pinned)}</li>" for label, pinned in sentences)
+    return ["<h2 id='free-exposure'>Free exposure</h2><p>" + esc(report_summary.PIN_INTRO)
+            + "</p><ul>" + "".join(f"<li>{esc(label)}: {esc(pinned)}</li>" for label, pinned in sentences)
             + "</ul>"]
 
 

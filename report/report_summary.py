@@ -65,6 +65,11 @@ def within_tolerance_lines(study, summary):
     return lines
 
 
+PIN_INTRO = ("The exposure is free (a photograph's is unknown), and exposure times the "
+             "reflectances is what the pixels determine, so each model pinned one scale "
+             "(docs/fitting.md, \"Free exposure\"):")
+
+
 def pin_sentences(fits):
     """One sentence per fit label with a free exposure: the scale its model pinned
     (fit/exposure_pin.h; docs/fitting.md, "Free exposure")."""
@@ -82,9 +87,7 @@ def pin_markdown(fits):
     sentences = pin_sentences(fits)
     if not sentences:
         return ""
-    return ("\n## Free exposure\n\nThe exposure is free (a photograph's is unknown), and exposure "
-            "times the reflectances is what the pixels determine, so each model pinned one scale "
-            "(docs/fitting.md, \"Free exposure\"):\n\n"
+    return ("\n## Free exposure\n\n" + PIN_INTRO + "\n\n"
             + "\n".join(f"- {label}: {md_escape(pinned)}" for label, pinned in sentences) + "\n")
 
 
