@@ -94,12 +94,29 @@ std::string TemporaryPathFor(const std::string& path) {
       .string();
 }
 
+PathKind KindOfPath(const std::string& path, const std::string& field) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec && status.type() != fs::file_type::not_found) {
+    throw Error(path, field, fmt::format("cannot be looked up: {}", OneLine(ec.message())));
+  }
+  switch (status.type()) {
+    case fs::file_type::not_found: return PathKind::kMissing;
+    case fs::file_type::regular: return PathKind::kFile;
+    case fs::file_type::directory: return PathKind::kDirectory;
+    default: return PathKind::kOther;
+  }
+}
+
 void CheckOutputPath(const std::string& path) {
   const fs::path p(path);
-  if (!p.parent_path().empty() && !fs::is_directory(p.parent_path())) {
+  if (!p.parent_path().empty() &&
+      KindOfPath(p.parent_path().string(), "output") != PathKind::kDirectory) {
     throw Error(path, "", "output directory does not exist");
   }
-  if (fs::is_directory(p)) throw Error(path, "output", "is a directory");
+  if (KindOfPath(path, "output") == PathKind::kDirectory) {
+    throw Error(path, "output", "is a directory");
+  }
 }
 
 void WriteAllOrNothing(const std::vector<OutputWrite>& writes) {

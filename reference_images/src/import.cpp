@@ -43,8 +43,8 @@ std::string EncodingName(Encoding e) {
 }
 
 LoadedImage LoadImageForImport(const std::string& path) {
-  if (!fs::exists(path)) throw Error(path, "image", "file not found");
-  if (!fs::is_regular_file(path)) throw Error(path, "image", "not a regular file");
+  if (!PathExists(path)) throw Error(path, "image", "file not found");
+  if (KindOfPath(path, "image") != PathKind::kFile) throw Error(path, "image", "not a regular file");
   LoadedImage out;
   CheckImageHeader(path);
   {
@@ -133,10 +133,10 @@ void CheckImportRequest(const ImportOptions& options) {
         "", "clip-threshold",
         fmt::format("{} is outside [1, 256] (256 disables clipping)", options.clip_threshold));
   }
-  if (!options.scene_path.empty() && !fs::exists(options.scene_path)) {
+  if (!options.scene_path.empty() && !PathExists(options.scene_path)) {
     throw Error(options.scene_path, "scene", "file not found");
   }
-  if (!options.mask_path.empty() && !fs::exists(options.mask_path)) {
+  if (!options.mask_path.empty() && !PathExists(options.mask_path)) {
     throw Error(options.mask_path, "mask", "file not found");
   }
 }

@@ -30,7 +30,7 @@ std::string LightingOf(const std::string& path) {
 }
 
 Image ReadMask(const std::string& path) {
-  if (!fs::exists(path)) throw Error(path, "mask", "file not found");
+  if (!PathExists(path)) throw Error(path, "mask", "file not found");
   try {
     return ReadImage(path);
   } catch (const Error& e) {
@@ -99,7 +99,7 @@ Scene LoadLightlessTemplate(const std::string& path, const std::string& output_d
   if (fs::exists(output_dir) && !fs::is_directory(output_dir)) {
     throw Error(output_dir, "output", "exists and is not a folder");
   }
-  if (!fs::exists(path)) throw Error(path, "scene-template", "file not found");
+  if (!PathExists(path)) throw Error(path, "scene-template", "file not found");
   Scene tmpl = LoadScene(path);
   if (!tmpl.lights.empty()) {
     throw Error(path, "lights",
@@ -115,7 +115,7 @@ Scene LoadLightlessTemplate(const std::string& path, const std::string& output_d
 void WriteScenesAndSummary(const std::string& output_dir, const std::vector<std::string>& paths,
                            const std::vector<std::string>& texts, const std::string& summary_path,
                            const nlohmann::json& summary) {
-  const bool created = !fs::exists(output_dir);
+  const bool created = !PathExists(output_dir);
   std::error_code ec;
   if (created && !fs::create_directories(output_dir, ec)) {
     throw Error(output_dir, "output", "cannot create the folder: " + ec.message());
@@ -142,7 +142,7 @@ struct NumberLine {
 };
 
 std::vector<NumberLine> ReadNumberLines(const std::string& path, const std::string& field) {
-  if (!fs::exists(path)) throw Error(path, field, "file not found");
+  if (!PathExists(path)) throw Error(path, field, "file not found");
   std::ifstream in(path);
   if (!in) throw Error(path, field, "cannot read the file");
   std::vector<NumberLine> out;
@@ -175,7 +175,7 @@ std::vector<NumberLine> ReadNumberLines(const std::string& path, const std::stri
 }
 
 std::vector<std::string> ReadNames(const std::string& path) {
-  if (!fs::exists(path)) throw Error(path, "names", "file not found");
+  if (!PathExists(path)) throw Error(path, "names", "file not found");
   std::ifstream in(path);
   std::vector<std::string> out;
   std::set<std::string> seen;

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit::reference_images {
 
@@ -47,11 +48,11 @@ std::vector<std::string> MeasuredBrdfFiles(const std::string& path) {
 std::unique_ptr<MeasuredBrdf> LoadMeasuredBrdf(const std::string& path) {
   namespace fs = std::filesystem;
   const std::string ext = fs::path(path).extension().string();
-  if (!fs::exists(path)) throw Error(path, "brdf", "file not found");
+  if (!PathExists(path)) throw Error(path, "brdf", "file not found");
   if (ext == ".binary") return std::make_unique<MerlBrdf>(path);
   if (ext == ".h5") {
     const std::string json = MeasuredBrdfFiles(path)[1];
-    if (!fs::exists(json)) {
+    if (!PathExists(json)) {
       throw Error(path, "config", "the Keras model config " + json + " is missing beside it");
     }
     return std::make_unique<NeuralBrdf>(path, json);

@@ -51,7 +51,7 @@ double MerlPhiD(int k) { return k * kPi / kMerlPhiD; }
 
 MerlBrdf::MerlBrdf(const std::string& path, MerlLookup lookup) : path_(path), lookup_(lookup) {
   namespace fs = std::filesystem;
-  if (!fs::exists(path)) throw Error(path, "", "file not found");
+  if (!PathExists(path)) throw Error(path, "", "file not found");
   std::error_code ec;
   const std::uint64_t size = fs::file_size(path, ec);
   if (ec) throw Error(path, "", "cannot read file size");

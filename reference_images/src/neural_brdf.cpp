@@ -155,8 +155,8 @@ std::vector<DenseLayer> ReadDenseLayers(const std::string& json_path) {
 NeuralBrdf::NeuralBrdf(const std::string& h5_path, const std::string& json_path)
     : h5_path_(h5_path), json_path_(json_path) {
   namespace fs = std::filesystem;
-  if (!fs::exists(json_path)) throw Error(json_path, "", "file not found");
-  if (!fs::exists(h5_path)) throw Error(h5_path, "", "file not found");
+  if (!PathExists(json_path)) throw Error(json_path, "", "file not found");
+  if (!PathExists(h5_path)) throw Error(h5_path, "", "file not found");
 
   // The model config names the layers (and so the dataset paths) and their activations.
   const std::vector<DenseLayer> dense = ReadDenseLayers(json_path);

@@ -89,7 +89,7 @@ namespace {
 // The scene the reference's sidecar names (scene_file, relative to the sidecar), with the
 // sidecar's record of the decoding and of the measured domain.
 void ReadSidecarScene(const fs::path& sidecar, Reference* ref) {
-  if (!fs::exists(sidecar)) {
+  if (!PathExists(sidecar)) {
     throw Error(sidecar.string(), "",
                 "missing sidecar JSON (it names the reference's scene; or give --scene)");
   }
@@ -113,7 +113,7 @@ void ReadSidecarScene(const fs::path& sidecar, Reference* ref) {
   }
   fs::path scene_path(scene_field);
   if (scene_path.is_relative()) scene_path = sidecar.parent_path() / scene_path;
-  if (!fs::exists(scene_path)) {
+  if (!PathExists(scene_path)) {
     throw Error(sidecar.string(), "scene_file",
                 fmt::format("scene '{}' does not exist", scene_path.string()));
   }
@@ -128,7 +128,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   Reference ref;
   ref.image_path = image_path;
   ref.name = fs::path(image_path).stem().string();
-  if (!fs::exists(image_path)) throw Error(image_path, "", "reference image does not exist");
+  if (!PathExists(image_path)) throw Error(image_path, "", "reference image does not exist");
   ref.image = ReadImage(image_path);
   ref.sha256["image"] = Sha256File(image_path);
   if (ref.image.channels < 3) {
@@ -153,7 +153,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   } else {
     ReadSidecarScene(sidecar, &ref);
   }
-  if (!fs::exists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
+  if (!PathExists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
   ref.scene = LoadScene(ref.scene_path);
   ref.sha256["scene"] = Sha256File(ref.scene_path);
   if (ref.scene.camera.width != ref.image.width || ref.scene.camera.height_px != ref.image.height) {
@@ -164,7 +164,7 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   }
 
   if (!mask_path.empty()) {
-    if (!fs::exists(mask_path)) throw Error(mask_path, "", "mask does not exist");
+    if (!PathExists(mask_path)) throw Error(mask_path, "", "mask does not exist");
     ref.mask_path = mask_path;
     ref.mask = ReadImage(mask_path);
     ref.sha256["mask"] = Sha256File(mask_path);

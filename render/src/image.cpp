@@ -309,8 +309,8 @@ bool ReadPlainExr(const std::string& path, Image* out) {
 }
 
 Image ReadImage(const std::string& path, ImageMetadata* metadata) {
-  if (!fs::exists(path)) throw Error(path, "", "file not found");
-  if (fs::is_directory(path)) throw Error(path, "", "is a directory, not an image");
+  if (!PathExists(path)) throw Error(path, "", "file not found");
+  if (KindOfPath(path) == PathKind::kDirectory) throw Error(path, "", "is a directory, not an image");
   CheckImageHeader(path);
   // Metadata callers get OpenImageIO's attribute names (it renames some EXR attributes).
   Image image;

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 
 namespace shadefit {
 namespace {
@@ -237,7 +238,13 @@ Light ParseLight(const TableReader& r, const std::string& scene_dir) {
     l.type = Light::Type::kEnvironment;
     fs::path file = r.String("file", "", true);
     if (file.is_relative()) file = fs::path(scene_dir) / file;
-    if (!fs::exists(file)) {
+    PathKind kind = PathKind::kMissing;
+    try {
+      kind = KindOfPath(file.string());
+    } catch (const Error& e) {
+      r.Fail("file", e.what(), r.table().get("file"));
+    }
+    if (kind == PathKind::kMissing) {
       r.Fail("file",
              fmt::format("'{}' not found (the Blender maps come with Debian's blender-data "
                          "package)", file.string()),
@@ -340,7 +347,8 @@ Scene ParseScene(const std::string& text, const std::string& name) {
 
 Scene LoadScene(const std::string& path) {
   // Not a FIFO or a device: a scene named /dev/zero would be read forever.
-  if (fs::exists(path) && !fs::is_regular_file(path)) {
+  const PathKind kind = KindOfPath(path, "scene");
+  if (kind != PathKind::kMissing && kind != PathKind::kFile) {
     throw Error(path, "", "scene file is not a regular file");
   }
   std::ifstream in(path, std::ios::binary);

@@ -567,6 +567,20 @@ TEST_F(BadInput, SceneEnvironmentFileMissing) {
                     "bad\\.toml:16: lights\\[0\\]\\.file: '.*no-such-map\\.exr' not found");
 }
 
+// A path the file system cannot look up (a name past 255 bytes) is a one-line error naming the
+// field, not std::filesystem's exception (found by fuzz_scene on a clean clone's CI run).
+TEST_F(BadInput, SceneEnvironmentFileNameTooLong) {
+  ExpectRenderFails(SceneWith("type = \"point\"\nposition = [4.0, -4.0, 3.0]\npower = 1000.0",
+                              "type = \"environment\"\nfile = \"/" + std::string(300, 'a') + "\""),
+                    "bad\\.toml:16: lights\\[0\\]\\.file: /a+: cannot be looked up: File name too "
+                    "long");
+}
+
+TEST_F(BadInput, ReferencePathTooLong) {
+  ExpectCleanFailure("fit --ref /" + std::string(300, 'b') + ".exr --model ggx -o out/fit.json",
+                     "/b+\\.exr: cannot be looked up: File name too long");
+}
+
 TEST_F(BadInput, SceneNegativeIntensity) {
   ExpectRenderFails(SceneWith("power = 1000.0", "power = [1.0, -1.0, 1.0]"),
                     "bad\\.toml:17: lights\\[0\\]\\.power: component 1 = -1 is not allowed");

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "shadefit/base/files.h"
+
 namespace shadefit::studies::internal {
 
 // Expands one pattern relative to `base`: wildcards are allowed in the last path component only.
@@ -39,8 +41,9 @@ bool Excluded(const std::vector<std::string>& exclude, const std::string& leaf) 
 // The study file's bytes and its TOML.
 toml::table ParseStudyFile(const std::string& path, const Reader& r, StudySpec* spec) {
   const fs::path file = fs::absolute(path).lexically_normal();
-  if (!fs::exists(file)) throw Error(path, "", "study file not found");
-  if (!fs::is_regular_file(file)) throw Error(path, "", "study file is not a regular file");
+  const PathKind kind = KindOfPath(file, "study");
+  if (kind == PathKind::kMissing) throw Error(path, "", "study file not found");
+  if (kind != PathKind::kFile) throw Error(path, "", "study file is not a regular file");
   {
     std::ifstream in(file, std::ios::binary);
     std::ostringstream ss;

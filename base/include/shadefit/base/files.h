@@ -19,6 +19,17 @@ std::string Sha256String(const std::string& bytes);
 // rename stays on one file system). Every atomic writer in shadefit names its temporary here.
 std::string TemporaryPathFor(const std::string& path);
 
+// What is at a path a user gave: nothing, a regular file, a folder, or something else (a FIFO, a
+// device). When the file system cannot say (a name component past 255 bytes, a folder we may not
+// enter), throws shadefit::Error naming `path` and `field`, never std::filesystem's own exception:
+// a reader's bad input is a one-line error like any other (found by fuzz_scene). Not-found counts
+// as kMissing, also when a parent is a file (ENOTDIR).
+enum class PathKind { kMissing, kFile, kDirectory, kOther };
+PathKind KindOfPath(const std::string& path, const std::string& field = "");
+inline bool PathExists(const std::string& path, const std::string& field = "") {
+  return KindOfPath(path, field) != PathKind::kMissing;
+}
+
 // Throws shadefit::Error naming `path` unless a file can be created there: its folder exists (and
 // is a folder) and the path itself is not a folder. Every writer calls it before it writes, and
 // commands with several outputs call it for all of them first, so that a bad path fails before
