@@ -581,6 +581,12 @@ TEST_F(BadInput, ReferencePathTooLong) {
                      "/b+\\.exr: cannot be looked up: File name too long");
 }
 
+TEST_F(BadInput, StudyImagePatternTooLong) {
+  const std::string pattern = "/" + std::string(300, 'c') + "/n-*.exr";
+  ExpectStudyFails("", "[[group]]\nmaterial = \"n\"\nimages = [\"" + pattern + "\"]\n",
+                   "s\\.toml:1[0-9]: group\\.images: /c+: cannot be looked up: File name too long");
+}
+
 TEST_F(BadInput, SceneNegativeIntensity) {
   ExpectRenderFails(SceneWith("power = 1000.0", "power = [1.0, -1.0, 1.0]"),
                     "bad\\.toml:17: lights\\[0\\]\\.power: component 1 = -1 is not allowed");

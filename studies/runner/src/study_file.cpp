@@ -12,21 +12,30 @@
 namespace shadefit::studies::internal {
 
 // Expands one pattern relative to `base`: wildcards are allowed in the last path component only.
-std::vector<fs::path> Glob(const fs::path& base, const std::string& pattern) {
+std::vector<fs::path> Glob(const Reader& r, const toml::node* node, const std::string& key,
+                           const fs::path& base, const std::string& pattern) {
   const fs::path full = (base / pattern).lexically_normal();
   const fs::path dir = full.parent_path();
   const std::string leaf = full.filename().string();
   std::vector<fs::path> out;
-  if (leaf.find_first_of("*?[") == std::string::npos) {
-    if (fs::exists(full)) out.push_back(full);
-    return out;
+  try {
+    if (leaf.find_first_of("*?[") == std::string::npos) {
+      if (PathExists(full)) out.push_back(full);
+      return out;
+    }
+    if (KindOfPath(dir) != PathKind::kDirectory) return out;
+  } catch (const Error& e) {
+    r.Fail(node, key, e.what());
   }
-  if (!fs::is_directory(dir)) return out;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (entry.is_regular_file() && fnmatch(leaf.c_str(), entry.path().filename().c_str(), 0) == 0) {
-      out.push_back(entry.path());
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (it->is_regular_file(type_ec) &&
+        fnmatch(leaf.c_str(), it->path().filename().c_str(), 0) == 0) {
+      out.push_back(it->path());
     }
   }
+  if (ec) r.Fail(node, key, fmt::format("{}: cannot be listed: {}", dir.string(), ec.message()));
   std::sort(out.begin(), out.end());
   return out;
 }

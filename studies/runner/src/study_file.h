@@ -132,7 +132,10 @@ struct QuickFilter {
 };
 
 // Expands one pattern relative to `base`: wildcards are allowed in the last path component only.
-std::vector<fs::path> Glob(const fs::path& base, const std::string& pattern);
+// A path the file system cannot look up or a folder it cannot list fails through `r` at `node`
+// and `key`, the study's entry that gave the pattern.
+std::vector<fs::path> Glob(const Reader& r, const toml::node* node, const std::string& key,
+                           const fs::path& base, const std::string& pattern);
 
 // Whether a file's name matches one of the `exclude` patterns.
 bool Excluded(const std::vector<std::string>& exclude, const std::string& leaf);

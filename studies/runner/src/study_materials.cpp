@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "shadefit/base/files.h"
 #include "study_file.h"
 
 namespace shadefit::studies {
@@ -17,7 +18,7 @@ std::string LightingOf(const std::string& stem, const std::string& material,
   if (stem.size() > material.size() + 1 && stem.rfind(material + "-", 0) == 0) {
     return stem.substr(material.size() + 1);
   }
-  if (fs::exists(sidecar)) {
+  if (PathExists(sidecar)) {
     std::ifstream in(sidecar);
     try {
       const nlohmann::json j = nlohmann::json::parse(in);
@@ -39,7 +40,7 @@ void ReadMeasuredScenes(const Reader& r, const toml::table& t, const fs::path& b
   const std::vector<std::string> scenes = r.Strings(t, "measured.", "scenes");
   if (scenes.empty()) r.Fail(&t, "measured.scenes", "missing or empty");
   for (const std::string& pattern : scenes) {
-    const std::vector<fs::path> matches = Glob(base, pattern);
+    const std::vector<fs::path> matches = Glob(r, t.get("scenes"), "measured.scenes", base, pattern);
     if (matches.empty()) {
       r.Fail(t.get("scenes"), "measured.scenes", "'" + pattern + "' matches no file");
     }
@@ -67,12 +68,20 @@ void ReadMeasuredBrdfs(const Reader& r, const toml::table& t,
                        const std::vector<std::string>& exclude, const QuickFilter& q,
                        MeasuredSource* src) {
   std::vector<fs::path> files;
-  for (const auto& entry : fs::directory_iterator(src->folder)) {
-    const fs::path& f = entry.path();
+  std::error_code ec;
+  for (fs::directory_iterator it(src->folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& f = it->path();
     const std::string ext = f.extension().string();
     if (Excluded(exclude, f.filename().string())) continue;
     if (ext == ".binary") files.push_back(f);
-    if (ext == ".h5" && fs::exists(fs::path(f).replace_extension(".json"))) files.push_back(f);
+    std::error_code json_ec;
+    if (ext == ".h5" && fs::exists(fs::path(f).replace_extension(".json"), json_ec)) {
+      files.push_back(f);
+    }
+  }
+  if (ec) {
+    r.Fail(t.get("folder"), "measured.folder",
+           fmt::format("{}: cannot be listed: {}", src->folder, ec.message()));
   }
   std::sort(files.begin(), files.end());
   for (const fs::path& f : files) {
@@ -108,7 +117,11 @@ void ReadMeasured(const Reader& r, const toml::table& root, const fs::path& base
     src.samples = static_cast<int>(r.Integer(t, "measured.", "samples", 0, 0, 65536));
     const std::vector<std::string> exclude = r.Strings(t, "measured.", "exclude");
     ReadMeasuredScenes(r, t, base, exclude, q, &src);
-    src.present = fs::is_directory(src.folder);
+    try {
+      src.present = KindOfPath(src.folder) == PathKind::kDirectory;
+    } catch (const Error& e) {
+      r.Fail(t.get("folder"), "measured.folder", e.what());
+    }
     if (src.present) ReadMeasuredBrdfs(r, t, exclude, q, &src);
     spec->measured.push_back(std::move(src));
   }
@@ -130,7 +143,7 @@ bool ReadGroup(const Reader& r, const toml::node& gn, const fs::path& base, cons
   const std::vector<std::string> lightings = r.Strings(g, "group.", "lightings");
   std::set<std::string> seen;
   for (const std::string& pattern : images) {
-    const std::vector<fs::path> matches = Glob(base, pattern);
+    const std::vector<fs::path> matches = Glob(r, g.get("images"), "group.images", base, pattern);
     if (matches.empty()) {
       r.Fail(g.get("images"), "group.images", "'" + pattern + "' matches no file");
     }
@@ -143,7 +156,7 @@ bool ReadGroup(const Reader& r, const toml::node& gn, const fs::path& base, cons
       ref.image_path = m.string();
       fs::path sidecar = m;
       sidecar.replace_extension(".json");
-      ref.sidecar_path = fs::exists(sidecar) ? sidecar.string() : "";
+      ref.sidecar_path = PathExists(sidecar) ? sidecar.string() : "";
       ref.lighting = LightingOf(ref.name, group->material, sidecar);
       if (!lightings.empty() &&
           std::find(lightings.begin(), lightings.end(), ref.lighting) == lightings.end()) {
