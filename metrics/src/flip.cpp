@@ -1,386 +1,29 @@
+// FLIP's entry points (flip.h): the cache of reference halves, pooling of the map into
+// statistics, and HDR-FLIP's exposures and tone mappers around the LDR-FLIP map of flip_map.cpp.
 #include "shadefit/metrics/flip.h"
 
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <list>
 #include <map>
 #include <memory>
 #include <mutex>
-#include <numbers>
 
+#include "flip_map.h"
 #include "internal.h"
-#include "shadefit/metrics/common.h"
 #include "shadefit/base/statistics.h"
+#include "shadefit/metrics/common.h"
 
 namespace shadefit::metrics {
 namespace {
 
-using Plane = std::vector<float>;
-using Mat3 = std::array<std::array<double, 3>, 3>;
-
-constexpr double kPi = std::numbers::pi;
-
-// FLIP constants (Andersson et al. 2020): q_c, p_c, p_t of the colour-difference remapping
-// (Sec. 4.1, Eq. 4-5), feature width w in degrees and q_f of the feature difference (Sec. 4.2).
-constexpr float kQc = 0.7f;
-constexpr float kPc = 0.4f;
-constexpr float kPt = 0.95f;
-constexpr float kFeatureWidthDegrees = 0.082f;
-constexpr float kQf = 0.5f;
-
-// Contrast sensitivity functions as sums of Gaussians in the frequency domain,
-// CSF(f) = a1 exp(-b1 f^2) + a2 exp(-b2 f^2) (Andersson et al. 2020, Sec. 4.1, Table 1), for the
-// achromatic (Y), red-green (Cx) and blue-yellow (Cz) channels. In the spatial domain each term is
-// a Gaussian a sqrt(pi / b) exp(-pi^2 x^2 / b), x in degrees (Eq. 3).
-struct Csf {
-  double a1, b1, a2, b2;
-};
-constexpr Csf kCsfY = {1.0, 0.0047, 0.0, 1.0e-5};
-constexpr Csf kCsfCx = {1.0, 0.0053, 0.0, 1.0e-5};
-constexpr Csf kCsfCz = {34.1, 0.04, 13.5, 0.025};
-
-Mat3 Inverse(const Mat3& m) {
-  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-  Mat3 inv;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      // Cofactor of (c, r) over the determinant.
-      const int r0 = (c + 1) % 3, r1 = (c + 2) % 3, c0 = (r + 1) % 3, c1 = (r + 2) % 3;
-      inv[r][c] = (m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]) / det;
-    }
-  }
-  return inv;
-}
-
-// Linear sRGB <-> XYZ, derived from the sRGB primaries and D65 white chromaticities of
-// IEC 61966-2-1 (R 0.64/0.33, G 0.30/0.60, B 0.15/0.06, W 0.3127/0.3290), and the white XYZ.
-struct ColorSpace {
-  Mat3 rgb_to_xyz;
-  Mat3 xyz_to_rgb;
-  std::array<double, 3> white;  // XYZ of RGB (1, 1, 1); Y = 1.
-};
-
-const ColorSpace& Srgb() {
-  static const ColorSpace space = [] {
-    const double xy[4][2] = {{0.64, 0.33}, {0.30, 0.60}, {0.15, 0.06}, {0.3127, 0.3290}};
-    Mat3 primaries;  // Columns: XYZ of each primary with Y = 1.
-    for (int i = 0; i < 3; ++i) {
-      primaries[0][i] = xy[i][0] / xy[i][1];
-      primaries[1][i] = 1.0;
-      primaries[2][i] = (1.0 - xy[i][0] - xy[i][1]) / xy[i][1];
-    }
-    const std::array<double, 3> w = {xy[3][0] / xy[3][1], 1.0,
-                                     (1.0 - xy[3][0] - xy[3][1]) / xy[3][1]};
-    const Mat3 inv = Inverse(primaries);
-    ColorSpace s;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        const double scale = inv[c][0] * w[0] + inv[c][1] * w[1] + inv[c][2] * w[2];
-        s.rgb_to_xyz[r][c] = primaries[r][c] * scale;
-      }
-    }
-    s.xyz_to_rgb = Inverse(s.rgb_to_xyz);
-    s.white = w;
-    return s;
-  }();
-  return space;
-}
-
-struct Float3 {
-  float v[3];
-};
-
-Float3 Apply(const Mat3& m, float a, float b, float c) {
-  Float3 out;
-  for (int r = 0; r < 3; ++r) {
-    out.v[r] = static_cast<float>(m[r][0]) * a + static_cast<float>(m[r][1]) * b +
-               static_cast<float>(m[r][2]) * c;
-  }
-  return out;
-}
-
-// Cube root of t > 0 without libm's cbrtf (the hottest call of FLIP's colour pipeline): an
-// exponent-dividing bit trick (error < 4 %) refined by two Halley steps y <- y (y^3 + 2t) /
-// (2y^3 + t) in double; the cubic convergence leaves a relative error far below float epsilon.
-float Cbrt(float t) {
-  const std::uint32_t bits = std::bit_cast<std::uint32_t>(t) / 3u + 709921077u;
-  double y = std::bit_cast<float>(bits);
-  for (int i = 0; i < 2; ++i) {
-    const double y3 = y * y * y;
-    y *= (y3 + 2.0 * t) / (2.0 * y3 + t);
-  }
-  return static_cast<float>(y);
-}
-
-float LabF(float t) {
-  constexpr float kDelta = 6.0f / 29.0f;
-  return t > kDelta * kDelta * kDelta ? Cbrt(t) : t / (3.0f * kDelta * kDelta) + 4.0f / 29.0f;
-}
-
-// Linear RGB -> CIELAB (D65), then the Hunt adjustment a, b *= 0.01 L (Andersson et al. 2020,
-// Sec. 4.1): chroma matters less in dark regions.
-Float3 LinearRgbToHuntLab(float r, float g, float b) {
-  const ColorSpace& s = Srgb();
-  const Float3 xyz = Apply(s.rgb_to_xyz, r, g, b);
-  const float fx = LabF(xyz.v[0] / static_cast<float>(s.white[0]));
-  const float fy = LabF(xyz.v[1] / static_cast<float>(s.white[1]));
-  const float fz = LabF(xyz.v[2] / static_cast<float>(s.white[2]));
-  const float l = 116.0f * fy - 16.0f;
-  return {{l, 0.01f * l * 500.0f * (fx - fy), 0.01f * l * 200.0f * (fy - fz)}};
-}
-
-// HyAB distance (Abasi et al. 2020): city-block in L, Euclidean in (a, b).
-float HyAB(const Float3& x, const Float3& y) {
-  const float da = x.v[1] - y.v[1], db = x.v[2] - y.v[2];
-  return std::abs(x.v[0] - y.v[0]) + std::sqrt(da * da + db * db);
-}
-
-// Largest colour difference, between Hunt-adjusted green and blue, raised to q_c (Sec. 4.1).
-float MaxColorDifference() {
-  return std::pow(HyAB(LinearRgbToHuntLab(0, 1, 0), LinearRgbToHuntLab(0, 0, 1)), kQc);
-}
-
-// Runs body(pixel index) for every pixel, rows split across threads.
-template <typename Body>
-void ForEachPixel(int w, int h, Body body) {
-  internal::ParallelRows(h, [&](int begin, int end) {
-    const std::size_t last = static_cast<std::size_t>(end) * w;
-    for (std::size_t i = static_cast<std::size_t>(begin) * w; i < last; ++i) body(i);
-  });
-}
-
-// Separable filtering with clamp-to-edge borders.
-void FilterRows(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps) {
-  const int r = static_cast<int>(taps.size()) / 2;
-  out.resize(in.size());
-  internal::ParallelRows(h, [&](int begin, int end) {
-    std::vector<float> padded(w + 2 * r);
-    for (int y = begin; y < end; ++y) {
-      const float* row = &in[static_cast<std::size_t>(y) * w];
-      for (int i = -r; i < w + r; ++i) padded[i + r] = row[std::clamp(i, 0, w - 1)];
-      // Tap-outer loop: the inner loop runs along x and vectorises (a sum over taps would not,
-      // without reassociating floating-point additions).
-      float* o = &out[static_cast<std::size_t>(y) * w];
-      std::fill(o, o + w, 0.0f);
-      for (int k = 0; k < 2 * r + 1; ++k) {
-        const float t = taps[k];
-        const float* in = padded.data() + k;
-        for (int x = 0; x < w; ++x) o[x] += t * in[x];
-      }
-    }
-  });
-}
-
-void FilterColumns(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps) {
-  const int r = static_cast<int>(taps.size()) / 2;
-  out.assign(in.size(), 0.0f);
-  internal::ParallelRows(h, [&](int begin, int end) {
-    for (int y = begin; y < end; ++y) {
-      float* o = &out[static_cast<std::size_t>(y) * w];
-      for (int k = -r; k <= r; ++k) {
-        const float* row = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w];
-        const float t = taps[k + r];
-        for (int x = 0; x < w; ++x) o[x] += t * row[x];
-      }
-    }
-  });
-}
-
-Plane Filter2D(const Plane& in, int w, int h, const std::vector<float>& row_taps,
-               const std::vector<float>& column_taps) {
-  Plane tmp, out;
-  FilterRows(in, tmp, w, h, row_taps);
-  FilterColumns(tmp, out, w, h, column_taps);
-  return out;
-}
-
-// 1-D factors of the CSF filters. The radius covers 3 standard deviations of the widest
-// Gaussian (largest b): sigma = sqrt(b / (2 pi^2)) degrees. Y and Cx are single Gaussians,
-// normalised to sum 1. Cz is a sum of two Gaussians, g1(x)g1(y) + g2(x)g2(y), each 2-D term
-// factored as sqrt(a sqrt(pi / b)) exp(-pi^2 x^2 / b) per axis, scaled together so that the 2-D
-// kernel sums to 1 (NVIDIA's misc/separatedConvolutions.pdf shows the same factoring).
-struct CsfFilters {
-  std::vector<float> y, cx, cz1, cz2;
-};
-
-CsfFilters MakeCsfFilters(double ppd) {
-  double b_max = 0.0;
-  for (const Csf& c : {kCsfY, kCsfCx, kCsfCz}) b_max = std::max({b_max, c.b1, c.b2});
-  const int radius =
-      static_cast<int>(std::ceil(3.0 * std::sqrt(b_max / (2.0 * kPi * kPi)) * ppd));
-  const int n = 2 * radius + 1;
-  std::vector<double> y(n), cx(n), cz1(n), cz2(n);
-  double sy = 0, scx = 0, s1 = 0, s2 = 0;
-  for (int i = 0; i < n; ++i) {
-    const double x = (i - radius) / ppd;  // Degrees.
-    const auto gaussian = [x](double a, double b) {
-      return a * std::sqrt(kPi / b) * std::exp(-kPi * kPi * x * x / b);
-    };
-    y[i] = gaussian(kCsfY.a1, kCsfY.b1);  // a2 = 0: one term.
-    cx[i] = gaussian(kCsfCx.a1, kCsfCx.b1);
-    cz1[i] = std::sqrt(kCsfCz.a1 * std::sqrt(kPi / kCsfCz.b1)) *
-             std::exp(-kPi * kPi * x * x / kCsfCz.b1);
-    cz2[i] = std::sqrt(kCsfCz.a2 * std::sqrt(kPi / kCsfCz.b2)) *
-             std::exp(-kPi * kPi * x * x / kCsfCz.b2);
-    sy += y[i];
-    scx += cx[i];
-    s1 += cz1[i];
-    s2 += cz2[i];
-  }
-  const double cz_norm = 1.0 / std::sqrt(s1 * s1 + s2 * s2);  // 2-D sum = (s1^2 + s2^2) -> 1.
-  CsfFilters f;
-  for (int i = 0; i < n; ++i) {
-    f.y.push_back(static_cast<float>(y[i] / sy));
-    f.cx.push_back(static_cast<float>(cx[i] / scx));
-    f.cz1.push_back(static_cast<float>(cz1[i] * cz_norm));
-    f.cz2.push_back(static_cast<float>(cz2[i] * cz_norm));
-  }
-  return f;
-}
-
-// Edge and point detectors (Sec. 4.2): first and second derivatives of a Gaussian with
-// sigma = 0.5 w ppd pixels, radius ceil(3 sigma). The Gaussian sums to 1; the positive and
-// negative weights of each derivative sum to +1 and -1 respectively.
-struct FeatureFilters {
-  std::vector<float> g, dg, ddg;
-};
-
-FeatureFilters MakeFeatureFilters(double ppd) {
-  const double sigma = 0.5 * kFeatureWidthDegrees * ppd;
-  const int radius = static_cast<int>(std::ceil(3.0 * sigma));
-  const int n = 2 * radius + 1;
-  std::vector<double> g(n), dg(n), ddg(n);
-  double g_sum = 0, dg_pos = 0, dg_neg = 0, ddg_pos = 0, ddg_neg = 0;
-  for (int i = 0; i < n; ++i) {
-    const double x = i - radius;
-    g[i] = std::exp(-x * x / (2.0 * sigma * sigma));
-    dg[i] = -x * g[i];
-    ddg[i] = (x * x / (sigma * sigma) - 1.0) * g[i];
-    g_sum += g[i];
-    (dg[i] > 0 ? dg_pos : dg_neg) += std::abs(dg[i]);
-    (ddg[i] > 0 ? ddg_pos : ddg_neg) += std::abs(ddg[i]);
-  }
-  FeatureFilters f;
-  for (int i = 0; i < n; ++i) {
-    f.g.push_back(static_cast<float>(g[i] / g_sum));
-    f.dg.push_back(static_cast<float>(dg[i] / (dg[i] > 0 ? dg_pos : dg_neg)));
-    f.ddg.push_back(static_cast<float>(ddg[i] / (ddg[i] > 0 ? ddg_pos : ddg_neg)));
-  }
-  return f;
-}
-
-// Linear RGB (first three channels, clamped to [0, 1]) -> YCxCz planes (Sec. 4.1): the linearised
-// CIELAB of Flohr et al., Y = 116 Y/Yn - 16, Cx = 500 (X/Xn - Y/Yn), Cz = 200 (Y/Yn - Z/Zn).
-std::array<Plane, 3> ToYCxCz(const Image& rgb) {
-  const ColorSpace& s = Srgb();
-  const std::size_t n = rgb.PixelCount();
-  std::array<Plane, 3> out = {Plane(n), Plane(n), Plane(n)};
-  ForEachPixel(rgb.width, rgb.height, [&](std::size_t i) {
-    const float* p = &rgb.data[i * rgb.channels];
-    const Float3 xyz = Apply(s.rgb_to_xyz, std::clamp(p[0], 0.0f, 1.0f),
-                             std::clamp(p[1], 0.0f, 1.0f), std::clamp(p[2], 0.0f, 1.0f));
-    const float x = xyz.v[0] / static_cast<float>(s.white[0]);
-    const float y = xyz.v[1];
-    const float z = xyz.v[2] / static_cast<float>(s.white[2]);
-    out[0][i] = 116.0f * y - 16.0f;
-    out[1][i] = 500.0f * (x - y);
-    out[2][i] = 200.0f * (y - z);
-  });
-  return out;
-}
-
-// Colour pipeline output per pixel, Hunt-adjusted CIELAB of the CSF-filtered image.
-std::vector<Float3> FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w, int h,
-                                    const CsfFilters& f) {
-  const Plane y = Filter2D(ycxcz[0], w, h, f.y, f.y);
-  const Plane cx = Filter2D(ycxcz[1], w, h, f.cx, f.cx);
-  const Plane cz1 = Filter2D(ycxcz[2], w, h, f.cz1, f.cz1);
-  const Plane cz2 = Filter2D(ycxcz[2], w, h, f.cz2, f.cz2);
-  const ColorSpace& s = Srgb();
-  std::vector<Float3> lab(y.size());
-  ForEachPixel(w, h, [&](std::size_t i) {
-    // Back to linear RGB, clamped to [0, 1] (filtered colours can leave the gamut), then CIELAB.
-    const float yy = (y[i] + 16.0f) / 116.0f;
-    const float xx = (yy + cx[i] / 500.0f) * static_cast<float>(s.white[0]);
-    const float zz = (yy - (cz1[i] + cz2[i]) / 200.0f) * static_cast<float>(s.white[2]);
-    const Float3 rgb = Apply(s.xyz_to_rgb, xx, yy, zz);
-    lab[i] = LinearRgbToHuntLab(std::clamp(rgb.v[0], 0.0f, 1.0f), std::clamp(rgb.v[1], 0.0f, 1.0f),
-                                std::clamp(rgb.v[2], 0.0f, 1.0f));
-  });
-  return lab;
-}
-
-// Edge and point magnitudes of the achromatic channel normalised to [0, 1], (Y + 16) / 116.
-struct Features {
-  Plane edge, point;
-};
-
-Features DetectFeatures(const Plane& y_channel, int w, int h, const FeatureFilters& f) {
-  Plane gray(y_channel.size());
-  for (std::size_t i = 0; i < gray.size(); ++i) gray[i] = (y_channel[i] + 16.0f) / 116.0f;
-  Plane hg, hdg, hddg;
-  FilterRows(gray, hg, w, h, f.g);
-  FilterRows(gray, hdg, w, h, f.dg);
-  FilterRows(gray, hddg, w, h, f.ddg);
-  Plane ex, ey, px, py;
-  FilterColumns(hdg, ex, w, h, f.g);   // d/dx
-  FilterColumns(hg, ey, w, h, f.dg);   // d/dy
-  FilterColumns(hddg, px, w, h, f.g);  // d2/dx2
-  FilterColumns(hg, py, w, h, f.ddg);  // d2/dy2
-  Features out{Plane(gray.size()), Plane(gray.size())};
-  ForEachPixel(w, h, [&](std::size_t i) {
-    out.edge[i] = std::sqrt(ex[i] * ex[i] + ey[i] * ey[i]);
-    out.point[i] = std::sqrt(px[i] * px[i] + py[i] * py[i]);
-  });
-  return out;
-}
-
-// One image's half of the LDR-FLIP map: its CSF-filtered Hunt-adjusted colours (Sec. 4.1) and
-// its edge and point features (Sec. 4.2).
-struct FlipSide {
-  std::vector<Float3> lab;
-  Features features;
-  std::size_t Bytes() const {
-    return lab.size() * sizeof(Float3) +
-           (features.edge.size() + features.point.size()) * sizeof(float);
-  }
-};
-
-FlipSide ComputeSide(const Image& rgb, double ppd) {
-  const std::array<Plane, 3> ycxcz = ToYCxCz(rgb);
-  FlipSide side;
-  side.lab = FilteredHuntLab(ycxcz, rgb.width, rgb.height, MakeCsfFilters(ppd));
-  side.features = DetectFeatures(ycxcz[0], rgb.width, rgb.height, MakeFeatureFilters(ppd));
-  return side;
-}
-
-// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
-Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h) {
-  const float c_max = MaxColorDifference();
-  const float pc_cmax = kPc * c_max;
-  Plane flip(ref.lab.size());
-  ForEachPixel(w, h, [&](std::size_t i) {
-    // Eq. 4-5: HyAB^q_c, remapped so the lower p_c of the range covers [0, p_t].
-    float color = std::pow(HyAB(ref.lab[i], tst.lab[i]), kQc);
-    color = color < pc_cmax ? color * (kPt / pc_cmax)
-                            : kPt + (color - pc_cmax) / (c_max - pc_cmax) * (1.0f - kPt);
-    // Eq. 6: feature difference, max of edge and point differences, normalised by 1/sqrt(2),
-    // raised to q_f = 0.5 (a square root).
-    static_assert(kQf == 0.5f);
-    const float feature =
-        std::sqrt(std::max(std::abs(ref.features.edge[i] - tst.features.edge[i]),
-                           std::abs(ref.features.point[i] - tst.features.point[i])) /
-                  std::numbers::sqrt2_v<float>);
-    // Eq. 7: feature differences amplify the colour error.
-    flip[i] = std::pow(color, 1.0f - feature);
-  });
-  return flip;
-}
+using internal::CombineSides;
+using internal::ComputeSide;
+using internal::FlipSide;
+using internal::Plane;
 
 // 64-bit hash of an image's size and pixel bits (splitmix64's finaliser per 32-bit word).
 std::uint64_t HashPixels(const Image& image) {
@@ -448,8 +91,7 @@ struct FlipReferenceCache::Impl {
   FlipReferenceCache::Stats stats;
 };
 
-FlipReferenceCache::FlipReferenceCache(std::size_t byte_budget)
-    : impl_(std::make_unique<Impl>()) {
+FlipReferenceCache::FlipReferenceCache(std::size_t byte_budget) : impl_(std::make_unique<Impl>()) {
   impl_->budget = byte_budget;
 }
 
@@ -466,8 +108,8 @@ namespace {
 // (and kept there when there is a cache).
 template <typename MakeReference>
 std::shared_ptr<const FlipSide> ReferenceSide(FlipReferenceCache* cache,
-                                              const FlipReferenceCache::Impl::Key& key,
-                                              double ppd, MakeReference make_reference) {
+                                              const FlipReferenceCache::Impl::Key& key, double ppd,
+                                              MakeReference make_reference) {
   std::shared_ptr<const FlipSide> side = cache ? cache->impl().Find(key) : nullptr;
   if (!side) {
     side = std::make_shared<const FlipSide>(ComputeSide(make_reference(), ppd));
@@ -552,9 +194,7 @@ void ToneMap(Image& image, FlipToneMapper tm) {
   }
 }
 
-Image FirstThree(const Image& image) {
-  return image.channels == 3 ? image : image.Channels(0, 3);
-}
+Image FirstThree(const Image& image) { return image.channels == 3 ? image : image.Channels(0, 3); }
 
 }  // namespace
 
@@ -562,8 +202,7 @@ FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParamete
                    Image* flip_map) {
   ValidateInputs(reference, test, p.mask, 3);
   const Image ref = FirstThree(reference);
-  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0, p.ppd, 0,
-                                          1.0f};
+  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0, p.ppd, 0, 1.0f};
   const auto ref_side =
       ReferenceSide(p.reference_cache, key, p.ppd, [&]() -> const Image& { return ref; });
   const Plane map =
@@ -611,9 +250,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
     if (std::isnan(stop)) stop = std::log2(x85 / y_median);
   }
   if (stop < start) stop = start;
-  const int count = p.num_exposures > 0
-                        ? std::max(2, p.num_exposures)
-                        : static_cast<int>(std::max(2.0, std::ceil(stop - start)));
+  const int count = p.num_exposures > 0 ? std::max(2, p.num_exposures)
+                                        : static_cast<int>(std::max(2.0, std::ceil(stop - start)));
   const double step = (stop - start) / (count - 1);
 
   Plane worst(n, 0.0f), worst_index(n, 0.0f);
@@ -626,8 +264,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
       ToneMap(out, p.tone_mapper);
       return out;
     };
-    const FlipReferenceCache::Impl::Key key{ref_hash, p.ppd,
-                                            1 + static_cast<int>(p.tone_mapper), scale};
+    const FlipReferenceCache::Impl::Key key{ref_hash, p.ppd, 1 + static_cast<int>(p.tone_mapper),
+                                            scale};
     const auto ref_side =
         ReferenceSide(p.reference_cache, key, p.ppd, [&] { return exposed(ref); });
     const Plane map =

@@ -31,50 +31,8 @@ import mathutils
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from toml_subset import LoadToml  # noqa: E402  (tomllib, or our subset reader on Python 3.10)
-
-# ----------------------------------------------------------------------------------------------
-# Scene validation: our scene format checks every key (docs/scenes.md); so do we, so that a key
-# the generator silently ignored can never make a reference differ from what its TOML says.
-# ----------------------------------------------------------------------------------------------
-
-_SCENE_KEYS = {
-    "camera": {"type", "position", "look_at", "up", "fov_y", "height", "resolution",
-               "supersample"},
-    "sphere": {"type", "center", "radius"},
-    "plane": {"type", "point", "normal", "half_size"},
-    "point": {"type", "position", "power", "intensity"},
-    "directional": {"type", "direction", "irradiance"},
-    "ambient": {"type", "radiance"},
-    "environment": {"type", "file", "strength", "rotation_z", "samples"},
-    "uniform": {"type", "radiance", "samples"},
-    "background": {"transparent", "color"},
-}
-
-_MATERIAL_KEYS = {
-    # Principled BSDF inputs we expose; anything else keeps its 3.4 default (recorded in JSON).
-    "principled": {"type", "base_color", "metallic", "specular", "roughness", "distribution",
-                   "specular_tint", "anisotropic", "anisotropic_rotation", "sheen",
-                   "sheen_tint", "clearcoat", "clearcoat_roughness", "ior"},
-    "diffuse": {"type", "base_color", "roughness"},
-    "glossy": {"type", "base_color", "roughness", "distribution"},
-}
-
-
-def _CheckKeys(table, allowed, where):
-  unknown = set(table) - allowed
-  if unknown:
-    raise ValueError(f"{where}: unknown key(s) {sorted(unknown)}")
-
-
-def ValidateScene(scene, where):
-  _CheckKeys(scene, {"camera", "objects", "lights", "background"}, where)
-  _CheckKeys(scene["camera"], _SCENE_KEYS["camera"], where + " [camera]")
-  for k, o in enumerate(scene.get("objects", [])):
-    _CheckKeys(o, _SCENE_KEYS.get(o["type"], set()) or {"?"}, f"{where} objects[{k}]")
-  for k, l in enumerate(scene.get("lights", [])):
-    _CheckKeys(l, _SCENE_KEYS.get(l["type"], set()) or {"?"}, f"{where} lights[{k}]")
-  _CheckKeys(scene.get("background", {}), _SCENE_KEYS["background"], where + " [background]")
-
+# Every key of a scene or material is checked, as our own loader does (scene_keys.py).
+from scene_keys import MATERIAL_KEYS, CheckKeys, ValidateScene  # noqa: E402
 
 # ----------------------------------------------------------------------------------------------
 # Scene construction
@@ -154,7 +112,7 @@ def BuildCamera(scene, cam_cfg):
 
 def BuildMaterial(cfg):
   kind = cfg["type"]
-  _CheckKeys(cfg, _MATERIAL_KEYS.get(kind, {"?"}), f"material type {kind!r}")
+  CheckKeys(cfg, MATERIAL_KEYS.get(kind, {"?"}), f"material type {kind!r}")
   mat = bpy.data.materials.new("material")
   mat.use_nodes = True
   nt = mat.node_tree
@@ -489,6 +447,7 @@ def _Sha256File(path):
 
 
 # Hashed once at start: the process renders with the code it loaded, whatever happens on disk later.
+# This file only: scene_keys.py and toml_subset.py accept or reject a scene but shape no output.
 _GENERATOR_SHA256 = _Sha256File(os.path.abspath(__file__))
 
 
