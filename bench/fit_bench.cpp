@@ -51,7 +51,7 @@ fit::FitProblem Problem() {
     return r;
   }();
   fit::FitProblem problem;
-  problem.model = "ggx";
+  problem.model = FindModel("ggx");
   problem.references = {ref};
   return problem;
 }

@@ -26,7 +26,7 @@ probes::ProbeInputs& Inputs() {
   static probes::ProbeInputs* in = [] {
     auto* p = new probes::ProbeInputs;
     p->renderer = renderer;
-    probes::ModelUnderTest truth{"truth", "ggx", {0.3, 0.3, 0.3, 0.04, 0.04, 0.04, 0.3}};
+    probes::ModelUnderTest truth{"truth", FindModel("ggx"), {0.3, 0.3, 0.3, 0.04, 0.04, 0.04, 0.3}};
     p->truth = truth;
     const std::pair<const char*, const char*> lights[] = {
         {"camera", "[0.0, -6.0, 0.0]"},
@@ -42,7 +42,7 @@ probes::ProbeInputs& Inputs() {
       p->references.push_back(r);
     }
     probes::ModelUnderTest bp{
-        "blinn-phong", "blinn-phong", {0, 0, 0, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 40}};
+        "blinn-phong", FindModel("blinn-phong"), {0, 0, 0, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 40}};
     bp.trained_on = {"ggx-camera"};
     p->models.push_back(bp);
     return p;

@@ -159,10 +159,9 @@ BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
   return data;
 }
 
-FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::string>& fixed,
+FitResult FitBrdfSpace(const ModelInfo& model, const std::vector<FixedValue>& fixed,
                        BrdfSpaceData data, const FitOptions& given) {
   const auto t0 = std::chrono::steady_clock::now();
-  const ModelInfo& model = FindModel(model_name);
   const Parametrization param(model, fixed);
   CheckBrdfSpaceOptions(given);
   if (param.FreeCount() == 0) throw Error("", "--fix", "every parameter is fixed: nothing to fit");
@@ -175,7 +174,7 @@ FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::str
   options.renderer = nullptr;
 
   FitResult result;
-  result.model = model.name;
+  result.model = model;
   result.loss = options.loss;
   result.starts = options.starts;
   result.seed = options.seed;
@@ -210,7 +209,7 @@ FitResult FitBrdfSpace(const std::string& model_name, const std::vector<std::str
         {"cells", cells},
         {"extrapolated_weight_fraction", data.extrapolated_fraction}}},
       {"references", nlohmann::json::array()},
-      {"fixed", fixed}};
+      {"fixed", FixedTexts(fixed)}};
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

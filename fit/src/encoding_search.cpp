@@ -55,7 +55,7 @@ Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const S
   double sq = 0;
   for (std::size_t i = 0; i < problem.references.size(); ++i) {
     Image prediction;
-    EvaluateModelOnReference(decoded.references[i], problem.model, fit.values, 1.0,
+    EvaluateModelOnReference(decoded.references[i], *problem.model, fit.values, 1.0,
                              options.renderer, &prediction);
     long n = 0;
     const double rmse = StoredRmse(problem.references[i], prediction, fit.exposure, e, &n);
@@ -104,12 +104,6 @@ std::string StoredEncoding::Name() const {
       return fmt::format("gamma {:.3f}", gamma);
   }
   return "";
-}
-
-EncodingMode ParseEncodingMode(const std::string& name) {
-  if (name == "as-imported") return EncodingMode::kAsImported;
-  if (name == "fit") return EncodingMode::kFit;
-  throw Error("", "encoding", "\"" + name + "\": expected as-imported or fit");
 }
 
 std::string EncodingModeName(EncodingMode mode) {

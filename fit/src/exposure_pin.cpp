@@ -50,10 +50,9 @@ ExposurePin FresnelPin(const ModelInfo& model) {
 
 }  // namespace
 
-ExposurePin ExposurePinOf(const std::string& model_name, const std::vector<std::string>& fixed) {
-  const ModelInfo& model = FindModel(model_name);
+ExposurePin ExposurePinOf(const ModelInfo& model, const std::vector<FixedValue>& fixed) {
   const std::vector<bool> linear = internal::LinearEntries(model.id);
-  const Parametrization user(model, fixed);  // The user's fixed entries, parsed and checked.
+  const Parametrization user(model, fixed);  // The user's fixed entries.
   ExposurePin pin;
   for (int i = 0; i < model.ParamCount(); ++i) {
     const EntryMap& e = user.entry(i);

@@ -46,7 +46,7 @@ json ParametersJson(const FitResult& r) {
 // The fitted values by parameter name: a number, or an array for a colour.
 json ValuesJson(const FitResult& r) {
   json values = json::object();
-  const ModelInfo& model = FindModel(r.model);
+  const ModelInfo& model = *r.model;
   int offset = 0;
   for (const ParamSpec& spec : model.params) {
     if (spec.size == 1) {
@@ -109,7 +109,7 @@ json StartsJson(const FitResult& r) {
 nlohmann::json FitResultToJson(const FitResult& r) {
   json j;
   j["shadefit_version"] = SHADEFIT_VERSION_STRING;
-  j["model"] = r.model;
+  j["model"] = r.model->name;
   j["derivative_path"] = PathName(r.path);
   j["parameters"] = ParametersJson(r);
   j["values"] = ValuesJson(r);
@@ -189,7 +189,7 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
     std::string name = ref.name;
     if (seen[name]++ > 0) name += fmt::format("-{}", seen[name]);
     const std::string base = (dir / (stem + "." + name)).string();
-    ImageMetadata meta{{"shadefit:model", result.model},
+    ImageMetadata meta{{"shadefit:model", result.model->name},
                        {"shadefit:version", SHADEFIT_VERSION_STRING},
                        {"shadefit:fit", json.filename().string()}};
     writes.push_back({base + ".fit.exr",

@@ -188,7 +188,7 @@ nlohmann::json Provenance(const FitProblem& problem, const FitOptions& options,
     }
     inputs["references"].push_back(j);
   }
-  inputs["fixed"] = problem.fixed;
+  inputs["fixed"] = FixedTexts(problem.fixed);
   return inputs;
 }
 

@@ -28,17 +28,6 @@ using internal::CeresProblems;
 using internal::PreparedReference;
 using internal::RendererHolder;
 
-Loss ParseLoss(const std::string& name) {
-  if (name == "l2") return Loss::kL2;
-  if (name == "log") return Loss::kLog;
-  if (name == "cuberoot") return Loss::kCubeRoot;
-  if (name == "huber") return Loss::kHuber;
-  if (name == "cauchy") return Loss::kCauchy;
-  throw Error("", "--loss",
-              fmt::format("unknown loss '{}'{} (known: l2, log, cuberoot, huber, cauchy)", name,
-                          DidYouMean(name, {"l2", "log", "cuberoot", "huber", "cauchy"})));
-}
-
 std::string TerminationName(Termination termination) {
   switch (termination) {
     case Termination::kConvergence: return "CONVERGENCE";
@@ -74,22 +63,6 @@ std::string LossName(Loss loss) {
   return "?";
 }
 
-Solver ParseSolver(const std::string& name, const std::string& flag) {
-  if (name == "auto") return Solver::kAuto;
-  if (name == "bounded-lm") return Solver::kBoundedLm;
-  if (name == "ceres") return Solver::kCeres;
-  throw Error("", flag,
-              fmt::format("unknown solver '{}'{} (known: auto, bounded-lm, ceres)", name,
-                          DidYouMean(name, {"auto", "bounded-lm", "ceres"})));
-}
-
-DerivativePath ParsePath(const std::string& name) {
-  if (name == "auto") return DerivativePath::kAuto;
-  if (name == "gbuffer") return DerivativePath::kGBuffer;
-  if (name == "gl") return DerivativePath::kGl;
-  throw Error("", "--path", fmt::format("unknown path '{}' (known: auto, gbuffer, gl)", name));
-}
-
 std::string PathName(DerivativePath path) {
   switch (path) {
     case DerivativePath::kAuto:
@@ -100,12 +73,6 @@ std::string PathName(DerivativePath path) {
       return "gl";
   }
   return "?";
-}
-
-Exposure ParseExposure(const std::string& name) {
-  if (name == "fixed") return Exposure::kFixed;
-  if (name == "free") return Exposure::kFree;
-  throw Error("", "--exposure", fmt::format("unknown exposure '{}' (known: fixed, free)", name));
 }
 
 namespace {
@@ -167,7 +134,8 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
 
 FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  const ModelInfo& model = FindModel(problem.model);
+  if (!problem.model) throw Error("", "--model", "no model given");
+  const ModelInfo& model = *problem.model;
   Parametrization param(model, problem.fixed);
   if (problem.references.empty()) throw Error("", "--ref", "no reference given");
   if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
@@ -183,14 +151,14 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   // A free exposure and the reflectances share one scale: one value is pinned (exposure_pin.h).
   FitOptions pinned = options;
   if (options.exposure == Exposure::kFree) {
-    result.exposure_pin = ExposurePinOf(model.name, problem.fixed);
+    result.exposure_pin = ExposurePinOf(model, problem.fixed);
     const ExposurePin& pin = result.exposure_pin;
     if (pin.kind == PinKind::kFresnel) {
       for (std::size_t k = 0; k < pin.entries.size(); ++k) param.Pin(pin.entries[k], pin.values[k]);
     }
     if (pin.kind == PinKind::kUnitExposure) pinned.exposure = Exposure::kFixed;
   }
-  result.model = model.name;
+  result.model = model;
   result.loss = options.loss;
   result.given_starts = static_cast<int>(options.start_points.size());
   result.starts = options.starts + result.given_starts;
@@ -232,10 +200,9 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   return result;
 }
 
-double EvaluateModelOnReference(const FitReference& reference, const std::string& model_name,
+double EvaluateModelOnReference(const FitReference& reference, const ModelInfo& model,
                                 const std::vector<double>& params, double exposure, Renderer* given,
                                 Image* prediction) {
-  const ModelInfo& model = FindModel(model_name);
   if (static_cast<int>(params.size()) != model.ParamCount()) {
     throw Error(
         "", model.name,

@@ -79,16 +79,20 @@ double LogFloor(const ParamSpec& spec) {
   return spec.log_scale ? kLogFloor : kSpecularLogFloor;
 }
 
-Parametrization::Parametrization(const ModelInfo& model, const std::vector<std::string>& fixed)
+Parametrization::Parametrization(const ModelInfo& model, const std::vector<FixedValue>& fixed)
     : model_(&model) {
-  // Natural values of the fixed rows, validated against the table by SetParamFromString.
+  // Natural values of the fixed rows, checked against the table when they were made.
   std::vector<double> fixed_values = DefaultParams(model);
   std::vector<bool> is_fixed(model.ParamCount(), false);
-  for (const std::string& assignment : fixed) {
-    SetParamFromString(model, assignment, "--fix", &fixed_values);
-    const std::string name = assignment.substr(0, assignment.find('='));
-    const int offset = model.Offset(name);
-    for (int c = 0; c < model.Find(name)->size; ++c) is_fixed[offset + c] = true;
+  for (const FixedValue& f : fixed) {
+    const int offset = f.param != nullptr ? model.Offset(f.param->name) : -1;
+    if (offset < 0 || model.Find(f.param->name) != f.param) {
+      throw Error("", "--fix", fmt::format("'{}' was not made for model {}", f.given, model.name));
+    }
+    for (int c = 0; c < f.param->size; ++c) {
+      fixed_values[offset + c] = f.values[c];
+      is_fixed[offset + c] = true;
+    }
   }
   const std::vector<double> defaults = DefaultParams(model);
   for (int i = 0; i < model.ParamCount(); ++i) {

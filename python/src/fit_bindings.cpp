@@ -14,6 +14,7 @@
 #include "common.h"
 #include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
+#include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/reference_images/reference.h"
@@ -112,33 +113,37 @@ T Get(const py::dict& o, const char* key, T fallback) {
 }
 
 // The CLI's option checks (studies/cli/fit_command.cpp), named by the keyword.
+// The keyword argument of a fit setting: its flag without the dashes, '-' as '_' ("env_samples").
+std::string KeywordOf(fit::FitField field) {
+  std::string k = fit::FitFlag(field).substr(2);
+  for (char& c : k) c = c == '-' ? '_' : c;
+  return k;
+}
+
+// The fitter's options from the keyword arguments, checked by the rules every front end shares
+// (fit/option_checks.h); a refused one is named by its keyword.
 fit::FitOptions OptionsFromPy(const py::dict& o) {
   fit::FitOptions f;
-  f.loss = fit::ParseLoss(Get<std::string>(o, "loss", "l2"));
-  f.loss_scale = Get<double>(o, "loss_scale", 0.0);
-  f.starts = Get<int>(o, "starts", f.starts);
-  f.seed = Get<std::uint64_t>(o, "seed", 1);
-  f.exposure = fit::ParseExposure(Get<std::string>(o, "exposure", "fixed"));
-  f.path = fit::ParsePath(Get<std::string>(o, "path", "auto"));
-  f.max_iterations = Get<int>(o, "max_iterations", f.max_iterations);
-  f.num_threads = Get<int>(o, "threads", f.num_threads);
-  f.environment_samples = Get<int>(o, "env_samples", 0);
-  f.environment_pixels = Get<int>(o, "env_pixels", f.environment_pixels);
-  f.environment_twin_samples = Get<int>(o, "env_twin_samples", f.environment_twin_samples);
-  f.environment_rounds = Get<int>(o, "env_rounds", f.environment_rounds);
-  f.central_differences = Get<bool>(o, "central_differences", false);
-  f.solver = fit::ParseSolver(Get<std::string>(o, "solver", "auto"), "solver");
-  f.render_outputs = Get<bool>(o, "render_outputs", true);
-  f.compute_covariance = Get<bool>(o, "covariance", true);
-  if (f.starts < 1) throw Error("", "starts", "must be >= 1");
-  if (f.max_iterations < 1) throw Error("", "max_iterations", "must be >= 1");
-  if (f.num_threads < 1) throw Error("", "threads", "must be >= 1");
-  if (f.environment_samples < 0) throw Error("", "env_samples", "must be >= 0");
-  if (f.environment_pixels < 16) throw Error("", "env_pixels", "must be >= 16");
-  if (f.environment_twin_samples < 1) throw Error("", "env_twin_samples", "must be >= 1");
-  if (f.environment_rounds < 0) throw Error("", "env_rounds", "must be >= 0");
-  if (!(f.loss_scale >= 0) || !std::isfinite(f.loss_scale)) {
-    throw Error("", "loss_scale", fmt::format("{} is not a finite number >= 0", f.loss_scale));
+  try {
+    f.loss = fit::ParseLoss(Get<std::string>(o, "loss", "l2"));
+    f.loss_scale = Get<double>(o, "loss_scale", 0.0);
+    f.starts = Get<int>(o, "starts", f.starts);
+    f.seed = Get<std::uint64_t>(o, "seed", 1);
+    f.exposure = fit::ParseExposure(Get<std::string>(o, "exposure", "fixed"));
+    f.path = fit::ParsePath(Get<std::string>(o, "path", "auto"));
+    f.max_iterations = Get<int>(o, "max_iterations", f.max_iterations);
+    f.num_threads = Get<int>(o, "threads", f.num_threads);
+    f.environment_samples = Get<int>(o, "env_samples", 0);
+    f.environment_pixels = Get<int>(o, "env_pixels", f.environment_pixels);
+    f.environment_twin_samples = Get<int>(o, "env_twin_samples", f.environment_twin_samples);
+    f.environment_rounds = Get<int>(o, "env_rounds", f.environment_rounds);
+    f.central_differences = Get<bool>(o, "central_differences", false);
+    f.solver = fit::ParseSolver(Get<std::string>(o, "solver", "auto"));
+    f.render_outputs = Get<bool>(o, "render_outputs", true);
+    f.compute_covariance = Get<bool>(o, "covariance", true);
+    fit::CheckFitOptions(f, fit::EncodingMode::kAsImported);
+  } catch (const fit::FitOptionError& e) {
+    throw Error("", KeywordOf(e.field), e.problem);
   }
   return f;
 }
@@ -146,7 +151,7 @@ fit::FitOptions OptionsFromPy(const py::dict& o) {
 py::dict ResultToPy(fit::FitResult&& r) {
   py::dict d;
   d["json"] = JsonToPy(fit::FitResultToJson(r));
-  d["model"] = r.model;
+  d["model"] = r.model->name;
   d["loss"] = fit::LossName(r.loss);
   d["path"] = fit::PathName(r.path);
   d["solver"] = r.solver_name;
@@ -213,9 +218,11 @@ py::dict ResultToPy(fit::FitResult&& r) {
   return d;
 }
 
-py::dict FitArrays(py::list references, const std::string& model, std::vector<std::string> fixed,
-                   py::dict options) {
-  FindModel(model);  // Unknown model: fail before reading anything (the CLI's order).
+py::dict FitArrays(py::list references, const std::string& model_name,
+                   const std::vector<std::string>& fixed_text, py::dict options) {
+  // The model and its held values first: fail before reading anything (the CLI's order).
+  const ModelInfo& model = FindModel(model_name);
+  std::vector<FixedValue> fixed = ParseFixedValues(model, fixed_text, "fixed");
   fit::FitOptions o = OptionsFromPy(options);
   const int stride = Get<int>(options, "pixel_stride", 1);
   if (stride < 1) throw Error("", "pixel_stride", "must be >= 1");
@@ -240,9 +247,11 @@ py::dict FitArrays(py::list references, const std::string& model, std::vector<st
   return ResultToPy(std::move(result));
 }
 
-py::dict FitBrdf(const std::string& path, const std::string& model, std::vector<std::string> fixed,
-                 std::vector<int> cells, double max_theta, py::dict options) {
-  FindModel(model);
+py::dict FitBrdf(const std::string& path, const std::string& model_name,
+                 const std::vector<std::string>& fixed_text, std::vector<int> cells,
+                 double max_theta, py::dict options) {
+  const ModelInfo& model = FindModel(model_name);
+  const std::vector<FixedValue> fixed = ParseFixedValues(model, fixed_text, "fixed");
   fit::FitOptions o = OptionsFromPy(options);
   fit::BrdfSpaceSampling sampling;
   if (cells.size() != 3) throw Error("", "cells", "three counts: theta_h, theta_d, phi_d");

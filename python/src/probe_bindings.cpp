@@ -26,9 +26,9 @@ namespace {
 probes::ModelUnderTest ModelFromPy(py::handle h) {
   const py::dict d = py::reinterpret_borrow<py::dict>(h);
   probes::ModelUnderTest m;
-  m.model = d["model"].cast<std::string>();
-  const ModelInfo& info = FindModel(m.model);
-  m.label = d["label"].is_none() ? m.model : d["label"].cast<std::string>();
+  const ModelInfo& info = FindModel(d["model"].cast<std::string>());
+  m.model = info;
+  m.label = d["label"].is_none() ? info.name : d["label"].cast<std::string>();
   m.params = ParamsFromPy(info, d["params"], m.label);
   m.exposure = d["exposure"].cast<double>();
   m.trained_on = d["trained_on"].cast<std::vector<std::string>>();

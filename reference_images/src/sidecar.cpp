@@ -61,12 +61,12 @@ std::optional<SidecarTruth> TruthOfSidecar(const std::string& sidecar_path,
     const std::string type = m.value("type", "");
     const auto truth = [&](const char* model) {
       SidecarTruth t;
-      t.model = model;
-      t.params = DefaultParams(FindModel(model));
+      t.model = FindModel(model);
+      t.params = DefaultParams(*t.model);
       return t;
     };
     const auto set = [&](SidecarTruth* t, const char* name, std::vector<double> values) {
-      SetParam(FindModel(t->model), name, values, sidecar_path, &t->params);
+      SetParam(*t->model, name, values, sidecar_path, &t->params);
     };
     if (type == "principled") {
       const std::string distribution = m.value("distribution", "GGX");

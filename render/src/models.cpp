@@ -146,6 +146,33 @@ void SetParamFromString(const ModelInfo& model, const std::string& assignment,
   SetParam(model, name, values, context, params);
 }
 
+FixedValue ParseFixedValue(const ModelInfo& model, const std::string& assignment,
+                           const std::string& context) {
+  std::vector<double> params = DefaultParams(model);
+  SetParamFromString(model, assignment, context, &params);
+  const std::string name = assignment.substr(0, assignment.find('='));
+  FixedValue f;
+  f.param = model.Find(name);
+  const auto first = params.begin() + model.Offset(name);
+  f.values.assign(first, first + f.param->size);
+  f.given = assignment;
+  return f;
+}
+
+std::vector<FixedValue> ParseFixedValues(const ModelInfo& model,
+                                         const std::vector<std::string>& assignments,
+                                         const std::string& context) {
+  std::vector<FixedValue> out;
+  for (const std::string& a : assignments) out.push_back(ParseFixedValue(model, a, context));
+  return out;
+}
+
+std::vector<std::string> FixedTexts(const std::vector<FixedValue>& fixed) {
+  std::vector<std::string> out;
+  for (const FixedValue& f : fixed) out.push_back(f.given);
+  return out;
+}
+
 double SpecularLobeAlpha(ModelId id, const double* p) {
   return VisitModel(id, [&](auto tag) {
     using M = typename decltype(tag)::template Of<double, double>;

@@ -59,10 +59,9 @@ void PrintFit(const fit::FitResult& result, const std::string& output) {
   fmt::print(
       "{} fit to {} reference(s) via the {} path: cost {:.6g}, RMSE {:.6g}, "
       "{} iterations, {}; {} of {} starts reached the best\n",
-      result.model, result.references.size(), fit::PathName(result.path), result.final_cost,
+      result.model->name, result.references.size(), fit::PathName(result.path), result.final_cost,
       result.rmse, result.iterations, fit::TerminationName(result.termination),
-      result.starts_reached_best,
-      result.starts);
+      result.starts_reached_best, result.starts);
   for (const auto& p : result.parameters) {
     fmt::print("  {:<16} {:>12.6g}  +- {:<10.3g}{}{}{}\n", p.name, p.value, p.std_error,
                p.fixed ? " fixed" : "", p.undetermined ? " undetermined" : "",
@@ -191,7 +190,8 @@ void CheckInputs(const FitCommandOptions& opt) {
   }
 }
 
-// The fitter's options from the command's, each checked; `encoding` is --encoding.
+// The fitter's options from the command's, checked by the rules every front end shares
+// (fit/option_checks.h); `encoding` is --encoding.
 fit::FitOptions ParseFitOptions(const FitCommandOptions& opt, fit::EncodingMode* encoding) {
   fit::FitOptions options;
   options.loss = fit::ParseLoss(opt.loss);
@@ -200,29 +200,17 @@ fit::FitOptions ParseFitOptions(const FitCommandOptions& opt, fit::EncodingMode*
   options.seed = opt.seed;
   options.exposure = fit::ParseExposure(opt.exposure);
   *encoding = fit::ParseEncodingMode(opt.encoding);
-  if (*encoding == fit::EncodingMode::kFit && options.exposure != fit::Exposure::kFree) {
-    throw Error("", "--encoding", "fit needs --exposure free (the exposure is unknown too)");
-  }
   options.path = fit::ParsePath(opt.path);
   options.max_iterations = opt.max_iterations;
   options.num_threads = opt.threads;
   options.environment_samples = opt.env_samples;
-  if (opt.env_pixels < 16) throw Error("", "--env-pixels", "must be >= 16");
-  if (opt.env_twin_samples < 1) throw Error("", "--env-twin-samples", "must be >= 1");
-  if (opt.env_rounds < 0) throw Error("", "--env-rounds", "must be >= 0");
   options.environment_pixels = opt.env_pixels;
   options.environment_twin_samples = opt.env_twin_samples;
   options.environment_rounds = opt.env_rounds;
   options.central_differences = opt.central;
-  options.solver = fit::ParseSolver(opt.solver, "--solver");
+  options.solver = fit::ParseSolver(opt.solver);
   options.render_outputs = !opt.no_images;
-  if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
-  if (opt.max_iterations < 1) throw Error("", "--max-iterations", "must be >= 1");
-  if (opt.threads < 1) throw Error("", "--threads", "must be >= 1");
-  if (opt.env_samples < 0) throw Error("", "--env-samples", "must be >= 0");
-  if (!(opt.loss_scale >= 0) || !std::isfinite(opt.loss_scale)) {
-    throw Error("", "--loss-scale", fmt::format("{} is not a finite number >= 0", opt.loss_scale));
-  }
+  fit::CheckFitOptions(options, *encoding);
   return options;
 }
 
@@ -240,7 +228,7 @@ fit::FitResult FitBrdf(const FitCommandOptions& opt, const fit::FitProblem& prob
   fit::CheckBrdfSpaceOptions(options);
   const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
       reference_images::LoadMeasuredBrdf(opt.brdf);
-  return fit::FitBrdfSpace(problem.model, problem.fixed, fit::SampleBrdfSpace(*brdf, sampling),
+  return fit::FitBrdfSpace(*problem.model, problem.fixed, fit::SampleBrdfSpace(*brdf, sampling),
                            options);
 }
 
@@ -249,10 +237,9 @@ void RunFitCommand(const FitCommandOptions& opt) {
   CheckInputs(opt);
   fit::EncodingMode encoding;
   const fit::FitOptions options = ParseFitOptions(opt, &encoding);
-  fit::FitProblem problem;
-  problem.model = opt.model;
-  problem.fixed = opt.fixed;
-  FindModel(problem.model);  // Unknown model: fail before reading anything.
+  fit::FitProblem problem;  // The model and the held values first: fail before reading anything.
+  problem.model = FindModel(opt.model);
+  problem.fixed = ParseFixedValues(*problem.model, opt.fixed, "--fix");
   fit::FitResult result;
   nlohmann::json extra;
   if (!opt.brdf.empty()) {

@@ -63,14 +63,12 @@ probes::ModelUnderTest ModelFromFit(const std::string& path) {
   const nlohmann::json j = ReadJson(path);
   probes::ModelUnderTest m;
   if (!j.contains("model") || !j["model"].is_string()) throw Error(path, "model", "missing");
-  m.model = j["model"].get<std::string>();
-  const ModelInfo* found = nullptr;
   try {
-    found = &FindModel(m.model);
+    m.model = FindModel(j["model"].get<std::string>());
   } catch (const Error& e) {
     throw Error(path, "", e.what());  // "<fit.json>: model: unknown model ..."
   }
-  const ModelInfo& info = *found;
+  const ModelInfo& info = *m.model;
   m.label = fs::path(path).stem().string();
   m.params = DefaultParams(info);
   if (!j.contains("values") || !j["values"].is_object()) throw Error(path, "values", "missing");
@@ -123,7 +121,7 @@ std::vector<probes::ModelUnderTest> ModelsOf(const ProbeCliOptions& o) {
   if (!o.model.empty()) {
     const ModelInfo& info = FindModel(o.model);
     probes::ModelUnderTest m;
-    m.model = o.model;
+    m.model = info;
     m.label = o.label.empty() ? o.model : o.label;
     m.params = DefaultParams(info);
     for (const auto& s : o.sets) SetParamFromString(info, s, "--set", &m.params);

@@ -43,7 +43,7 @@ void RegisterModelsCommand(CLI::App& app) {
                    p.default_value, p.description, p.log_scale ? " (fitted in log space)" : "");
       }
       // docs/fitting.md, "Free exposure".
-      fmt::print("  with a free exposure, pinned: {}\n\n", fit::ExposurePinOf(m.name).text);
+      fmt::print("  with a free exposure, pinned: {}\n\n", fit::ExposurePinOf(m).text);
     }
   });
 }

@@ -648,7 +648,7 @@ TEST_F(BadInput, StudyWrongType) {
 }
 
 TEST_F(BadInput, StudyNegativeStarts) {
-  ExpectStudyFails("starts = -3\n", "", "s\\.toml:9: fit\\.starts: value -3 below the minimum 1");
+  ExpectStudyFails("starts = -3\n", "", "s\\.toml:9: fit\\.starts: must be >= 1");
 }
 
 TEST_F(BadInput, StudyAbsurdStarts) {
@@ -1171,24 +1171,42 @@ TEST_F(BadInput, RefsLightsSameLightingTwice) {
 TEST_F(BadInput, FitEncodingNeedsFreeExposure) {
   Reference();
   ExpectCleanFailure("fit --ref in/ref.exr --model ggx --encoding fit -o out/fit.json",
-                     "--encoding: fit needs --exposure free");
+                     "--encoding: fit needs a free exposure \\(the exposure of a photograph is "
+                     "unknown too\\)");
 }
 
 TEST_F(BadInput, FitEncodingUnknown) {
   Reference();
   ExpectCleanFailure(
       "fit --ref in/ref.exr --model ggx --exposure free --encoding gamma -o out/fit.json",
-      "encoding: \"gamma\": expected as-imported or fit");
+      "--encoding: unknown encoding 'gamma' \\(known: as-imported, fit\\)");
 }
 
 TEST_F(BadInput, StudyEncodingFitNeedsFreeExposure) {
   ExpectStudyFails("encoding = \"fit\"\n", "",
-                   "s\\.toml:9: fit\\.encoding: \"fit\" needs exposure = \"free\"");
+                   "s\\.toml:9: fit\\.encoding: fit needs a free exposure \\(the exposure of a "
+                   "photograph is unknown too\\)");
 }
 
 TEST_F(BadInput, StudyEncodingUnknown) {
   ExpectStudyFails("exposure = \"free\"\nencoding = \"gamma\"\n", "",
-                   "s\\.toml:10: fit\\.encoding: expected \"as-imported\" or \"fit\"");
+                   "s\\.toml:10: fit\\.encoding: unknown encoding 'gamma' \\(known: as-imported, "
+                   "fit\\)");
+}
+
+// The study and the command line refuse the same values in the same words: one set of rules
+// (fit/option_checks.h), each front end naming the field its own way.
+TEST_F(BadInput, StudyAndCommandLineShareTheFitRules) {
+  ExpectStudyFails("starts = 0\n", "", "s\\.toml:9: fit\\.starts: must be >= 1$");
+  ExpectStudyFails("max_iterations = 200000\n", "",
+                   "s\\.toml:9: fit\\.max_iterations: must be <= 100000 \\(200000 is a typo");
+  ExpectStudyFails("loss_scale = -1.0\n", "",
+                   "s\\.toml:9: fit\\.loss_scale: -1 is not a finite number >= 0");
+  Reference();
+  ExpectCleanFailure("fit --ref in/ref.exr --model ggx --starts 20000 -o out/fit.json",
+                     "--starts: must be <= 10000 \\(20000 is a typo");
+  ExpectCleanFailure("fit --ref in/ref.exr --model ggx --loss-scale -1 -o out/fit.json",
+                     "--loss-scale: -1 is not a finite number >= 0");
 }
 
 }  // namespace

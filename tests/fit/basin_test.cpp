@@ -25,7 +25,7 @@ Scene KeySphere() {
 
 fit::FitResult FitDefaults(const std::string& model, const std::vector<fit::FitReference>& refs) {
   fit::FitProblem problem;
-  problem.model = model;
+  problem.model = FindModel(model);
   problem.references = refs;
   fit::FitOptions options;  // The defaults: four starts, l2, fixed exposure.
   options.renderer = &testing::SharedRenderer();
@@ -96,7 +96,7 @@ TEST(StartPoints, AGivenStartIsSolvedFromAndRecorded) {
   const std::vector<double> truth = {0.45, 0.3, 0.2, 0.03, 0.03, 0.03, 0.8};
   const auto refs = testing::SyntheticReferences("ggx", truth, {KeySphere()});
   fit::FitProblem problem;
-  problem.model = "ggx";
+  problem.model = FindModel("ggx");
   problem.references = refs;
   fit::FitOptions options;
   options.starts = 1;

@@ -130,7 +130,7 @@ TEST(BrdfSpaceSampling, TargetsAreTheWeightedCosineBrdf) {
 TEST(BrdfSpaceFit, RecoversAnalyticGgx) {
   const AnalyticBrdf brdf(LambertGgx);
   const fit::BrdfSpaceData data = fit::SampleBrdfSpace(brdf, fit::BrdfSpaceSampling{});
-  const fit::FitResult r = fit::FitBrdfSpace("ggx", {}, data);
+  const fit::FitResult r = fit::FitBrdfSpace(FindModel("ggx"), {}, data);
   EXPECT_TRUE(r.converged) << fit::TerminationName(r.termination);
   EXPECT_NEAR(Value(r, "roughness"), kRoughness, 0.01 * kRoughness);
   const char* ch[3] = {"r", "g", "b"};
@@ -146,9 +146,8 @@ TEST(BrdfSpaceFit, RecoversAnalyticGgx) {
 
 TEST(BrdfSpaceFit, RecoversANarrowNormalisedBlinnPhongLobe) {
   const AnalyticBrdf brdf(NormalisedBlinnPhong);
-  const fit::FitResult r =
-      fit::FitBrdfSpace("blinn-phong-normalized", {},
-                        fit::SampleBrdfSpace(brdf, fit::BrdfSpaceSampling{}));
+  const fit::FitResult r = fit::FitBrdfSpace(FindModel("blinn-phong-normalized"), {},
+                                             fit::SampleBrdfSpace(brdf, fit::BrdfSpaceSampling{}));
   EXPECT_NEAR(Value(r, "shininess"), kShininess, 0.01 * kShininess);
   EXPECT_NEAR(Value(r, "ks.g"), kKs, 0.01 * kKs);
   EXPECT_NEAR(Value(r, "kd.b"), kKdGrey, 0.01 * kKdGrey);
@@ -195,13 +194,14 @@ TEST(BrdfSpaceErrors, BadValuesSamplingAndSettingsAreNamed) {
   const fit::BrdfSpaceData data = fit::SampleBrdfSpace(lambert, small);
   fit::FitOptions cube;
   cube.loss = fit::Loss::kCubeRoot;
-  EXPECT_NE(message([&] { fit::FitBrdfSpace("ggx", {}, data, cube); }).find("--loss"),
+  EXPECT_NE(message([&] { fit::FitBrdfSpace(FindModel("ggx"), {}, data, cube); }).find("--loss"),
             std::string::npos);
   fit::FitOptions free;
   free.exposure = fit::Exposure::kFree;
-  EXPECT_NE(message([&] { fit::FitBrdfSpace("ggx", {}, data, free); }).find("--exposure"),
-            std::string::npos);
-  EXPECT_NE(message([&] { fit::FitBrdfSpace("ggx-typo", {}, data); }).find("ggx"),
+  EXPECT_NE(
+      message([&] { fit::FitBrdfSpace(FindModel("ggx"), {}, data, free); }).find("--exposure"),
+      std::string::npos);
+  EXPECT_NE(message([&] { fit::FitBrdfSpace(FindModel("ggx-typo"), {}, data); }).find("ggx"),
             std::string::npos);
 }
 

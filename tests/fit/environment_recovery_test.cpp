@@ -29,10 +29,10 @@ TEST_P(EnvironmentRecoveryTest, DefaultStartRecoversRoughnessAndBaseColour) {
   ASSERT_EQ(truth["specular"].get<double>(), 0.5);
 
   fit::FitProblem problem;
-  problem.model = "cycles-principled";
+  problem.model = FindModel("cycles-principled");
   problem.references.push_back(fit::LoadReference(stem + ".exr"));
   ASSERT_GE(problem.references[0].scene.EnvironmentLight(), 0) << "not environment-lit";
-  problem.fixed = {"specular=0.5"};
+  problem.fixed = ParseFixedValues(*problem.model, {"specular=0.5"}, "--fix");
   fit::FitOptions options;  // l2, fixed exposure, auto path; one start (the default is 4).
   options.starts = 1;
   options.renderer = &testing::SharedRenderer();

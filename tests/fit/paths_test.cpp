@@ -14,7 +14,7 @@ namespace {
 fit::FitResult FitWith(const std::string& model, const std::vector<fit::FitReference>& refs,
                        fit::DerivativePath path) {
   fit::FitProblem problem;
-  problem.model = model;
+  problem.model = FindModel(model);
   problem.references = refs;
   fit::FitOptions options;
   options.renderer = &testing::SharedRenderer();
@@ -66,9 +66,9 @@ TEST(PathsTest, AutoPicksTwinQuadratureForUniformLightAndGlStillFits) {
   const std::vector<double> truth = {0.6, 0.5, 0.4, 0.04, 0.04, 0.04, 0.4};
   auto refs = testing::SyntheticReferences("ggx", truth, {scene});
   fit::FitProblem problem;
-  problem.model = "ggx";
+  problem.model = FindModel("ggx");
   problem.references = refs;
-  problem.fixed = {"f0=0.04"};
+  problem.fixed = ParseFixedValues(*problem.model, {"f0=0.04"}, "--fix");
   fit::FitOptions options;
   options.renderer = &testing::SharedRenderer();
   options.render_outputs = false;
@@ -81,7 +81,8 @@ TEST(PathsTest, AutoPicksTwinQuadratureForUniformLightAndGlStillFits) {
   EXPECT_NEAR(twin.values[6], truth[6], 0.15 * truth[6]);
   EXPECT_EQ(twin.renders, 0);  // No GL render in the loop.
 
-  problem.fixed = {"f0=0.04", "roughness=0.4"};  // Keep the GL-path test cheap: kd only.
+  // Keep the GL-path test cheap: kd only.
+  problem.fixed = ParseFixedValues(*problem.model, {"f0=0.04", "roughness=0.4"}, "--fix");
   options.path = fit::DerivativePath::kGl;
   options.starts = 1;  // The render bound below counts one start's iterations.
   const fit::FitResult r = fit::Fit(problem, options);

@@ -105,7 +105,7 @@ TEST_P(RecoveryTest, RecoversOwnRenders) {
     const std::vector<double>& truth = c.sets[s];
     ASSERT_EQ(static_cast<int>(truth.size()), model.ParamCount());
     fit::FitProblem problem;
-    problem.model = c.model;
+    problem.model = FindModel(c.model);
     problem.references = testing::SyntheticReferences(c.model, truth, scenes);
     fit::FitOptions options;
     options.renderer = &testing::SharedRenderer();
@@ -147,9 +147,9 @@ INSTANTIATE_TEST_SUITE_P(Models, RecoveryTest, ::testing::ValuesIn(Cases()),
 TEST(RecoveryTest, ReportsUndeterminedGreyDielectric) {
   const std::vector<double> truth = Cat({Grey(0.8), {0.0}, {0.3}, {0.04}});
   fit::FitProblem problem;
-  problem.model = "ggx-metallic";
+  problem.model = FindModel("ggx-metallic");
   problem.references =
-      testing::SyntheticReferences(problem.model, truth, testing::SyntheticScenes(64));
+      testing::SyntheticReferences(problem.model->name, truth, testing::SyntheticScenes(64));
   fit::FitOptions options;
   options.renderer = &testing::SharedRenderer();
   options.render_outputs = false;

@@ -15,6 +15,12 @@
 namespace shadefit {
 namespace {
 
+// The pin of a model named as a user would name it, with `fixed` as a user would write it.
+fit::ExposurePin PinOf(const std::string& model, const std::vector<std::string>& fixed = {}) {
+  const ModelInfo& info = FindModel(model);
+  return fit::ExposurePinOf(info, ParseFixedValues(info, fixed, "--fix"));
+}
+
 fit::FitOptions Options() {
   fit::FitOptions options;
   options.renderer = &testing::SharedRenderer();
@@ -42,7 +48,7 @@ TEST(CrossFitTest, BlinnPhongToGgxImage) {
   const auto refs = testing::SyntheticReferences(
       "ggx", {0.5, 0.2, 0.1, 0.04, 0.04, 0.04, 0.2}, TwoLightings());
   for (const char* model : {"blinn-phong", "blinn-phong-normalized", "phong"}) {
-    fit::FitProblem problem{model, refs, {}};
+    fit::FitProblem problem{FindModel(model), refs, {}};
     fit::FitOptions options = Options();
     options.starts = 4;
     const fit::FitResult r = fit::Fit(problem, options);
@@ -56,7 +62,7 @@ TEST(CrossFitTest, GgxToBlinnPhongImage) {
   const auto refs = testing::SyntheticReferences(
       "blinn-phong", {0.05, 0.05, 0.05, 0.6, 0.3, 0.1, 0.8, 0.8, 0.8, 60}, TwoLightings());
   for (const char* model : {"ggx", "ggx-metallic"}) {
-    fit::FitProblem problem{model, refs, {}};
+    fit::FitProblem problem{FindModel(model), refs, {}};
     fit::FitOptions options = Options();
     options.starts = 4;
     const fit::FitResult r = fit::Fit(problem, options);
@@ -72,7 +78,7 @@ TEST(CrossFitTest, GgxToBlinnPhongImage) {
 TEST(ExposureTest, ClippedLdrReferenceKeepsRoughness) {
   const std::vector<double> truth = {0.6, 0.3, 0.1, 0.04, 0.04, 0.04, 0.3};
   const auto hdr = testing::SyntheticReferences("ggx", truth, TwoLightings());
-  fit::FitProblem hdr_problem{"ggx", hdr, {}};
+  fit::FitProblem hdr_problem{FindModel("ggx"), hdr, {}};
   const fit::FitResult hdr_fit = fit::Fit(hdr_problem, Options());
   ASSERT_TRUE(hdr_fit.converged);
 
@@ -90,7 +96,7 @@ TEST(ExposureTest, ClippedLdrReferenceKeepsRoughness) {
     ref.clip_level = SrgbToLinear(254.0f / 255.0f) * (1.0f - 1e-6f);
   }
   ASSERT_GT(clipped, 0) << "the test must clip some highlight pixels";
-  fit::FitProblem ldr_problem{"ggx", ldr, {}};
+  fit::FitProblem ldr_problem{FindModel("ggx"), ldr, {}};
   fit::FitOptions options = Options();
   options.exposure = fit::Exposure::kFree;
   options.starts = 4;
@@ -109,7 +115,7 @@ TEST(BadInputTest, AllBlackReferenceIsAnError) {
   for (std::size_t p = 0; p < refs[1].image.PixelCount(); ++p) {
     for (int c = 0; c < 3; ++c) refs[1].image.data[4 * p + c] = 0.0f;
   }
-  fit::FitProblem problem{"ggx", refs, {}};
+  fit::FitProblem problem{FindModel("ggx"), refs, {}};
   try {
     fit::Fit(problem, Options());
     FAIL() << "expected shadefit::Error";
@@ -123,7 +129,7 @@ TEST(BadInputTest, AllMaskedReferenceIsAnError) {
   auto refs = testing::SyntheticReferences("ggx", {0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.5},
                                            TwoLightings());
   refs[0].mask = Image(refs[0].image.width, refs[0].image.height, 1, 0.0f);
-  fit::FitProblem problem{"ggx", refs, {}};
+  fit::FitProblem problem{FindModel("ggx"), refs, {}};
   try {
     fit::Fit(problem, Options());
     FAIL() << "expected shadefit::Error";
@@ -136,7 +142,7 @@ TEST(BadInputTest, NanPixelIsAnError) {
   auto refs = testing::SyntheticReferences("ggx", {0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.5},
                                            TwoLightings());
   refs[0].image.at(32, 32, 1) = std::nanf("");
-  fit::FitProblem problem{"ggx", refs, {}};
+  fit::FitProblem problem{FindModel("ggx"), refs, {}};
   EXPECT_THROW(fit::Fit(problem, Options()), Error);
 }
 
@@ -144,21 +150,26 @@ TEST(BadInputTest, SizeMismatchIsAnError) {
   auto refs = testing::SyntheticReferences("ggx", {0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.5},
                                            TwoLightings());
   refs[0].scene.camera.width = 80;
-  fit::FitProblem problem{"ggx", refs, {}};
+  fit::FitProblem problem{FindModel("ggx"), refs, {}};
   EXPECT_THROW(fit::Fit(problem, Options()), Error);
 }
 
 TEST(BadInputTest, UnknownFixedParameterIsAnError) {
   const auto refs = testing::SyntheticReferences(
       "ggx", {0.5, 0.5, 0.5, 0.04, 0.04, 0.04, 0.5}, TwoLightings());
-  fit::FitProblem problem{"ggx", refs, {"shininess=10"}};
+  // From text, a row must be the model's (ParseFixedValue).
+  EXPECT_THROW(ParseFixedValues(FindModel("ggx"), {"shininess=10"}, "--fix"), Error);
+  // A value made for another model, even of a row of the same name, is refused by the fitter
+  // rather than held at that model's offset.
+  const fit::FitProblem problem{FindModel("ggx"), refs,
+                                ParseFixedValues(FindModel("blinn-phong"), {"kd=0.5"}, "--fix")};
   EXPECT_THROW(fit::Fit(problem, Options()), Error);
 }
 
 TEST(ConvergenceTest, StoppedEarlySaysSo) {
   const auto refs = testing::SyntheticReferences(
       "ggx", {0.6, 0.3, 0.1, 0.04, 0.04, 0.04, 0.3}, TwoLightings());
-  fit::FitProblem problem{"ggx", refs, {}};
+  fit::FitProblem problem{FindModel("ggx"), refs, {}};
   fit::FitOptions options = Options();
   options.max_iterations = 1;
   const fit::FitResult r = fit::Fit(problem, options);
@@ -174,7 +185,7 @@ TEST(LossTest, EveryLossRecoversOwnRender) {
   const auto refs = testing::SyntheticReferences("ggx", truth, TwoLightings());
   for (fit::Loss loss : {fit::Loss::kL2, fit::Loss::kLog, fit::Loss::kCubeRoot,
                          fit::Loss::kHuber, fit::Loss::kCauchy}) {
-    fit::FitProblem problem{"ggx", refs, {}};
+    fit::FitProblem problem{FindModel("ggx"), refs, {}};
     fit::FitOptions options = Options();
     options.loss = loss;
     const fit::FitResult r = fit::Fit(problem, options);
@@ -198,7 +209,9 @@ TEST(LossTest, EveryLossRecoversOwnRender) {
 TEST(FixTest, FixedParameterIsHeldAndReported) {
   const std::vector<double> truth = {0.6, 0.3, 0.1, 0.04, 0.04, 0.04, 0.3};
   const auto refs = testing::SyntheticReferences("ggx", truth, TwoLightings());
-  fit::FitProblem problem{"ggx", refs, {"f0=0.04", "roughness=0.3"}};
+  fit::FitProblem problem{
+      FindModel("ggx"), refs,
+      ParseFixedValues(FindModel("ggx"), {"f0=0.04", "roughness=0.3"}, "--fix")};
   const fit::FitResult r = fit::Fit(problem, Options());
   ExpectSane(r);
   EXPECT_EQ(r.values[6], 0.3);
@@ -210,7 +223,7 @@ TEST(FixTest, FixedParameterIsHeldAndReported) {
 TEST(MultiStartTest, DeterministicAndReported) {
   const auto refs = testing::SyntheticReferences(
       "blinn-phong-normalized", {0.5, 0.3, 0.2, 0.05, 0.05, 0.05, 300}, TwoLightings());
-  fit::FitProblem problem{"blinn-phong-normalized", refs, {}};
+  fit::FitProblem problem{FindModel("blinn-phong-normalized"), refs, {}};
   fit::FitOptions options = Options();
   options.starts = 5;
   options.seed = 7;
@@ -238,28 +251,27 @@ TEST(MultiStartTest, DeterministicAndReported) {
 // (model_structure.h) and roles (kFresnelParam), not from a list of names (exposure_pin.h).
 TEST(ExposurePinTest, ChosenFromStructureAndRoles) {
   using fit::PinKind;
-  const fit::ExposurePin bp = fit::ExposurePinOf("blinn-phong");
+  const fit::ExposurePin bp = PinOf("blinn-phong");
   EXPECT_EQ(bp.kind, PinKind::kExposure);
   EXPECT_EQ(bp.entries, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8}));  // ka, kd, ks
-  EXPECT_EQ(fit::ExposurePinOf("ward").kind, PinKind::kExposure);
-  EXPECT_EQ(fit::ExposurePinOf("lafortune").entries, (std::vector<int>{0, 1, 2, 3, 4, 5}));
-  const fit::ExposurePin ggx = fit::ExposurePinOf("ggx");
+  EXPECT_EQ(PinOf("ward").kind, PinKind::kExposure);
+  EXPECT_EQ(PinOf("lafortune").entries, (std::vector<int>{0, 1, 2, 3, 4, 5}));
+  const fit::ExposurePin ggx = PinOf("ggx");
   EXPECT_EQ(ggx.kind, PinKind::kFresnel);
   EXPECT_EQ(ggx.entries, std::vector<int>{4});  // f0.g: a coloured highlight stays free.
   EXPECT_EQ(ggx.values, std::vector<double>{0.04});
-  const fit::ExposurePin metallic = fit::ExposurePinOf("ggx-metallic");
+  const fit::ExposurePin metallic = PinOf("ggx-metallic");
   EXPECT_EQ(metallic.entries, (std::vector<int>{3, 5}));  // metallic 0, f0_dielectric 0.04
   EXPECT_EQ(metallic.values, (std::vector<double>{0.0, 0.04}));
-  EXPECT_EQ(fit::ExposurePinOf("ggx-dielectric").values, std::vector<double>{1.5});
-  EXPECT_EQ(fit::ExposurePinOf("ggx-conductor").kind, PinKind::kUnitExposure);
+  EXPECT_EQ(PinOf("ggx-dielectric").values, std::vector<double>{1.5});
+  EXPECT_EQ(PinOf("ggx-conductor").kind, PinKind::kUnitExposure);
   // The user's own values: a Fresnel row or a non-zero reflectance already sets the scale; a
   // reflectance fixed at 0 does not.
-  EXPECT_EQ(fit::ExposurePinOf("ggx", {"f0=0.9"}).kind, PinKind::kNone);
-  EXPECT_EQ(fit::ExposurePinOf("ggx", {"kd=0.5"}).kind, PinKind::kNone);
-  EXPECT_EQ(fit::ExposurePinOf("blinn-phong", {"kd=0.3,0.2,0.1"}).kind, PinKind::kNone);
-  EXPECT_EQ(fit::ExposurePinOf("blinn-phong", {"ka=0"}).entries,
-            (std::vector<int>{3, 4, 5, 6, 7, 8}));
-  EXPECT_THROW(fit::ExposurePinOf("ggx", {"shininess=3"}), Error);
+  EXPECT_EQ(PinOf("ggx", {"f0=0.9"}).kind, PinKind::kNone);
+  EXPECT_EQ(PinOf("ggx", {"kd=0.5"}).kind, PinKind::kNone);
+  EXPECT_EQ(PinOf("blinn-phong", {"kd=0.3,0.2,0.1"}).kind, PinKind::kNone);
+  EXPECT_EQ(PinOf("blinn-phong", {"ka=0"}).entries, (std::vector<int>{3, 4, 5, 6, 7, 8}));
+  EXPECT_THROW(PinOf("ggx", {"shininess=3"}), Error);
 }
 
 // The references are the truth's renders times an unknown exposure. A free-exposure fit of each
@@ -290,7 +302,7 @@ TEST(ExposurePinTest, FreeExposureLeavesNothingUndetermined) {
     fit::FitOptions options = Options();
     options.exposure = fit::Exposure::kFree;
     options.starts = 2;
-    const fit::FitResult r = fit::Fit(fit::FitProblem{c.model, refs, {}}, options);
+    const fit::FitResult r = fit::Fit(fit::FitProblem{FindModel(c.model), refs, {}}, options);
     ExpectSane(r);
     EXPECT_LT(r.final_cost, 1e-8 * r.initial_cost);
     EXPECT_EQ(r.covariance_status, fit::CovarianceStatus::kOk) << r.CovarianceStatusText();
@@ -323,10 +335,10 @@ TEST(ExposurePinTest, AmbientReflectanceHeldWithoutAmbientLight) {
   const std::vector<double> truth = {0, 0, 0, 0.4, 0.25, 0.1, 0.6, 0.6, 0.6, 40};
   std::vector<Scene> key = testing::SyntheticScenes(64);
   key.resize(1);
-  const fit::FitResult r =
-      fit::Fit(fit::FitProblem{"blinn-phong", testing::SyntheticReferences("blinn-phong", truth,
-                                                                           key), {}},
-               Options());
+  const fit::FitResult r = fit::Fit(
+      fit::FitProblem{
+          FindModel("blinn-phong"), testing::SyntheticReferences("blinn-phong", truth, key), {}},
+      Options());
   ExpectSane(r);
   EXPECT_EQ(r.covariance_status, fit::CovarianceStatus::kOk) << r.CovarianceStatusText();
   for (int ch = 0; ch < 3; ++ch) {

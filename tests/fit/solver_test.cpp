@@ -37,7 +37,7 @@ fs::path CyclesDir() { return fs::path(SHADEFIT_SOURCE_DIR) / "reference_images"
 fit::FitResult FitReference(const fit::FitReference& ref, const std::string& model,
                             fit::FitOptions options) {
   fit::FitProblem problem;
-  problem.model = model;
+  problem.model = FindModel(model);
   problem.references.push_back(ref);
   options.renderer = &testing::SharedRenderer();
   options.render_outputs = false;
@@ -143,7 +143,7 @@ TEST(ProjectionTest, LafortuneBoundedLmReachesCeres) {
   double cost[2] = {0, 0};
   for (int k = 0; k < 2; ++k) {
     options.solver = k == 0 ? fit::Solver::kBoundedLm : fit::Solver::kCeres;
-    const fit::FitResult r = fit::Fit(fit::FitProblem{"lafortune", refs, {}}, options);
+    const fit::FitResult r = fit::Fit(fit::FitProblem{FindModel("lafortune"), refs, {}}, options);
     cost[k] = r.final_cost;
     std::printf("[ lafortune ] %s: cost %.3g from %.3g, %d iterations\n", r.solver_name.c_str(),
                 r.final_cost, r.initial_cost, r.iterations);

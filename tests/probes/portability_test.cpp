@@ -49,7 +49,7 @@ struct SquaredError {
   double Rmse() const { return std::sqrt(sum / (3.0 * pixels)); }
 };
 SquaredError ErrorOf(const probes::ModelUnderTest& m, const probes::ProbeReference& ref) {
-  const Image img = SharedRenderer().Render(ref.scene, FindModel(m.model).id, m.params);
+  const Image img = SharedRenderer().Render(ref.scene, m.model->id, m.params);
   SquaredError e;
   for (std::size_t i = 0; i < img.PixelCount(); ++i) {
     if (img.data[i * 4 + 3] < 0.999f || ref.image.data[i * 4 + 3] < 0.999f) continue;
@@ -88,7 +88,7 @@ TEST(PortabilityProbe, LambertFittedToKeyFailsUnderOtherLightings) {
   probes::ProbeInputs in = GgxReferences();
   probes::ModelUnderTest lambert;
   lambert.label = "lambert-key";
-  lambert.model = "lambert";
+  lambert.model = FindModel("lambert");
   lambert.params = FitLambert(in.references[0]);
   lambert.trained_on = {"ggx-key"};
   in.models.push_back(lambert);

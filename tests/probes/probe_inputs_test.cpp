@@ -59,9 +59,9 @@ TEST(ProbeInputs, NotRgba) {
 TEST(ProbeInputs, BadModels) {
   auto in = Inputs();
   in.models.push_back(MakeModel("m", "ggx", {}));
-  in.models.back().model = "gxx";
-  EXPECT_EQ(ErrorOf(in), "m: model: unknown model 'gxx'");
-  in.models.back().model = "lambert";
+  in.models.back().model = ModelRef();
+  EXPECT_EQ(ErrorOf(in), "m: model: no model given");
+  in.models.back().model = FindModel("lambert");
   EXPECT_EQ(ErrorOf(in), "m: params: model lambert takes 3 values, got 7");
   in.models.back() = MakeModel("m", "ggx", {});
   in.models.back().params[6] = std::numeric_limits<double>::quiet_NaN();

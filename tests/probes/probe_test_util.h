@@ -51,7 +51,7 @@ inline probes::ModelUnderTest MakeModel(const std::string& label, const std::str
   const ModelInfo& info = FindModel(model);
   probes::ModelUnderTest m;
   m.label = label;
-  m.model = model;
+  m.model = info;
   m.params = DefaultParams(info);
   for (const auto& s : sets) SetParamFromString(info, s, "test", &m.params);
   return m;
@@ -66,7 +66,7 @@ inline probes::ProbeReference MakeReference(const probes::ModelUnderTest& truth,
   ref.lighting = lighting;
   ref.scene = ParseScene(ProbeSceneToml(lighting, res), ref.name + ".toml");
   ref.gbuffer = r.RenderGBuffer(ref.scene);
-  ref.image = r.Render(ref.scene, FindModel(truth.model).id, truth.params);
+  ref.image = r.Render(ref.scene, truth.model->id, truth.params);
   for (std::size_t i = 0; i < ref.image.PixelCount(); ++i) {
     for (int c = 0; c < 3; ++c) ref.image.data[i * 4 + c] *= static_cast<float>(truth.exposure);
   }

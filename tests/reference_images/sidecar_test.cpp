@@ -44,7 +44,7 @@ TEST(SidecarTest, PrincipledGgxIsCyclesPrincipledByName) {
   if (!fs::exists(sidecar)) GTEST_SKIP() << "shipped references not present";
   const auto truth = TruthOfSidecar(sidecar);
   ASSERT_TRUE(truth.has_value());
-  EXPECT_EQ(truth->model, "cycles-principled");
+  EXPECT_EQ(truth->model->name, "cycles-principled");
   // gold-key.json: base_color (1, 0.766, 0.336), metallic 1, specular 0.5, roughness 0.25; set
   // by name, so the vector follows the model's parameter table.
   const ModelInfo& info = FindModel("cycles-principled");
@@ -61,7 +61,7 @@ TEST(SidecarTest, DiffuseIsLambert) {
   if (!fs::exists(sidecar)) GTEST_SKIP() << "shipped references not present";
   const auto truth = TruthOfSidecar(sidecar);
   ASSERT_TRUE(truth.has_value());
-  EXPECT_EQ(truth->model, "lambert");
+  EXPECT_EQ(truth->model->name, "lambert");
   EXPECT_EQ(truth->params.size(), 3u);
 }
 

@@ -210,9 +210,9 @@ TEST(MeasuredStudy, FittedLobeWidthsRankAsNgan2005) {
     options.renderer = &renderer;
     options.render_outputs = false;
     options.compute_covariance = false;
-    problem.model = "ggx";
+    problem.model = FindModel("ggx");
     const fit::FitResult ggx = fit::Fit(problem, options);
-    problem.model = "blinn-phong";
+    problem.model = FindModel("blinn-phong");
     const fit::FitResult bp = fit::Fit(problem, options);
     ggx_alpha.push_back(ggx.values[6] * ggx.values[6]);
     bp_n.push_back(bp.values[9]);

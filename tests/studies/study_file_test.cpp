@@ -39,7 +39,7 @@ TEST(StudyFile, GlobsLightingsAndDefaults) {
   EXPECT_EQ(s.Label("ggx", {"key"}), "ggx");
   EXPECT_TRUE(s.IsTest("rim", {"key"}));
   EXPECT_FALSE(s.IsTest("key", {"key"}));
-  EXPECT_EQ(s.model_settings.at("ggx").loss, "cuberoot");
+  EXPECT_EQ(s.model_settings.at("ggx").loss, fit::Loss::kCubeRoot);
 }
 
 TEST(StudyFile, QuickAndOverrides) {
@@ -51,7 +51,7 @@ TEST(StudyFile, QuickAndOverrides) {
   EXPECT_EQ(full.model_settings.at("ggx").starts, 7);
   EXPECT_EQ(full.model_settings.at("blinn-phong").starts, 5);
   const StudySpec quick = LoadStudy(WriteStudy("b.toml", text), true);
-  EXPECT_EQ(quick.models, std::vector<std::string>{"ggx"});
+  EXPECT_EQ(quick.models, std::vector<ModelRef>{FindModel("ggx")});
   EXPECT_EQ(quick.groups[0].references.size(), 2u);
   EXPECT_EQ(quick.model_settings.at("ggx").max_iterations, 9);
   EXPECT_EQ(quick.model_settings.at("ggx").starts, 7);
@@ -127,13 +127,13 @@ TEST(StudyFile, BaselineAndComparisons) {
 // job hashes) only when not the default; any other value is refused with its key.
 TEST(StudyFile, StartFromTheBrdfSpaceFit) {
   const StudySpec plain = LoadStudy(WriteStudy("g1.toml", Base()));
-  EXPECT_EQ(plain.model_settings.at("ggx").start, "default");
+  EXPECT_EQ(plain.model_settings.at("ggx").start, StartFrom::kDefault);
   EXPECT_FALSE(plain.model_settings.at("ggx").ToJson().contains("start"));
   const StudySpec s =
       LoadStudy(WriteStudy("g2.toml", Base("[fit.override.ggx]\nstart = \"brdf\"\n")));
-  EXPECT_EQ(s.model_settings.at("ggx").start, "brdf");
+  EXPECT_EQ(s.model_settings.at("ggx").start, StartFrom::kBrdf);
   EXPECT_EQ(s.model_settings.at("ggx").ToJson()["start"], "brdf");
-  EXPECT_EQ(s.model_settings.at("blinn-phong").start, "default");
+  EXPECT_EQ(s.model_settings.at("blinn-phong").start, StartFrom::kDefault);
   ExpectError("g3.toml", Base("start = \"ngan\"\n"),
               "fit.start: expected \"default\" or \"brdf\"");
 }
@@ -158,8 +158,14 @@ TEST(StudyFile, FixedNamesAParameterOfEveryModel) {
   // Written per model, it loads, and each model gets only its own list.
   const StudySpec s = LoadStudy(WriteStudy(
       "g2.toml", Base("fixed = [\"kd=0.5\"]\n[fit.override.ggx]\nfixed = [\"f0=0.04\"]\n")));
-  EXPECT_EQ(s.model_settings.at("ggx").fixed, std::vector<std::string>{"f0=0.04"});
-  EXPECT_EQ(s.model_settings.at("blinn-phong").fixed, std::vector<std::string>{"kd=0.5"});
+  // Typed for each model: the row of its own table and the value spread over the colour.
+  const std::vector<FixedValue>& ggx = s.model_settings.at("ggx").fixed;
+  ASSERT_EQ(ggx.size(), 1u);
+  EXPECT_EQ(ggx[0].param, FindModel("ggx").Find("f0"));
+  EXPECT_EQ(ggx[0].values, (std::vector<double>{0.04, 0.04, 0.04}));
+  EXPECT_EQ(FixedTexts(s.model_settings.at("blinn-phong").fixed),
+            std::vector<std::string>{"kd=0.5"});
+  EXPECT_EQ(s.model_settings.at("blinn-phong").fixed[0].param, FindModel("blinn-phong").Find("kd"));
   // A per-model list is checked against its own model, and names its key.
   ExpectError("g3.toml", Base("[fit.override.blinn-phong]\nfixed = [\"f0=0.04\"]\n"),
               "fit.override.blinn-phong.fixed: 'f0' is not a parameter of model 'blinn-phong'");
@@ -196,8 +202,8 @@ TEST(StudyFile, PhotoTemplateFixedIsPerModel) {
             "\"cook-torrance\"]");
   const StudySpec s = LoadStudy(WriteStudy("photo_set.toml", t));
   EXPECT_EQ(s.models.size(), 5u);
-  for (const std::string& model : s.models) {
-    EXPECT_TRUE(s.model_settings.at(model).fixed.empty()) << model;
+  for (ModelRef model : s.models) {
+    EXPECT_TRUE(s.SettingsOf(model).fixed.empty()) << model->name;
   }
 }
 

@@ -226,7 +226,7 @@ AlbedoCurve MeasuredAlbedo(const BrdfFn& f, const BrdfSpaceOptions& o) {
 }
 
 AlbedoCurve ModelAlbedo(const ModelUnderTest& m, const BrdfSpaceOptions& o) {
-  const ModelInfo& info = FindModel(m.model);
+  const ModelInfo& info = *m.model;
   AlbedoCurve a;
   AlbedoOptions ao;
   ao.strata_per_axis = o.model_strata_per_axis;
@@ -253,7 +253,7 @@ struct SeriesResult {
 };
 
 BrdfFn ModelBrdf(const ModelUnderTest& m) {
-  const ModelInfo& info = FindModel(m.model);
+  const ModelInfo& info = *m.model;
   return
       [id = info.id, params = m.params, exposure = m.exposure](const Vec3d& wi, const Vec3d& wo) {
         double out[3];

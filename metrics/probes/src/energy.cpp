@@ -118,7 +118,7 @@ ProbeCurve AlbedoNumbers(const ModelUnderTest& m, const AlbedoCurve& a, const En
     y.push_back(row);
   }
   nlohmann::json& n = *numbers;
-  n["model"] = m.model;
+  n["model"] = m.model->name;
   n["albedo_normal"] = Num(std::max({a.e[0].value[0], a.e[0].value[1], a.e[0].value[2]}));
   n["max_albedo"] = Num(max_e);
   n["max_albedo_theta_deg"] = max_at;
@@ -147,7 +147,7 @@ struct Furnace {
 // curve binned in 5 degree steps of theta_v.
 ProbeCurve FurnaceCheck(Renderer& renderer, const Furnace& furnace, const ModelUnderTest& m,
                         const AlbedoCurve& a, nlohmann::json* numbers) {
-  const Image img = renderer.Render(furnace.scene, FindModel(m.model).id, m.params);
+  const Image img = renderer.Render(furnace.scene, m.model->id, m.params);
   const GBuffer& gb = furnace.gbuffer;
   double sum_sq = 0, fmax = 0, fsum = 0;
   int count = 0;
@@ -285,7 +285,7 @@ ProbeResult EnergyProbe(const ProbeInputs& inputs, const EnergyOptions& o) {
     result.notes.push_back("white furnace skipped: no GL renderer");
   }
   for (const ModelUnderTest& m : models) {
-    const AlbedoCurve a = Albedo(FindModel(m.model).id, m.params, o);
+    const AlbedoCurve a = Albedo(m.model->id, m.params, o);
     nlohmann::json& n = result.numbers[m.label];
     result.curves.push_back(AlbedoNumbers(m, a, o, &n));
     if (furnace) result.curves.push_back(FurnaceCheck(*inputs.renderer, *furnace, m, a, &n));

@@ -57,12 +57,8 @@ namespace internal {
 const ModelInfo& ValidateModel(const ModelUnderTest& model) {
   const std::string& label = model.label.empty() ? std::string("model") : model.label;
   if (model.label.empty()) throw Error(label, "label", "empty label");
-  const ModelInfo* info = nullptr;
-  try {
-    info = &FindModel(model.model);
-  } catch (const Error& e) {
-    throw Error(label, "model", fmt::format("unknown model '{}'", model.model));
-  }
+  if (!model.model) throw Error(label, "model", "no model given");
+  const ModelInfo* info = &*model.model;
   if (static_cast<int>(model.params.size()) != info->ParamCount()) {
     throw Error(label, "params",
                 fmt::format("model {} takes {} values, got {}", info->name, info->ParamCount(),

@@ -45,7 +45,7 @@ json FitJobHeader(const RunContext& context, const Job& job, FitStatus status) {
           {"hash", job.hash},
           {"shadefit_version", ShadefitVersion()},
           {"material", context.spec.groups[job.group].material},
-          {"model", job.model},
+          {"model", job.model->name},
           {"label", job.label},
           {"train", job.train},
           {"status", FitStatusName(status)}};
@@ -81,15 +81,7 @@ fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const Referen
 }
 
 fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
-  fit::FitOptions fo;
-  fo.loss = fit::ParseLoss(s.loss);
-  fo.loss_scale = s.loss_scale;
-  fo.starts = s.starts;
-  fo.seed = s.seed;
-  fo.exposure = fit::ParseExposure(s.exposure);
-  fo.path = fit::ParsePath(s.path);
-  fo.max_iterations = s.max_iterations;
-  fo.environment_samples = s.environment_samples;
+  fit::FitOptions fo = s.Options();
   fo.num_threads = kCeresThreadsPerFit;
   fo.render_outputs = false;  // The evaluation renders every lighting, training ones too.
   fo.renderer = &renderer;
@@ -113,7 +105,7 @@ void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSetti
   const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
       reference_images::LoadMeasuredBrdf(path);
   const fit::FitResult start = fit::FitBrdfSpace(
-      job.model, s.fixed, fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), brdf_options);
+      *job.model, s.fixed, fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), brdf_options);
   fo->start_points.push_back(start.values);
   context.log->Line(fmt::format("{}: BRDF-space start (cost {:.6g}) added", job.id,
                                 start.final_cost));
@@ -331,7 +323,7 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
               Renderer& renderer, json* outputs) {
   const StudySpec& spec = context.spec;
   Image prediction;
-  const double rmse = fit::EvaluateModelOnReference(ref, job.model, result.values, result.exposure,
+  const double rmse = fit::EvaluateModelOnReference(ref, *job.model, result.values, result.exposure,
                                                     &renderer, &prediction);
   if (FaultArmed("inf-render"))
     prediction.at(prediction.width / 2, prediction.height / 2, 0) =
@@ -413,10 +405,10 @@ fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitS
     // the settings are l2 with a fixed exposure.
     const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
         reference_images::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, material));
-    return fit::FitBrdfSpace(job.model, s.fixed,
+    return fit::FitBrdfSpace(*job.model, s.fixed,
                              fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
   }
-  if (fit::ParseEncodingMode(s.encoding) == fit::EncodingMode::kFit) {
+  if (s.encoding == fit::EncodingMode::kFit) {
     fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
     *encoding = fit::EncodingSearchToJson(search);
     // Every lighting, trained on or not, is evaluated in the chosen decoding.
@@ -465,7 +457,7 @@ json FitJobJson(const RunContext& context, const Job& job, const FitSettings& s,
 
 void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const ReferenceGroup& g = context.spec.groups[job.group];
-  const FitSettings& s = context.spec.model_settings.at(job.model);
+  const FitSettings& s = context.spec.SettingsOf(job.model);
   const auto t0 = Clock::now();
 
   std::vector<reference_images::Reference> references;
@@ -474,7 +466,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   }
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);
-  if (s.start == "brdf" && !TrainsInBrdfSpace(job.train)) {
+  if (s.start == StartFrom::kBrdf && !TrainsInBrdfSpace(job.train)) {
     AddBrdfSpaceStart(context, job, s, g.material, &fo);
   }
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");

@@ -130,7 +130,7 @@ std::vector<float> GeometryRows(const reference_images::Reference& ref, const GB
 bool WritesGeometry(const StudySpec& spec) {
   if (spec.floor.has_value()) return *spec.floor;
   return std::any_of(spec.model_settings.begin(), spec.model_settings.end(),
-                     [](const auto& m) { return m.second.exposure == "free"; });
+                     [](const auto& m) { return m.second.exposure == fit::Exposure::kFree; });
 }
 
 void WriteGeometry(const RunContext& context, Renderer& renderer) {

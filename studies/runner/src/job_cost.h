@@ -22,7 +22,7 @@ inline double MaterialCost(const StudySpec& spec, std::size_t references) {
   double cost = 0;
   for (const auto& train : spec.training_sets) {
     for (const auto& model : spec.models) {
-      cost += FitJobCost(spec.model_settings.at(model), train.size(), references);
+      cost += FitJobCost(spec.SettingsOf(model), train.size(), references);
     }
   }
   if (!spec.probes.empty()) cost += ProbeJobCost(spec.probes.size());

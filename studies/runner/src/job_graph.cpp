@@ -20,14 +20,14 @@ using json = nlohmann::json;
 namespace {
 
 // A fit job's hash context: everything its results depend on besides shadefit's version.
-json FitContext(const StudySpec& spec, const std::string& model,
-                const std::vector<std::string>& train, const std::string& label, const json& refs) {
+json FitContext(const StudySpec& spec, ModelRef model, const std::vector<std::string>& train,
+                const std::string& label, const json& refs) {
   return {{"kind", "fit"},
-          {"model", model},
+          {"model", model->name},
           {"label", label},
           {"train", train},
           {"test_lightings", spec.test_lightings},
-          {"settings", spec.model_settings.at(model).ToJson()},
+          {"settings", spec.SettingsOf(model).ToJson()},
           {"metrics", {{"exposure_stops", spec.metrics_exposure_stops}, {"ppd", spec.metrics_ppd}}},
           {"previews", spec.previews},
           {"references", refs}};
@@ -82,24 +82,24 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
     std::vector<int> fit_jobs;
     std::vector<std::string> fit_hashes;
     for (const auto& train : spec.training_sets) {
-      for (const std::string& model : spec.models) {
+      for (ModelRef model : spec.models) {
         Job job;
         job.kind = Job::Kind::kFit;
         job.group = static_cast<int>(gi);
         job.model = model;
         job.train = train;
-        job.label = spec.Label(model, train);
-        job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model, JoinTrain(train)));
+        job.label = spec.Label(model->name, train);
+        job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model->name, JoinTrain(train)));
         json context = FitContext(spec, model, train, job.label, refs);
         // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it; so
         // does an image fit that starts from one.
         const std::string brdf_path = MeasuredBrdfPath(spec, g.material);
         if (TrainsInBrdfSpace(train) ||
-            (spec.model_settings.at(model).start == "brdf" && !brdf_path.empty())) {
+            (spec.SettingsOf(model).start == StartFrom::kBrdf && !brdf_path.empty())) {
           context["brdf"] = BrdfHashes(brdf_path);
         }
         job.hash = Sha256String(version + "\n" + context.dump());
-        job.weight = FitJobCost(spec.model_settings.at(model), train.size(), g.references.size());
+        job.weight = FitJobCost(spec.SettingsOf(model), train.size(), g.references.size());
         fit_jobs.push_back(static_cast<int>(jobs.size()));
         fit_hashes.push_back(job.hash);
         jobs.push_back(job);

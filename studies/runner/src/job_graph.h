@@ -27,7 +27,8 @@ struct Job {
   Kind kind = Kind::kFit;
   std::string id;           // File-name safe: "fit.red-plastic.ggx.key", "probe.red-plastic".
   int group = 0;            // Index into spec.groups.
-  std::string model, label;
+  ModelRef model;           // Fit jobs: resolved when the study was loaded.
+  std::string label;
   std::vector<std::string> train;
   std::vector<int> deps;    // Job indices.
   std::string hash;

@@ -186,7 +186,7 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
 
   std::string key = fmt::format("{}|{}|{}|{}|", kChartsVersion, ShadefitVersion(), kSpherePx,
                                 Sha256File(scene_path));
-  for (const std::string& m : spec.models) key += m + ",";
+  for (ModelRef m : spec.models) key += m->name + ",";
   const std::string hash = Sha256String(key);
   if (const std::optional<int> charts = UpToDateCharts(manifest, study_dir, hash)) {
     summary.charts = *charts;
@@ -208,8 +208,9 @@ ChartSummary WriteParameterCharts(const StudySpec& spec, const std::string& stud
   }
   Renderer renderer(*context);
   json charts = json::array();
-  for (const std::string& name : spec.models) {
-    const ModelInfo& info = FindModel(name);
+  for (ModelRef model : spec.models) {
+    const ModelInfo& info = *model;
+    const std::string& name = info.name;
     const std::optional<ChartDef> def = ChartOf(info);
     if (!def) continue;
     const json images =

@@ -54,7 +54,7 @@ std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, cons
     }
     probes::ModelUnderTest m;
     m.label = fj["label"];
-    m.model = fj["model"];
+    m.model = FindModel(fj["model"].get<std::string>());  // A job record read back.
     m.params = fj["values"].get<std::vector<double>>();
     m.exposure = fj["exposure"];
     // The probes name training references by reference name, the study by lighting.

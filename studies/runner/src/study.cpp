@@ -13,21 +13,34 @@ using internal::QuickFilter;
 using internal::Reader;
 
 nlohmann::json FitSettings::ToJson() const {
-  nlohmann::json j = {{"loss", loss},
+  nlohmann::json j = {{"loss", fit::LossName(loss)},
                       {"loss_scale", loss_scale},
                       {"starts", starts},
                       {"seed", seed},
-                      {"exposure", exposure},
-                      {"path", path},
+                      {"exposure", exposure == fit::Exposure::kFree ? "free" : "fixed"},
+                      {"path", fit::PathName(path)},
                       {"max_iterations", max_iterations},
                       {"pixel_stride", pixel_stride},
                       {"environment_samples", environment_samples},
-                      {"fixed", fixed}};
+                      {"fixed", FixedTexts(fixed)}};
   // Only when not the default, so that the settings (and job hashes) of studies that predate
   // the key are unchanged.
-  if (encoding != "as-imported") j["encoding"] = encoding;
-  if (start != "default") j["start"] = start;
+  if (encoding != fit::EncodingMode::kAsImported) j["encoding"] = fit::EncodingModeName(encoding);
+  if (start != StartFrom::kDefault) j["start"] = "brdf";
   return j;
+}
+
+fit::FitOptions FitSettings::Options() const {
+  fit::FitOptions o;
+  o.loss = loss;
+  o.loss_scale = loss_scale;
+  o.starts = starts;
+  o.seed = seed;
+  o.exposure = exposure;
+  o.path = path;
+  o.max_iterations = max_iterations;
+  o.environment_samples = environment_samples;
+  return o;
 }
 
 std::string StudySpec::Label(const std::string& model,
@@ -67,9 +80,11 @@ nlohmann::json StudySpec::ToJson() const {
   nlohmann::json settings = nlohmann::json::object();
   for (const auto& [model, s] : model_settings) settings[model] = s.ToJson();
   nlohmann::json labels = nlohmann::json::array();
+  nlohmann::json model_names = nlohmann::json::array();
+  for (ModelRef m : models) model_names.push_back(m->name);
   for (const auto& train : training_sets) {
-    for (const std::string& m : models) {
-      labels.push_back({{"label", Label(m, train)}, {"model", m}, {"train", train}});
+    for (ModelRef m : models) {
+      labels.push_back({{"label", Label(m->name, train)}, {"model", m->name}, {"train", train}});
     }
   }
   return {{"schema", "shadefit.study/1"},
@@ -91,7 +106,7 @@ nlohmann::json StudySpec::ToJson() const {
              }
              return m;
            }()},
-          {"models", models},
+          {"models", model_names},
           {"fits", labels},
           {"fit_settings", settings},
           {"training_sets", training_sets},

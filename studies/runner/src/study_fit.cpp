@@ -6,63 +6,79 @@
 namespace shadefit::studies::internal {
 namespace {
 
+// A study's key for a fit setting: the command-line flag's words joined by '_'
+// ("max_iterations"), except the GL path's environment samples, spelled out.
+std::string StudyKey(fit::FitField field) {
+  if (field == fit::FitField::kEnvironmentSamples) return "environment_samples";
+  std::string k = fit::FitFlag(field).substr(2);
+  for (char& c : k) c = c == '-' ? '_' : c;
+  return k;
+}
+
+// Where a model's `fixed` list comes from: the text of the last table that sets it, its key
+// (fit.fixed, fit.override.<model>.fixed or quick.fixed) and its node.
+struct FixedSource {
+  std::vector<std::string> text;
+  std::string key = "fit.fixed";
+  const toml::node* node = nullptr;
+};
+
 // One table's fit settings, read over `s` (the defaults, or the settings it overrides) and
-// checked.
+// checked, as merged so far, by the rules `shadefit fit` uses (fit/option_checks.h).
 void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& prefix,
-                     FitSettings* s) {
-  s->loss = r.String(t, prefix, "loss", s->loss);
-  s->loss_scale = r.Number(t, prefix, "loss_scale", s->loss_scale, 0.0);
-  // Bounds say what a fit can use: more starts than 10000 or iterations than 100000 per start is
-  // a typo, not a plan, and would run for days.
-  s->starts = static_cast<int>(r.Integer(t, prefix, "starts", s->starts, 1, 10000));
+                     FitSettings* s, FixedSource* fixed) {
+  auto choice = [&](const char* key, auto parse, auto* out) {
+    if (!t.contains(key)) return;
+    try {
+      *out = parse(r.String(t, prefix, key, ""));
+    } catch (const fit::FitOptionError& e) {
+      r.Fail(t.get(key), prefix + key, e.problem);
+    }
+  };
+  choice("loss", fit::ParseLoss, &s->loss);
+  choice("exposure", fit::ParseExposure, &s->exposure);
+  choice("path", fit::ParsePath, &s->path);
+  choice("encoding", fit::ParseEncodingMode, &s->encoding);
+  constexpr std::int64_t kLowest = std::numeric_limits<int>::min();
+  s->loss_scale = r.Number(t, prefix, "loss_scale", s->loss_scale);
+  s->starts = static_cast<int>(r.Integer(t, prefix, "starts", s->starts, kLowest));
   s->seed = static_cast<std::uint64_t>(
       r.Integer(t, prefix, "seed", s->seed, 0, std::numeric_limits<std::int64_t>::max()));
-  s->exposure = r.String(t, prefix, "exposure", s->exposure);
-  s->path = r.String(t, prefix, "path", s->path);
   s->max_iterations =
-      static_cast<int>(r.Integer(t, prefix, "max_iterations", s->max_iterations, 1, 100000));
+      static_cast<int>(r.Integer(t, prefix, "max_iterations", s->max_iterations, kLowest));
+  s->environment_samples = static_cast<int>(
+      r.Integer(t, prefix, "environment_samples", s->environment_samples, kLowest));
   s->pixel_stride = static_cast<int>(r.Integer(t, prefix, "pixel_stride", s->pixel_stride, 1));
-  s->environment_samples =
-      static_cast<int>(r.Integer(t, prefix, "environment_samples", s->environment_samples, 0));
-  if (t.contains("fixed")) s->fixed = r.Strings(t, prefix, "fixed");
-  s->encoding = r.String(t, prefix, "encoding", s->encoding);
-  s->start = r.String(t, prefix, "start", s->start);
-  const std::set<std::string> losses = {"l2", "log", "cuberoot", "huber", "cauchy"};
-  if (!losses.contains(s->loss)) {
-    r.Fail(t.get("loss"), prefix + "loss",
-           "unknown loss '" + s->loss + "'" + DidYouMean(s->loss, {losses.begin(), losses.end()}) +
-               " (l2, log, cuberoot, huber, cauchy)");
+  if (t.contains("fixed")) {
+    fixed->text = r.Strings(t, prefix, "fixed");
+    fixed->key = prefix + "fixed";
+    fixed->node = t.get("fixed");
   }
-  if (s->exposure != "fixed" && s->exposure != "free") {
-    r.Fail(t.get("exposure"), prefix + "exposure", "expected \"fixed\" or \"free\"");
-  }
-  if (s->path != "auto" && s->path != "gbuffer" && s->path != "gl") {
-    r.Fail(t.get("path"), prefix + "path", "expected \"auto\", \"gbuffer\" or \"gl\"");
-  }
-  if (s->encoding != "as-imported" && s->encoding != "fit") {
-    r.Fail(t.get("encoding"), prefix + "encoding", "expected \"as-imported\" or \"fit\"");
-  }
-  if (s->start != "default" && s->start != "brdf") {
+  const std::string start =
+      r.String(t, prefix, "start", s->start == StartFrom::kBrdf ? "brdf" : "default");
+  if (start != "default" && start != "brdf") {
     r.Fail(t.get("start"), prefix + "start", "expected \"default\" or \"brdf\"");
   }
-  if (s->encoding == "fit" && s->exposure != "free") {
-    r.Fail(t.get("encoding"), prefix + "encoding",
-           "\"fit\" needs exposure = \"free\" (the exposure of a photograph is unknown too)");
+  s->start = start == "brdf" ? StartFrom::kBrdf : StartFrom::kDefault;
+  try {
+    fit::CheckFitOptions(s->Options(), s->encoding);
+  } catch (const fit::FitOptionError& e) {
+    const std::string key = StudyKey(e.field);
+    r.Fail(t.get(key), prefix + key, e.problem);
   }
 }
 
-// A model's `fixed` values, checked against its parameter table when the file is loaded (the
-// fitter would reject them only when the job runs, after the other models' fits). `key` and
-// `array` say where the list came from: fit.fixed (every model), fit.override.<model>.fixed or
-// quick.fixed. A name the model lacks, written for every model, is answered with the way to
+// A model's `fixed` values, made for it from their text and checked against its parameter table
+// when the file is loaded (the fitter would reject them only when the job runs, after the other
+// models' fits). A name the model lacks, written for every model, is answered with the way to
 // write it for some: [fit.override.<model>] (docs/studies.md, "Fit").
-void CheckFixed(const Reader& r, const std::string& model_name, const FitSettings& s,
-                const std::string& key, const toml::node* array) {
-  const ModelInfo& model = FindModel(model_name);
-  const toml::array* a = array != nullptr ? array->as_array() : nullptr;
-  for (std::size_t i = 0; i < s.fixed.size(); ++i) {
-    const std::string& assignment = s.fixed[i];
-    const toml::node* where = a != nullptr && i < a->size() ? a->get(i) : array;
+std::vector<FixedValue> FixedFor(const Reader& r, const ModelInfo& model,
+                                 const FixedSource& source) {
+  const toml::array* a = source.node != nullptr ? source.node->as_array() : nullptr;
+  std::vector<FixedValue> out;
+  for (std::size_t i = 0; i < source.text.size(); ++i) {
+    const std::string& assignment = source.text[i];
+    const toml::node* where = a != nullptr && i < a->size() ? a->get(i) : source.node;
     const std::string name = assignment.substr(0, assignment.find('='));
     if (model.Find(name) == nullptr) {
       std::vector<std::string> names;
@@ -71,74 +87,65 @@ void CheckFixed(const Reader& r, const std::string& model_name, const FitSetting
       for (const ModelInfo& m : AllModels()) {
         if (m.Find(name) != nullptr) having += (having.empty() ? "" : ", ") + m.name;
       }
-      const bool for_every_model = key.rfind("fit.override.", 0) != 0;
+      const bool for_every_model = source.key.rfind("fit.override.", 0) != 0;
       // A parameter of other models is no typo: no "did you mean" for it.
       std::string advice = having.empty() ? DidYouMean(name, names) : "";
       if (for_every_model) {
         advice += " (write it under [fit.override.<model>]" +
                   (having.empty() ? std::string() : "; models that have it: " + having) + ")";
       }
-      r.Fail(where, key,
+      r.Fail(where, source.key,
              fmt::format("'{}' is not a parameter of model '{}'{}", name, model.name, advice));
     }
     try {
-      std::vector<double> params = DefaultParams(model);
-      SetParamFromString(model, assignment, "", &params);
+      out.push_back(ParseFixedValue(model, assignment, ""));
     } catch (const Error& e) {
-      r.Fail(where, key, fmt::format("model '{}': {}", model.name, e.what()));
+      r.Fail(where, source.key, fmt::format("model '{}': {}", model.name, e.what()));
     }
   }
+  return out;
 }
 
-// [fit] models and their settings: the defaults, [fit.override.<model>], then [quick].
+// [fit] models, resolved here once, and their settings: the defaults, [fit.override.<model>],
+// then [quick].
 void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q, StudySpec* spec) {
   const toml::table* qt = q.table;
-  spec->models = r.Strings(fit, "fit.", "models");
-  if (qt != nullptr && qt->contains("models")) spec->models = r.Strings(*qt, "quick.", "models");
-  if (spec->models.empty()) r.Fail(fit.get("models"), "fit.models", "missing or empty");
-  for (const std::string& m : spec->models) {
+  std::vector<std::string> names = r.Strings(fit, "fit.", "models");
+  if (qt != nullptr && qt->contains("models")) names = r.Strings(*qt, "quick.", "models");
+  if (names.empty()) r.Fail(fit.get("models"), "fit.models", "missing or empty");
+  spec->models.clear();
+  for (const std::string& m : names) {
     try {
-      FindModel(m);
+      spec->models.push_back(FindModel(m));
     } catch (const Error& e) {
       r.Fail(fit.get("models"), "fit.models", e.what());
     }
   }
   FitSettings defaults;
-  ReadFitSettings(r, fit, "fit.", &defaults);
+  FixedSource default_fixed;
+  ReadFitSettings(r, fit, "fit.", &defaults, &default_fixed);
   const toml::table* overrides = r.Table(fit, "fit.", "override");
   if (overrides != nullptr) {
     for (const auto& [key, node] : *overrides) {
       const std::string model(key.str());
-      if (std::find(spec->models.begin(), spec->models.end(), model) == spec->models.end() &&
-          qt == nullptr) {
+      if (std::find(names.begin(), names.end(), model) == names.end() && qt == nullptr) {
         r.Fail(&node, "fit.override." + model, "not one of fit.models");
       }
       if (!node.is_table()) r.Fail(&node, "fit.override." + model, "expected a table");
       r.CheckKeys(*node.as_table(), "fit.override." + model + ".", kFitKeys);
     }
   }
-  for (const std::string& m : spec->models) {
+  for (ModelRef model : spec->models) {
+    const std::string& m = model->name;
     FitSettings s = defaults;
-    // Where this model's `fixed` list comes from: the last table that sets it.
-    std::string fixed_key = "fit.fixed";
-    const toml::node* fixed_node = fit.get("fixed");
+    FixedSource fixed = default_fixed;
     if (overrides != nullptr) {
       if (const toml::table* o = r.Table(*overrides, "fit.override.", m)) {
-        ReadFitSettings(r, *o, "fit.override." + m + ".", &s);
-        if (o->contains("fixed")) {
-          fixed_key = "fit.override." + m + ".fixed";
-          fixed_node = o->get("fixed");
-        }
+        ReadFitSettings(r, *o, "fit.override." + m + ".", &s, &fixed);
       }
     }
-    if (qt != nullptr) {
-      ReadFitSettings(r, *qt, "quick.", &s);
-      if (qt->contains("fixed")) {
-        fixed_key = "quick.fixed";
-        fixed_node = qt->get("fixed");
-      }
-    }
-    CheckFixed(r, m, s, fixed_key, fixed_node);
+    if (qt != nullptr) ReadFitSettings(r, *qt, "quick.", &s, &fixed);
+    s.fixed = FixedFor(r, *model, fixed);
     spec->model_settings[m] = s;
   }
 }
@@ -183,7 +190,8 @@ void CheckTrainingLightings(const Reader& r, const toml::table& fit, const Study
                          kBrdfSpaceTraining));
     }
     for (const auto& [model, s] : spec.model_settings) {
-      if (s.loss != "l2" || s.exposure != "fixed" || s.encoding != "as-imported") {
+      if (s.loss != fit::Loss::kL2 || s.exposure != fit::Exposure::kFixed ||
+          s.encoding != fit::EncodingMode::kAsImported) {
         r.Fail(fit.get("train"), "fit.train",
                fmt::format("'{}' fits the cosine-weighted BRDF in L2 with no scale: model '{}' "
                            "needs loss = \"l2\", exposure = \"fixed\" and no encoding search",
@@ -255,9 +263,10 @@ void ReadComparisons(const Reader& r, const toml::table& root, const toml::table
     return std::find(file_models.begin(), file_models.end(), m) != file_models.end();
   };
   const auto kept = [&](const std::string& m) {
-    return std::find(spec->models.begin(), spec->models.end(), m) != spec->models.end();
+    return std::any_of(spec->models.begin(), spec->models.end(),
+                       [&](ModelRef kept_model) { return kept_model->name == m; });
   };
-  spec->baseline = spec->models.front();
+  spec->baseline = spec->models.front()->name;
   if (study.contains("baseline")) {
     const std::string b = r.String(study, "study.", "baseline", "");
     if (!known(b))

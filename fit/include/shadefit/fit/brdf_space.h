@@ -70,7 +70,7 @@ void CheckBrdfSpaceOptions(const FitOptions& options);
 // shadefit::Error("--loss" / "--exposure"). No GL context is created or used (render_outputs
 // and the renderer are ignored). The result's one reference is named "brdf-space"; its rmse is E
 // above and FitResult::inputs records the files, their SHA-256 and the sampling.
-FitResult FitBrdfSpace(const std::string& model, const std::vector<std::string>& fixed,
+FitResult FitBrdfSpace(const ModelInfo& model, const std::vector<FixedValue>& fixed,
                        BrdfSpaceData data, const FitOptions& options = {});
 
 }  // namespace shadefit::fit

@@ -35,7 +35,7 @@ struct StoredEncoding {
 
 // "as-imported" (the encoding the import applied, recorded in the sidecar) or "fit" (search).
 enum class EncodingMode { kAsImported, kFit };
-EncodingMode ParseEncodingMode(const std::string& name);  // Throws Error("", "encoding", ...).
+EncodingMode ParseEncodingMode(const std::string& name);  // Throws FitOptionError.
 std::string EncodingModeName(EncodingMode mode);
 
 struct EncodingSearchOptions {

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "shadefit/render/models.h"
+
 namespace shadefit::fit {
 
 enum class PinKind {
@@ -33,8 +35,7 @@ struct ExposurePin {
   std::string text;            // What is pinned and why, one line.
 };
 
-// The pin of `model` for a fit with a free exposure and the user's `fixed` ("name=value", as
-// FitProblem::fixed). Throws shadefit::Error for an unknown model or a bad assignment.
-ExposurePin ExposurePinOf(const std::string& model, const std::vector<std::string>& fixed = {});
+// The pin of `model` for a fit with a free exposure and the user's `fixed` (as FitProblem::fixed).
+ExposurePin ExposurePinOf(const ModelInfo& model, const std::vector<FixedValue>& fixed = {});
 
 }  // namespace shadefit::fit

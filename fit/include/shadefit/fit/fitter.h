@@ -25,6 +25,7 @@
 
 #include "shadefit/fit/defaults.h"
 #include "shadefit/fit/exposure_pin.h"
+#include "shadefit/fit/option_checks.h"
 #include "shadefit/reference_images/reference.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
@@ -50,7 +51,8 @@ inline constexpr double kCubeRootEpsilon = 1e-4;
 enum class DerivativePath { kAuto, kGBuffer, kGl };
 enum class Exposure { kFixed, kFree };
 
-Loss ParseLoss(const std::string& name);               // Throws shadefit::Error on unknown names.
+// The Parse functions throw FitOptionError (option_checks.h) on unknown names.
+Loss ParseLoss(const std::string& name);
 std::string LossName(Loss loss);                       // "l2", "log", "cuberoot", ...
 DerivativePath ParsePath(const std::string& name);     // "auto", "gbuffer", "gl".
 std::string PathName(DerivativePath path);
@@ -75,10 +77,9 @@ class DegenerateReferenceError : public Error {
 };
 
 struct FitProblem {
-  std::string model;                     // Name as listed by `shadefit models`.
+  ModelRef model;                        // Resolved where its name was given (FindModel).
   std::vector<FitReference> references;  // Fitted jointly with one parameter set.
-  // Held constant: "name=value" or "name=r,g,b" (the --set syntax of `shadefit render`).
-  std::vector<std::string> fixed;
+  std::vector<FixedValue> fixed;         // Rows held constant, made for `model`.
 };
 
 // kBoundedLm: the bounded Levenberg-Marquardt of fit/src/bounded_lm.h (box bounds held by an
@@ -89,8 +90,8 @@ struct FitProblem {
 // loss: cost 28.9 against Ceres' 2.4e-5; a free-exposure photo fit at exposure 2.84 of 4:
 // docs/fitting.md), so kAuto leaves those fits to Ceres.
 enum class Solver { kAuto, kBoundedLm, kCeres };
-// "auto", "bounded-lm", "ceres"; throws shadefit::Error(flag, ...) on anything else.
-Solver ParseSolver(const std::string& name, const std::string& flag);
+// "auto", "bounded-lm", "ceres"; throws FitOptionError on anything else.
+Solver ParseSolver(const std::string& name);
 
 struct FitOptions {
   Loss loss = Loss::kL2;
@@ -186,7 +187,7 @@ struct ReferenceResult {
 };
 
 struct FitResult {
-  std::string model;
+  ModelRef model;
   Loss loss = Loss::kL2;           // Written by name (LossName).
   double loss_scale = 0;           // 0 for losses without a scale.
   DerivativePath path = DerivativePath::kGBuffer;  // The path that ran (never kAuto).
@@ -249,7 +250,7 @@ std::vector<std::string> WriteFitOutputs(const FitResult& result, const std::str
 // Renders `model` with `params` (natural units, flattened) under the reference's scene with GL,
 // times `exposure`, and returns the RMSE (linear radiance) over the reference's valid pixels.
 // `renderer` as in FitOptions; `prediction` receives the render when not null.
-double EvaluateModelOnReference(const FitReference& reference, const std::string& model,
+double EvaluateModelOnReference(const FitReference& reference, const ModelInfo& model,
                                 const std::vector<double>& params, double exposure = 1.0,
                                 Renderer* renderer = nullptr, Image* prediction = nullptr);
 

@@ -65,8 +65,8 @@ double LogFloor(const ParamSpec& spec);
 
 class Parametrization {
  public:
-  // `fixed`: "name=value" assignments (throws shadefit::Error("--fix", name, ...) on bad ones).
-  Parametrization(const ModelInfo& model, const std::vector<std::string>& fixed);
+  // `fixed`: rows held at values, made for `model` (ParseFixedValue).
+  Parametrization(const ModelInfo& model, const std::vector<FixedValue>& fixed);
 
   const ModelInfo& model() const { return *model_; }
   int size() const { return static_cast<int>(entries_.size()); }

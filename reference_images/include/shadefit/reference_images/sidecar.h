@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "shadefit/render/models.h"
+
 namespace shadefit::reference_images {
 
 // "<image path without extension>.json".
@@ -22,7 +24,7 @@ std::string SceneOfSidecar(const std::string& sidecar_path);
 // The sidecar's material as one of shadefit's models with its parameters: the ground truth the
 // probes compare against.
 struct SidecarTruth {
-  std::string model;           // "cycles-principled" or "lambert".
+  ModelRef model;              // cycles-principled or lambert.
   std::vector<double> params;  // Flattened, natural units, in the model's parameter order.
 };
 

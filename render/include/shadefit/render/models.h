@@ -56,6 +56,40 @@ void SetParam(const ModelInfo& model, const std::string& name, const std::vector
 void SetParamFromString(const ModelInfo& model, const std::string& assignment,
                         const std::string& context, std::vector<double>* params);
 
+// A model resolved once, where its name enters the program (a study file, a command line, a
+// sidecar or a job record read back): what travels from there on, so that no later stage looks
+// the name up again with an error path of its own. A pointer into AllModels(), cheap to copy.
+class ModelRef {
+ public:
+  ModelRef() = default;                              // None yet: a record being filled.
+  ModelRef(const ModelInfo& info) : info_(&info) {}  // NOLINT(google-explicit-constructor)
+  const ModelInfo& operator*() const { return *info_; }
+  const ModelInfo* operator->() const { return info_; }
+  explicit operator bool() const { return info_ != nullptr; }
+  friend bool operator==(ModelRef a, ModelRef b) { return a.info_ == b.info_; }
+
+ private:
+  const ModelInfo* info_ = nullptr;
+};
+
+// A parameter held at a value: one row of a model's table and its natural values, one per entry
+// of the row (a scalar given for a colour is already spread). `given` is the text as the user
+// wrote it ("ka=0"), kept for provenance records only.
+struct FixedValue {
+  const ParamSpec* param = nullptr;  // A row of the model it was made for.
+  std::vector<double> values;
+  std::string given;
+};
+// "name=v" or "name=v1,v2,v3" (--fix, a study's `fixed`) checked against `model`'s table as
+// SetParamFromString checks it, errors naming `context`.
+FixedValue ParseFixedValue(const ModelInfo& model, const std::string& assignment,
+                           const std::string& context);
+std::vector<FixedValue> ParseFixedValues(const ModelInfo& model,
+                                         const std::vector<std::string>& assignments,
+                                         const std::string& context);
+// The texts as given, in order (provenance: a fit's inputs, a job's hash).
+std::vector<std::string> FixedTexts(const std::vector<FixedValue>& fixed);
+
 // Width of the GGX lobe that best stands for the model's specular lobe (its LobeAlpha term), used
 // only to importance sample environment lighting (any proposal is unbiased; a close one
 // converges faster). Returns 0 for models without a specular lobe.

@@ -44,7 +44,7 @@ ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer);
 
 struct ModelUnderTest {                 // a model with parameters: a fit, or the truth
   std::string label;                    // "ggx", "blinn-phong", "truth", ...
-  std::string model;                    // name from `shadefit models`
+  ModelRef model;                       // resolved where its name was given (FindModel)
   std::vector<double> params;           // flattened, natural units
   double exposure = 1.0;                // global scale applied to renders
   std::vector<std::string> trained_on;  // reference names used to fit it (portability)

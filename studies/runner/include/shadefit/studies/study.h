@@ -12,6 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "shadefit/fit/defaults.h"
+#include "shadefit/fit/encoding_search.h"
+#include "shadefit/fit/fitter.h"
 #include "shadefit/probes/probe_kind.h"
 
 namespace shadefit::studies {
@@ -31,32 +33,38 @@ struct ReferenceGroup {
   std::vector<ReferenceSpec> references;  // Sorted by lighting name.
 };
 
-// The fitter settings a study fixes (the same names as fit::FitOptions, as strings where the
-// fitter parses them). Per-model overrides may change any of them.
+// Where an image fit of a [[measured]] material starts: "default" (the table defaults, then
+// Halton points) or "brdf", also from the material's BRDF-space fit (Ngan et al. 2005's
+// objective, fit/brdf_space.h) of the same model; fits of other groups start as by default
+// (docs/studies.md, "Fits").
+enum class StartFrom { kDefault, kBrdf };
+
+// The fitter settings a study fixes for one model, typed and checked when the file is loaded
+// (by the rules `shadefit fit` uses too: fit/option_checks.h). Per-model overrides may change any
+// of them.
 struct FitSettings {
-  std::string loss = "cuberoot";
+  fit::Loss loss = fit::Loss::kCubeRoot;
   double loss_scale = 0.0;
   int starts = fit::kDefaultStarts;  // The CLI's default (shadefit/fit/defaults.h).
   std::uint64_t seed = 1;
-  std::string exposure = "fixed";
-  std::string path = "auto";
+  fit::Exposure exposure = fit::Exposure::kFixed;
+  fit::DerivativePath path = fit::DerivativePath::kAuto;
   int max_iterations = fit::kDefaultMaxIterations;
   // Fit on every stride-th pixel in x and y (1 = all): cost falls as stride^2 while metrics are
   // still computed on every pixel. The subsample is a mask, so the images are never resampled.
   int pixel_stride = 1;
   int environment_samples = 0;  // GL path: override the scenes' environment samples (0 = keep).
-  // "name=value", held constant. Checked against each model's parameter table when the file is
-  // loaded: [fit] fixed applies to every model, so it may name only parameters every listed
-  // model has; a parameter some models lack goes under [fit.override.<model>].
-  std::vector<std::string> fixed;
-  // "as-imported" (the references' own decoding) | "fit": choose sRGB, linear or a fitted gamma
-  // on the training references (fit/encoding_search.h) and decode every reference with it.
-  std::string encoding = "as-imported";
-  // "default" | "brdf": an image fit of a [[measured]] material also starts from the material's
-  // BRDF-space fit (Ngan et al. 2005's objective, fit/brdf_space.h) of the same model; fits of
-  // other groups start as by default (docs/studies.md, "Fits").
-  std::string start = "default";
+  // Held constant, made for this model (checked against its table when the file is loaded):
+  // [fit] fixed applies to every model, so it may name only parameters every listed model has; a
+  // parameter some models lack goes under [fit.override.<model>].
+  std::vector<FixedValue> fixed;
+  // kAsImported (the references' own decoding) | kFit: choose sRGB, linear or a fitted gamma on
+  // the training references (fit/encoding_search.h) and decode every reference with it.
+  fit::EncodingMode encoding = fit::EncodingMode::kAsImported;
+  StartFrom start = StartFrom::kDefault;
 
+  // The fitter's options these settings give (the rest at their defaults).
+  fit::FitOptions Options() const;
   nlohmann::json ToJson() const;
 };
 
@@ -90,8 +98,9 @@ struct StudySpec {
 
   std::vector<ReferenceGroup> groups;
   std::vector<MeasuredSource> measured;  // [[measured]] tables (groups added when rendered).
-  std::vector<std::string> models;
+  std::vector<ModelRef> models;          // Resolved when the file is loaded.
   std::map<std::string, FitSettings> model_settings;  // Every model, overrides applied.
+  const FitSettings& SettingsOf(ModelRef model) const { return model_settings.at(model->name); }
   std::vector<std::vector<std::string>> training_sets;  // Lighting names per set.
   std::vector<std::string> test_lightings;  // Empty: every lighting not in the training set.
 
