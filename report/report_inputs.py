@@ -230,7 +230,7 @@ FIT_JOB = Object({
 
 # jobs/probe.*.json: the probes' results as ProbeResultToJson writes them
 # (metrics/probes/src/output.cpp): curves are records, never parsed names.
-PROBE_SCHEMA = "shadefit.probe/3"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
+PROBE_SCHEMA = "shadefit.probe/4"  # kProbeResultSchema, metrics/probes/include/shadefit/probes
 
 PROBE_RESULT = Object({
     "schema": Field(STRING, one_of=(PROBE_SCHEMA,),
@@ -240,6 +240,7 @@ PROBE_RESULT = Object({
         "series": STRING, "kind": STRING, "x": Array(ANY), "y": Array(ANY),
         "x_label": STRING, "y_label": STRING, "x_scale": STRING, "y_scale": STRING,
         "reference": Field(STRING, nullable=True),  # null: a curve of no reference image
+        "lighting": Field(STRING, nullable=True),  # that reference's lighting; null with it
         "extrapolated": Optional(Array(BOOLEAN)),
     })),
 })

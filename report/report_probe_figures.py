@@ -46,12 +46,12 @@ def plot_curve(ax, c, ys, **style):
 
 def shown_reference(probe, curves):
     """The reference whose curves a panel shows: the first of PREFERRED_LIGHTING's lightings
-    for the probe that a curve's reference is of, else the first by name; None for curves of no
-    reference. The lighting is read off the reference's name ("<material>-<lighting>", as the
-    runner names references): a curve record carries no lighting field."""
-    refs = sorted({c["reference"] for c in curves if c["reference"]})
+    for the probe that a curve's reference is of (its `lighting` field), else the first by
+    name; None for curves of no reference."""
+    lighting = {c["reference"]: c["lighting"] for c in curves if c["reference"]}
+    refs = sorted(lighting)
     for want in PREFERRED_LIGHTING.get(probe, []):
-        chosen = next((r for r in refs if r.endswith("-" + want)), None)
+        chosen = next((r for r in refs if lighting[r] == want), None)
         if chosen:
             return chosen
     return refs[0] if refs else None

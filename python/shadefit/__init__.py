@@ -333,7 +333,7 @@ def probe(name, references=(), models=(), *, truth_from_sidecar=False, brdf=None
     BRDF file, `brdf`). references: paths of reference images with their sidecars. models:
     FitResults, model names (table defaults) or dicts {model, params, label, exposure,
     trained_on}. truth_from_sidecar: add the first reference's Cycles material as "truth".
-    Returns the schema shadefit.probe/3 dict: numbers (per series), curves (x, y, labels),
+    Returns the schema shadefit.probe/4 dict: numbers (per series), curves (x, y, labels),
     notes; radiance in W m^-2 sr^-1, angles in degrees.
     """
     if isinstance(references, (str, _os.PathLike)):

@@ -1,6 +1,7 @@
 // Fresnel probe on synthetic renders with known BRDFs (docs/probes.md, "Validation").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -143,6 +144,15 @@ TEST(FresnelProbe, BlinnPhongCurveIsFlat) {
   EXPECT_NEAR(r.numbers["blinn-phong"]["rim_to_centre"].get<double>(), 1.0, 0.01);
   // It cannot follow the reference's rise: a large curve error against the Schlick reference.
   EXPECT_GT(r.numbers["blinn-phong"]["curve_rmse_theta_d"].get<double>(), 0.1);
+  // A per-reference curve carries its reference's lighting as a field.
+  for (const probes::ProbeCurve& c : r.curves) {
+    if (c.reference.empty()) continue;
+    const auto ref = std::find_if(in.references.begin(), in.references.end(),
+                                  [&](const auto& x) { return x.name == c.reference; });
+    ASSERT_NE(ref, in.references.end()) << c.reference;
+    EXPECT_EQ(c.lighting, ref->lighting) << c.reference;
+    EXPECT_FALSE(c.lighting.empty());
+  }
 }
 
 // Without a truth the reference's diffuse part is estimated by the Lambert percentile fit: a

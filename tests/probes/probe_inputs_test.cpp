@@ -112,6 +112,7 @@ TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
   probes::ProbeResult r(probes::ProbeKind::kHighlight);
   r.curves.push_back({.series = "ggx",
                       .reference = "gold-key",
+                      .lighting = "key",
                       .kind = probes::CurveKind::kFalloff,
                       .x = {0.25, 0.75},
                       .y = {1.0, std::numeric_limits<double>::quiet_NaN()},
@@ -129,6 +130,7 @@ TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
   const nlohmann::json& a = j["curves"][0];
   EXPECT_EQ(a["series"], "ggx");
   EXPECT_EQ(a["reference"], "gold-key");
+  EXPECT_EQ(a["lighting"], "key");
   EXPECT_EQ(a["kind"], "falloff");
   EXPECT_EQ(a["x"], nlohmann::json({0.25, 0.75}));
   EXPECT_EQ(a["y"][0], 1.0);
@@ -139,6 +141,7 @@ TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
   EXPECT_TRUE(a["x_ticks"].empty());
   const nlohmann::json& b = j["curves"][1];
   EXPECT_TRUE(b["reference"].is_null());
+  EXPECT_TRUE(b["lighting"].is_null());
   EXPECT_EQ(b["kind"], "RMSE per reference");
   EXPECT_EQ(b["x_ticks"], nlohmann::json({"gold-key"}));
   EXPECT_EQ(probes::FindCurve(r, probes::CurveKind::kFalloff, "ggx", "gold-key"), &r.curves[0]);

@@ -77,7 +77,7 @@ def test_energy_probe_equals_the_cli(cli, tmp_path):
     expected = json.loads((tmp_path / "energy.json").read_text())
     result = shadefit.probe("energy", models={"model": "ggx", "params": {"roughness": 0.4}})
     assert result["numbers"] == expected["numbers"]
-    assert result["schema"] == expected["schema"] == "shadefit.probe/3"
+    assert result["schema"] == expected["schema"] == "shadefit.probe/4"
 
 
 def test_portability_probe_of_a_fit(cli, tmp_path):

@@ -234,7 +234,7 @@ def main(argv):
     for m in materials:
         write_json(os.path.join(d, "jobs", f"probe.{m}.json"), {
             "kind": "probe", "material": m, "probes": {"fresnel": {
-                "schema": "shadefit.probe/3", "curves": [],
+                "schema": "shadefit.probe/4", "curves": [],
                 "numbers": {"reference": {"rim_to_centre": 2.0},
                             "blinn-phong": {"rim_to_centre": -1.0},
                             "ggx": {"rim_to_centre": -3.0}}}}})

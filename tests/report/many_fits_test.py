@@ -153,7 +153,9 @@ def write_study(d, shape):
 
 
 def curve(series, reference, kind, xs, ys, x_label, y_label, extrapolated=None):
-    c = {"series": series, "reference": reference, "kind": kind, "x": list(xs), "y": list(ys),
+    c = {"series": series, "reference": reference,
+         "lighting": reference.rsplit("-", 1)[1] if reference else None, "kind": kind,
+         "x": list(xs), "y": list(ys),
          "x_label": x_label, "y_label": y_label, "x_scale": "linear", "y_scale": "linear"}
     if extrapolated is not None:
         c["extrapolated"] = extrapolated
@@ -163,7 +165,7 @@ def curve(series, reference, kind, xs, ys, x_label, y_label, extrapolated=None):
 def probe_results(m, labels, rng):
     """A highlight probe (one panel: a 3.3 in figure), a brdf probe (five panels, measured points
     flagged extrapolated) and portability numbers (bars), for the reference and every fit."""
-    schema = "shadefit.probe/3"
+    schema = "shadefit.probe/4"
     th = np.linspace(0, 60, 31)
     highlight = [curve(s, f"{m}-key", "falloff", th, np.exp(-th / rng.uniform(2, 20)),
                        "theta_h (deg)", "specular / peak (mean per bin)")

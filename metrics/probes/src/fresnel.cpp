@@ -110,6 +110,7 @@ void MeasureImage(const FresnelOptions& o, const std::string& label, const Model
   tv.Points(&x, &y);
   result->curves.push_back({.series = label,
                             .reference = ref.name,
+                            .lighting = ref.lighting,
                             .kind = CurveKind::kSpecularVsThetaV,
                             .x = std::move(x),
                             .y = std::move(y),

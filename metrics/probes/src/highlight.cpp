@@ -223,6 +223,7 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
       }
       result.curves.push_back({.series = label,
                                .reference = ref->name,
+                               .lighting = ref->lighting,
                                .kind = CurveKind::kFalloff,
                                .x = s.falloff_x,
                                .y = s.falloff_y,

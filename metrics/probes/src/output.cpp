@@ -131,6 +131,7 @@ nlohmann::json CurveToJson(const ProbeCurve& c) {
   nlohmann::json j = {
       {"series", c.series},
       {"reference", c.reference.empty() ? nlohmann::json() : nlohmann::json(c.reference)},
+      {"lighting", c.lighting.empty() ? nlohmann::json() : nlohmann::json(c.lighting)},
       {"kind", CurveKindName(c.kind)},
       {"x", std::move(x)},
       {"y", std::move(y)},

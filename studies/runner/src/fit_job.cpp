@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "job_kinds.h"
+#include "job_records.h"
 #include "outputs.h"
 #include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
@@ -37,18 +38,18 @@ bool Trains(const Job& job, const std::string& lighting) {
   return std::find(job.train.begin(), job.train.end(), lighting) != job.train.end();
 }
 
-// The fields every fit job JSON starts with, whatever its outcome.
-json FitJobHeader(const RunContext& context, const Job& job, FitStatus status) {
-  return {{"schema", "shadefit.study.job/1"},
-          {"id", job.id},
-          {"kind", "fit"},
-          {"hash", job.hash},
-          {"shadefit_version", ShadefitVersion()},
-          {"material", context.spec.groups[job.group].material},
-          {"model", job.model->name},
-          {"label", job.label},
-          {"train", job.train},
-          {"status", FitStatusName(status)}};
+// The fields every fit job record has, whatever its outcome.
+FitJobRecord FitRecordHeader(const RunContext& context, const Job& job, FitStatus status) {
+  FitJobRecord r;
+  r.id = job.id;
+  r.hash = job.hash;
+  r.shadefit_version = ShadefitVersion();
+  r.material = context.spec.groups[job.group].material;
+  r.model = job.model->name;
+  r.label = job.label;
+  r.train = job.train;
+  r.status = status;
+  return r;
 }
 
 // The training references, each subsampled to every stride-th pixel by a mask (the images are
@@ -318,7 +319,7 @@ void CheckFinite(const Image& prediction, const Image& reference, const std::str
 }
 
 // The fit rendered under one reference's lighting and compared with it.
-json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
+EvaluationRecord Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
               const reference_images::Reference& ref, const fit::FitResult& result,
               Renderer& renderer, json* outputs) {
   const StudySpec& spec = context.spec;
@@ -356,28 +357,30 @@ json Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs
     main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured, mp,
                       false, nullptr);
   }
-  json e = {{"reference", rs.name},
-            {"lighting", rs.lighting},
-            {"split", SplitOf(spec, rs.lighting, job.train)},
-            {"rmse_fitter", rmse},
+  EvaluationRecord record;
+  record.reference = rs.name;
+  record.lighting = rs.lighting;
+  record.split = SplitOf(spec, rs.lighting, job.train);
+  record.measured_fraction =
+      covered_pixels > 0 ? static_cast<double>(measured_pixels) / covered_pixels : 1.0;
+  record.metrics = main.report ? MetricsSummary(*main.report) : NullMetricsSummary();
+  record.metrics_all = all.report ? MetricsSummary(*all.report) : NullMetricsSummary();
+  json& e = record.details;
+  e = {{"rmse_fitter", rmse},
             {"metrics_pixels", ref.extrapolated_share.empty() ? "covered" : "covered and measured"},
             {"covered_pixels", covered_pixels},
             {"measured_pixels", measured_pixels},
             {"lit_pixels", lit_pixels},
             {"measured_lit_pixels", measured_lit_pixels},
-            {"measured_fraction",
-             covered_pixels > 0 ? static_cast<double>(measured_pixels) / covered_pixels : 1.0},
             {"metrics_masked", main.report ? json(main.masked) : json(nullptr)},
-            {"metrics", main.report ? MetricsSummary(*main.report) : NullMetricsSummary()},
             {"metrics_all_masked", all.report ? json(all.masked) : json(nullptr)},
-            {"metrics_all", all.report ? MetricsSummary(*all.report) : NullMetricsSummary()},
             {"metrics_full", main.report ? metrics::MetricsToJson(*main.report) : json(nullptr)}};
   if (!main.report) e["metrics_none"] = main.why_none;
   if (!all.report) e["metrics_all_none"] = all.why_none;
   if (spec.previews) {
     WritePreviews(context, job, rs, ref, prediction, covered, maps, &e, outputs);
   }
-  return e;
+  return record;
 }
 
 json ParametersJson(const fit::FitResult& result) {
@@ -431,26 +434,27 @@ void RemoveFitPreviews(const RunContext& context, const json& outputs) {
   }
 }
 
-// The job JSON of a fit that ran to the end, converged or not.
-json FitJobJson(const RunContext& context, const Job& job, const FitSettings& s,
-                const fit::FitResult& result, const json& evaluations, const json& outputs,
-                const json& encoding) {
-  json j = FitJobHeader(context, job, result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
-  j.update({{"settings", s.ToJson()},
-            {"converged", result.converged},
-            {"termination", fit::TerminationName(result.termination)},
-            {"values", result.values},
-            {"exposure", result.exposure},
-            {"parameters", ParametersJson(result)},
-            {"fit", fit::FitResultToJson(result)},
-            {"evaluations", evaluations},
-            {"outputs", outputs}});
+// The record of a fit that ran to the end, converged or not.
+FitJobRecord FitRecord(const RunContext& context, const Job& job, const FitSettings& s,
+                       const fit::FitResult& result, std::vector<EvaluationRecord> evaluations,
+                       const json& outputs, const json& encoding) {
+  FitJobRecord r =
+      FitRecordHeader(context, job, result.converged ? FitStatus::kOk : FitStatus::kNotConverged);
+  r.settings = s.ToJson();
+  r.converged = result.converged;
+  r.termination = fit::TerminationName(result.termination);
+  r.values = result.values;
+  r.exposure = result.exposure;
+  r.parameters = ParametersJson(result);
+  r.fit = fit::FitResultToJson(result);
   // Wall-clock times are not results: they go to the job's timing file, so that the job JSON
   // is the same bytes on every run.
-  j["fit"]["solver"].erase("seconds");
-  j["fit"]["solver"].erase("solve_seconds");
-  if (!encoding.is_null()) j["encoding"] = encoding;
-  return j;
+  r.fit["solver"].erase("seconds");
+  r.fit["solver"].erase("solve_seconds");
+  r.evaluations = std::move(evaluations);
+  r.outputs = outputs.get<std::vector<std::string>>();
+  r.encoding = encoding;
+  return r;
 }
 
 }  // namespace
@@ -495,7 +499,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
                     fit::TerminationName(result.termination)));
   }
 
-  json evaluations = json::array();
+  std::vector<EvaluationRecord> evaluations;
   json outputs = json::array();
   try {
     for (std::size_t i = 0; i < references.size(); ++i) {
@@ -507,24 +511,21 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
     WriteFailedFit(context, job, FitStatus::kNonFiniteRender, e.what());
     return;
   }
-  const json j = FitJobJson(context, job, s, result, evaluations, outputs, encoding);
+  const FitJobRecord record =
+      FitRecord(context, job, s, result, std::move(evaluations), outputs, encoding);
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(),
               result.seconds);
-  WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");
+  WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }
 
 void WriteFailedFit(const RunContext& context, const Job& job, FitStatus status,
                     const std::string& error) {
   context.log->Say(
       fmt::format("{}: {}: {}; recorded, the study goes on", job.id, FitStatusName(status), error));
-  json j = FitJobHeader(context, job, status);
-  j.update({{"error", error},
-            {"converged", false},
-            {"parameters", json::array()},
-            {"evaluations", json::array()},
-            {"outputs", json::array()}});
+  FitJobRecord record = FitRecordHeader(context, job, status);
+  record.error = error;
   WriteTiming(context, job, 0.0, -1.0);
-  WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");
+  WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }
 
 }  // namespace shadefit::studies::internal

@@ -17,6 +17,7 @@
 
 #include "fit_status.h"
 #include "job_kinds.h"
+#include "job_records.h"
 #include "shadefit/base/files.h"
 
 namespace shadefit::studies::internal {
@@ -45,17 +46,14 @@ std::string HostName() {
 
 // One fit job's rows of results.csv.
 void AppendResultRows(const RunContext& context, const Job& job, std::ostringstream& csv) {
-  std::ifstream in(context.paths.JobJson(job));
-  const json j = json::parse(in);
-  const std::string status = j.value("status", FitStatusName(FitStatus::kOk));
+  const FitJobRecord fit = ReadFitJobRecord(context.paths.JobJson(job));
   const auto row_start = [&](const std::string& lighting, const std::string& reference,
                              const std::string& split) {
-    csv << j["material"].get<std::string>() << "," << lighting << "," << reference << ","
-        << j["label"].get<std::string>() << "," << j["model"].get<std::string>() << ","
-        << JoinTrain(j["train"]) << "," << split << "," << (j["converged"].get<bool>() ? 1 : 0)
-        << "," << status;
+    csv << fit.material << "," << lighting << "," << reference << "," << fit.label << ","
+        << fit.model << "," << JoinTrain(fit.train) << "," << split << ","
+        << (fit.converged ? 1 : 0) << "," << FitStatusName(fit.status);
   };
-  if (!HasFit(ParseFitStatus(status))) {  // No parameters: one row per reference, no metrics.
+  if (!HasFit(fit.status)) {  // No parameters: one row per reference, no metrics.
     for (const ReferenceSpec& r : context.spec.groups[job.group].references) {
       row_start(r.lighting, r.name, SplitOf(context.spec, r.lighting, job.train));
       // kMetricColumns, measured_fraction, the _all columns: all empty.
@@ -63,16 +61,11 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
     }
     return;
   }
-  for (const json& e : j["evaluations"]) {
-    row_start(e["lighting"].get<std::string>(), e["reference"].get<std::string>(),
-              e["split"].get<std::string>());
-    // A job JSON from before the measured domain has no "metrics_all": its "metrics" were
-    // every covered pixel's.
-    const json& main = e.at("metrics");
-    const json& all = e.contains("metrics_all") ? e.at("metrics_all") : main;
-    for (const auto& c : kMetricColumns) csv << "," << Cell(main.value(c, json()));
-    csv << "," << Cell(e.value("measured_fraction", json(1.0)));
-    for (const auto& c : kMetricColumns) csv << "," << Cell(all.value(c, json()));
+  for (const EvaluationRecord& e : fit.evaluations) {
+    row_start(e.lighting, e.reference, e.split);
+    for (const auto& c : kMetricColumns) csv << "," << Cell(e.metrics.value(c, json()));
+    csv << "," << Cell(json(e.measured_fraction));
+    for (const auto& c : kMetricColumns) csv << "," << Cell(e.metrics_all.value(c, json()));
     csv << "\n";
   }
 }

@@ -1,6 +1,8 @@
 // A probe job: the study's probes on one material's references, its fits and (when the sidecar
 // has an exact twin) its true BRDF; for a [[measured]] material also the BRDF-space probe on the
 // measured BRDF file itself; then the job JSON, last.
+#include <fmt/format.h>
+
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "job_kinds.h"
+#include "job_records.h"
 #include "outputs.h"
 #include "shadefit/probes/probes.h"
 #include "shadefit/reference_images/measured_brdf.h"
@@ -46,19 +49,24 @@ std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, cons
   const ReferenceGroup& g = context.spec.groups[job.group];
   std::vector<probes::ModelUnderTest> models;
   for (int d : job.deps) {
-    std::ifstream f(context.paths.JobJson(jobs[d]));
-    const json fj = json::parse(f);
-    if (!HasFit(ParseFitStatus(fj.value("status", FitStatusName(FitStatus::kOk))))) {
-      without_fit->push_back(fj.value("label", jobs[d].label));
+    const std::string path = context.paths.JobJson(jobs[d]);
+    const FitJobRecord fit = ReadFitJobRecord(path);
+    if (!HasFit(fit.status)) {
+      without_fit->push_back(fit.label);
       continue;
     }
+    // The job's model, resolved when the study was loaded; its record must be that job's.
+    if (fit.model != jobs[d].model->name) {
+      throw Error(path, "model", fmt::format("'{}', but the job fits {}", fit.model,
+                                             jobs[d].model->name));
+    }
     probes::ModelUnderTest m;
-    m.label = fj["label"];
-    m.model = FindModel(fj["model"].get<std::string>());  // A job record read back.
-    m.params = fj["values"].get<std::vector<double>>();
-    m.exposure = fj["exposure"];
+    m.label = fit.label;
+    m.model = jobs[d].model;
+    m.params = fit.values;
+    m.exposure = fit.exposure;
     // The probes name training references by reference name, the study by lighting.
-    for (const std::string& lighting : fj["train"].get<std::vector<std::string>>()) {
+    for (const std::string& lighting : fit.train) {
       for (const ReferenceSpec& r : g.references) {
         if (r.lighting == lighting) m.trained_on.push_back(r.name);
       }
@@ -88,19 +96,24 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   }
   const fs::path probe_dir = context.paths.dir / "probes" / g.material;
   fs::create_directories(probe_dir);
-  json results = json::object();
-  json outputs = json::array();
+  ProbeJobRecord record;
+  record.id = job.id;
+  record.hash = job.hash;
+  record.shadefit_version = ShadefitVersion();
+  record.material = g.material;
+  record.status = in.models.empty() ? "no-fit" : "ok";
+  record.fits_without_parameters = without_fit;
   // Every fit of the material failed (a black reference, say): nothing to probe.
   const std::vector<probes::ProbeKind> kinds =
       in.models.empty() ? std::vector<probes::ProbeKind>{} : context.spec.probes;
   std::unique_ptr<reference_images::MeasuredBrdf> measured;
-  json skipped = json::array();
   for (const probes::ProbeKind kind : kinds) {
     if (kind == probes::ProbeKind::kBrdf) {
       // Only a measured material has a BRDF to read; a [[group]] of images says so and goes on.
       const std::string path = MeasuredBrdfPath(context.spec, g.material);
       if (path.empty()) {
-        skipped.push_back({{"probe", "brdf"}, {"why", "not a [[measured]] material"}});
+        record.probes_skipped.push_back(
+            {{"probe", "brdf"}, {"why", "not a [[measured]] material"}});
         continue;
       }
       if (!measured) measured = reference_images::LoadMeasuredBrdf(path);
@@ -108,25 +121,14 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
     }
     const probes::ProbeResult r = probes::RunProbe(kind, in);
     probes::WriteProbeOutputs(r, probe_dir.string(), context.spec.probe_plots);
-    results[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
+    record.probes[probes::ProbeName(kind)] = probes::ProbeResultToJson(r);
     for (const char* ext : {".json", ".png"}) {
       const fs::path p = probe_dir / (std::string(probes::ProbeName(r.probe)) + ext);
-      if (fs::exists(p)) outputs.push_back(fs::relative(p, context.paths.dir).string());
+      if (fs::exists(p)) record.outputs.push_back(fs::relative(p, context.paths.dir).string());
     }
   }
-  const json j = {{"schema", "shadefit.study.job/1"},
-                  {"id", job.id},
-                  {"kind", "probe"},
-                  {"hash", job.hash},
-                  {"shadefit_version", ShadefitVersion()},
-                  {"material", g.material},
-                  {"status", in.models.empty() ? "no-fit" : "ok"},
-                  {"fits_without_parameters", without_fit},
-                  {"probes_skipped", skipped},
-                  {"probes", results},
-                  {"outputs", outputs}};
   WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
-  WriteJobJson(context.paths.JobJson(job), j.dump(1) + "\n");
+  WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }
 
 }  // namespace shadefit::studies::internal

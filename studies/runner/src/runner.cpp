@@ -25,11 +25,13 @@
 #include "geometry_outputs.h"
 #include "job_graph.h"
 #include "job_kinds.h"
+#include "job_records.h"
 #include "outputs.h"
 #include "progress_log.h"
 #include "run_context.h"
 #include "shadefit/metrics/common.h"
 #include "shadefit/base/error.h"
+#include "shadefit/base/files.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
 #include "shadefit/version.h"
@@ -134,19 +136,19 @@ void StudyRun::Prepare() {
 
 bool StudyRun::UpToDate(const Job& job) const {
   if (options_.force) return false;
-  std::ifstream in(context_.paths.JobJson(job));
-  if (!in) return false;
+  const std::string path = context_.paths.JobJson(job);
+  if (!PathExists(path)) return false;
   try {
-    const json j = json::parse(in);
-    if (j.value("hash", "") != job.hash) return false;
-    if (internal::ParseFitStatus(j.value("status", "")) == FitStatus::kGlContextLost) {
-      return false;  // Retried by every run.
-    }
-    for (const auto& out : j.value("outputs", json::array())) {
-      if (!fs::exists(context_.paths.dir / out.get<std::string>())) return false;
+    const internal::JobRecordHead head = internal::ReadJobRecordHead(path);
+    if (head.hash != job.hash) return false;
+    if (head.status == FitStatus::kGlContextLost) return false;  // Retried by every run.
+    for (const std::string& out : head.outputs) {
+      if (!PathExists((context_.paths.dir / out).string())) return false;
     }
     return true;
-  } catch (const json::exception&) {
+  } catch (const Error&) {
+    // A record this version cannot read (half written by a killed run, or of an older format):
+    // the job runs again and writes a new one.
     return false;
   }
 }
@@ -368,14 +370,10 @@ void StudyRun::Summarise(RunSummary* summary) const {
         (job.state != Job::State::kDone && job.state != Job::State::kSkipped)) {
       continue;
     }
-    std::ifstream in(context_.paths.JobJson(job));
-    try {
-      const std::string status =
-          json::parse(in).value("status", internal::FitStatusName(FitStatus::kOk));
-      if (!internal::HasFit(internal::ParseFitStatus(status))) {
-        summary->fits_without_parameters.push_back(job.id + ": " + status);
-      }
-    } catch (const json::exception&) {
+    const internal::FitJobRecord fit = internal::ReadFitJobRecord(context_.paths.JobJson(job));
+    if (!internal::HasFit(fit.status)) {
+      summary->fits_without_parameters.push_back(job.id + ": " +
+                                                 internal::FitStatusName(fit.status));
     }
   }
 }

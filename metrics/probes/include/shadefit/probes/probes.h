@@ -88,6 +88,7 @@ enum class AxisScale { kLinear, kLog };
 struct ProbeCurve {
   std::string series{};     // Whose: "reference", "truth", a model's label, or a sweep series.
   std::string reference{};  // The reference it was measured on; empty when pooled or BRDF-only.
+  std::string lighting{};   // That reference's lighting, a field of its own (never parsed out).
   CurveKind kind = CurveKind::kAlbedo;
   std::vector<double> x{}, y{};  // Same length; non-finite values are written as null.
   std::string x_label{}, y_label{};
@@ -195,7 +196,7 @@ ProbeResult RunProbe(ProbeKind kind, const ProbeInputs& inputs);
 
 // The schema of ProbeResultToJson's object. 3: a curve may carry "extrapolated" flags; 2:
 // "curves" is a list of records (1, unnamed: an object keyed "<series> @ <reference>: <kind>").
-inline constexpr const char* kProbeResultSchema = "shadefit.probe/3";
+inline constexpr const char* kProbeResultSchema = "shadefit.probe/4";
 
 // {"schema": kProbeResultSchema, "probe": name, "numbers": {...}, "curves": [{"series",
 // "reference" (null when pooled), "kind", "x", "y", "x_label", "y_label", "x_scale", "y_scale"
