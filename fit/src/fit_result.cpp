@@ -88,7 +88,7 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
   result->termination = winner.termination;
   result->converged = winner.converged && std::isfinite(winner.final_cost);
   result->solver_message = multistart.solver_message;
-  result->solver_name = !problems.native ? "ceres"
+  result->solver_name = !problems.Native() ? "ceres"
                         : ProjectionApplies(problems.native_full.loss, problems.exposure_free)
                             ? "bounded-lm (variable projection)"
                             : "bounded-lm";

@@ -171,7 +171,7 @@ void MultiStart::EvaluateCost(ceres::Problem& problem, double* cost) const {
 }
 
 double MultiStart::FullCost() {
-  if (p_.native) {
+  if (p_.Native()) {
     return BoundedLmCost(p_.native_full, BoxOfInternal(param_, p_.u), p_.log_exposure[0]);
   }
   double cost = 0;
@@ -181,7 +181,7 @@ double MultiStart::FullCost() {
 
 Outcome MultiStart::SolveFrom(bool coarse, double initial_radius) {
   Outcome o;
-  if (p_.native) {
+  if (p_.Native()) {
     std::vector<double> y = BoxOfInternal(param_, p_.u);
     double e = p_.log_exposure[0];
     BoundedLmOptions lm = LmOptions(options_);

@@ -149,8 +149,9 @@ void BuildProblems(const ModelInfo& model, const Parametrization& param, const F
   const bool bounded =
       options.solver == Solver::kBoundedLm ||
       (options.solver == Solver::kAuto && ProjectionApplies(options.loss, p.exposure_free));
-  p.native = bounded && !gl && !IsRobust(options.loss) && !p.exposure_free;
-  if (p.native) {
+  p.solver = bounded && !gl && !IsRobust(options.loss) && !p.exposure_free ? Solver::kBoundedLm
+                                                                            : Solver::kCeres;
+  if (p.Native()) {
     for (BoundedLmProblem* q : {&p.native_full, &p.native_coarse}) {
       q->model = model.id;
       q->loss = options.loss;

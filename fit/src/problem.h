@@ -42,9 +42,11 @@ struct CeresProblems {
   std::vector<std::vector<ShadingPoint>> coarse_points;  // Per reference.
   std::vector<std::vector<double>> coarse_targets;       // 3 compressed values per coarse point.
   ceres::Problem coarse_problem;
-  // G-buffer path, non-robust loss: the same two problems for the bounded LM (bounded_lm.h),
-  // which solves them; the Ceres problems then serve the covariance only.
-  bool native = false;
+  // The solver that runs, resolved from FitOptions::solver (never kAuto). kBoundedLm (G-buffer
+  // path, non-robust loss): the same two problems for the bounded LM (bounded_lm.h), which
+  // solves them; the Ceres problems then serve the covariance only.
+  Solver solver = Solver::kCeres;
+  bool Native() const { return solver == Solver::kBoundedLm; }
   BoundedLmProblem native_full, native_coarse;
 };
 

@@ -224,7 +224,7 @@ void NativeUncertainty(const Parametrization& param, CeresProblems& p, const Fre
 void EstimateUncertainty(const Parametrization& param, CeresProblems& problems, FitResult* result) {
   try {
     const FreeColumns free = FreeColumnsOf(param, problems);
-    if (problems.native) {
+    if (problems.Native()) {
       result->covariance_method =
           "pseudo-inverse of the bounded LM's J^T J in the internal coordinates (eigenvalues "
           "below 1e-14 of the largest dropped), scaled by s^2 = 2 cost / (residuals - free "
