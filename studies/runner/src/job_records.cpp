@@ -133,21 +133,36 @@ json EvaluationJson(const EvaluationRecord& e) {
   return j;
 }
 
+// The fields of either kind, after checking the schema and the kind.
+void ReadBase(const FieldReader& r, const std::string& kind, JobRecordBase* out) {
+  r.ExpectKind(kind);
+  out->id = r.String("id");
+  out->hash = r.String("hash");
+  out->shadefit_version = r.String("shadefit_version");
+  out->material = r.String("material");
+  out->outputs = r.Strings("outputs");
+}
+
+json BaseJson(const JobRecordBase& r, const std::string& kind) {
+  return {{"schema", kJobSchema},
+          {"id", r.id},
+          {"kind", kind},
+          {"hash", r.hash},
+          {"shadefit_version", r.shadefit_version},
+          {"material", r.material},
+          {"outputs", r.outputs}};
+}
+
 FitJobRecord FitRecordOf(const json& j, const std::string& path) {
   const FieldReader r(j, path);
-  r.ExpectKind("fit");
   FitJobRecord out;
-  out.id = r.String("id");
-  out.hash = r.String("hash");
-  out.shadefit_version = r.String("shadefit_version");
-  out.material = r.String("material");
+  ReadBase(r, "fit", &out);
   out.model = r.String("model");
   out.label = r.String("label");
   out.train = r.Strings("train");
   out.status = StatusOf(r);
   out.converged = r.Bool("converged");
   out.parameters = r.Array("parameters");
-  out.outputs = r.Strings("outputs");
   const json& evaluations = r.Array("evaluations");
   for (std::size_t i = 0; i < evaluations.size(); ++i) {
     out.evaluations.push_back(ReadEvaluation(evaluations[i], path, i));
@@ -167,18 +182,13 @@ FitJobRecord FitRecordOf(const json& j, const std::string& path) {
 
 ProbeJobRecord ProbeRecordOf(const json& j, const std::string& path) {
   const FieldReader r(j, path);
-  r.ExpectKind("probe");
   ProbeJobRecord out;
-  out.id = r.String("id");
-  out.hash = r.String("hash");
-  out.shadefit_version = r.String("shadefit_version");
-  out.material = r.String("material");
+  ReadBase(r, "probe", &out);
   out.status = r.String("status");
   if (out.status != "ok" && out.status != "no-fit") r.Fail("status", "expected ok or no-fit");
   out.fits_without_parameters = r.Strings("fits_without_parameters");
   out.probes_skipped = r.Array("probes_skipped");
   out.probes = r.Object("probes");
-  out.outputs = r.Strings("outputs");
   return out;
 }
 
@@ -187,20 +197,14 @@ ProbeJobRecord ProbeRecordOf(const json& j, const std::string& path) {
 json ToJson(const FitJobRecord& r) {
   json evaluations = json::array();
   for (const EvaluationRecord& e : r.evaluations) evaluations.push_back(EvaluationJson(e));
-  json j = {{"schema", kJobSchema},
-            {"id", r.id},
-            {"kind", "fit"},
-            {"hash", r.hash},
-            {"shadefit_version", r.shadefit_version},
-            {"material", r.material},
-            {"model", r.model},
+  json j = BaseJson(r, "fit");
+  j.update({{"model", r.model},
             {"label", r.label},
             {"train", r.train},
             {"status", FitStatusName(r.status)},
             {"converged", r.converged},
             {"parameters", r.parameters},
-            {"evaluations", evaluations},
-            {"outputs", r.outputs}};
+            {"evaluations", evaluations}});
   if (!HasFit(r.status)) {
     j["error"] = r.error;
     return j;
@@ -215,17 +219,12 @@ json ToJson(const FitJobRecord& r) {
 }
 
 json ToJson(const ProbeJobRecord& r) {
-  return {{"schema", kJobSchema},
-          {"id", r.id},
-          {"kind", "probe"},
-          {"hash", r.hash},
-          {"shadefit_version", r.shadefit_version},
-          {"material", r.material},
-          {"status", r.status},
-          {"fits_without_parameters", r.fits_without_parameters},
-          {"probes_skipped", r.probes_skipped},
-          {"probes", r.probes},
-          {"outputs", r.outputs}};
+  json j = BaseJson(r, "probe");
+  j.update({{"status", r.status},
+            {"fits_without_parameters", r.fits_without_parameters},
+            {"probes_skipped", r.probes_skipped},
+            {"probes", r.probes}});
+  return j;
 }
 
 FitJobRecord ReadFitJobRecord(const std::string& path) {

@@ -28,8 +28,13 @@ struct EvaluationRecord {
   nlohmann::json details = nlohmann::json::object();
 };
 
-struct FitJobRecord {
+// What a record of either kind starts with.
+struct JobRecordBase {
   std::string id, hash, shadefit_version, material;
+  std::vector<std::string> outputs;  // Files it wrote, relative to the study folder.
+};
+
+struct FitJobRecord : JobRecordBase {
   std::string model;  // Its name, as `shadefit models` lists it.
   std::string label;  // The fit's label in tables ("ggx", "ggx@key+rim"): a field, never parsed.
   std::vector<std::string> train;
@@ -44,17 +49,14 @@ struct FitJobRecord {
   std::string termination;
   nlohmann::json settings, parameters = nlohmann::json::array(), fit, encoding;
   std::vector<EvaluationRecord> evaluations;
-  std::vector<std::string> outputs;  // Files it wrote, relative to the study folder.
 };
 
 // A material's probes.
-struct ProbeJobRecord {
-  std::string id, hash, shadefit_version, material;
+struct ProbeJobRecord : JobRecordBase {
   std::string status;  // "ok", or "no-fit" when no fit of the material left parameters.
   std::vector<std::string> fits_without_parameters;         // Their labels.
   nlohmann::json probes_skipped = nlohmann::json::array();  // [{probe, why}]
   nlohmann::json probes = nlohmann::json::object();         // Probe name -> its summary.
-  std::vector<std::string> outputs;
 };
 
 nlohmann::json ToJson(const FitJobRecord& r);
