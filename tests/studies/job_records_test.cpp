@@ -102,6 +102,10 @@ TEST(JobRecords, MissingOrMistypedFieldNamesFileAndField) {
   path = Write("evaluation.json", j);
   EXPECT_EQ(ErrorOf(path), path + ": evaluations[0].lighting: missing");
   j = HandWrittenFit();
+  j["evaluations"][0] = "gold-key";
+  path = Write("evaluation-type.json", j);
+  EXPECT_EQ(ErrorOf(path), path + ": evaluations[0]: expected an object");
+  j = HandWrittenFit();
   j["status"] = "fine";
   path = Write("status.json", j);
   EXPECT_EQ(ErrorOf(path), path + ": status: unknown fit status 'fine'");

@@ -107,8 +107,9 @@ FitStatus StatusOf(const FieldReader& r) {
 }
 
 EvaluationRecord ReadEvaluation(const json& e, const std::string& path, std::size_t i) {
-  const FieldReader r(e, path, fmt::format("evaluations[{}].", i));
-  if (!e.is_object()) r.Fail("", "expected an object");
+  const std::string where = fmt::format("evaluations[{}]", i);
+  if (!e.is_object()) throw Error(path, where, "expected an object");
+  const FieldReader r(e, path, where + ".");
   EvaluationRecord out;
   out.reference = r.String("reference");
   out.lighting = r.String("lighting");
