@@ -75,6 +75,12 @@ std::string FitFlag(FitField field) {
   return "?";
 }
 
+std::string FitKeyword(FitField field) {
+  std::string k = FitFlag(field).substr(2);
+  for (char& c : k) c = c == '-' ? '_' : c;
+  return k;
+}
+
 Loss ParseLoss(const std::string& name) {
   return Choose<Loss>(FitField::kLoss, "loss", name,
                       {{"l2", Loss::kL2},

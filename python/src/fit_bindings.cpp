@@ -112,14 +112,6 @@ T Get(const py::dict& o, const char* key, T fallback) {
   return o.contains(key) && !o[key].is_none() ? o[key].cast<T>() : fallback;
 }
 
-// The CLI's option checks (studies/cli/fit_command.cpp), named by the keyword.
-// The keyword argument of a fit setting: its flag without the dashes, '-' as '_' ("env_samples").
-std::string KeywordOf(fit::FitField field) {
-  std::string k = fit::FitFlag(field).substr(2);
-  for (char& c : k) c = c == '-' ? '_' : c;
-  return k;
-}
-
 // The fitter's options from the keyword arguments, checked by the rules every front end shares
 // (fit/option_checks.h); a refused one is named by its keyword.
 fit::FitOptions OptionsFromPy(const py::dict& o) {
@@ -143,7 +135,7 @@ fit::FitOptions OptionsFromPy(const py::dict& o) {
     f.compute_covariance = Get<bool>(o, "covariance", true);
     fit::CheckFitOptions(f, fit::EncodingMode::kAsImported);
   } catch (const fit::FitOptionError& e) {
-    throw Error("", KeywordOf(e.field), e.problem);
+    throw Error("", fit::FitKeyword(e.field), e.problem);
   }
   return f;
 }

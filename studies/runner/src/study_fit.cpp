@@ -10,9 +10,7 @@ namespace {
 // ("max_iterations"), except the GL path's environment samples, spelled out.
 std::string StudyKey(fit::FitField field) {
   if (field == fit::FitField::kEnvironmentSamples) return "environment_samples";
-  std::string k = fit::FitFlag(field).substr(2);
-  for (char& c : k) c = c == '-' ? '_' : c;
-  return k;
+  return fit::FitKeyword(field);
 }
 
 // Where a model's `fixed` list comes from: the text of the last table that sets it, its key

@@ -45,6 +45,9 @@ class FitOptionError : public Error {
 
 // The flag of `shadefit fit` for the field: "--loss-scale", "--env-samples".
 std::string FitFlag(FitField field);
+// The flag's words joined by '_': "loss_scale", "env_samples" (the Python module's keywords; a
+// study's keys but for environment_samples).
+std::string FitKeyword(FitField field);
 
 // Bounds beyond which a value is a typo, not a plan: it would run for days.
 inline constexpr int kMaxStarts = 10000;
