@@ -21,6 +21,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import data_floor  # noqa: E402
+import report_answers  # noqa: E402
 import report_charts  # noqa: E402
 import report_compare  # noqa: E402
 import report_grids  # noqa: E402
@@ -163,7 +164,7 @@ def write_json(report_dir, name, value):
 def draw_figures(inp, comparisons, fig_dir):
     """(figures, charts): the records of figures.json, in the page's order."""
     figures = []
-    for rec in comparisons:
+    for rec in (r for r in comparisons if r["source"] != "metrics"):
         report_metric_figures.paired_errors_figure(
             rec, inp.study, fig_dir, figures, report_compare.question_title(rec),
             report_compare.error_label(rec))
@@ -182,12 +183,12 @@ def make_report(study_dir):
     os.makedirs(fig_dir, exist_ok=True)
 
     summary, detail = report_verdicts.compute_verdicts(inp.study, inp.rows, inp.probes)
-    comparisons = report_compare.compare_study(inp.study, inp.rows, summary, to_float)
+    comparisons = report_answers.compare_study(inp.study, inp.rows, summary, to_float)
     tables = study_tables(inp, summary, detail, comparisons)
     write_tables(os.path.join(report_dir, "tables"), tables)
     # The verdicts also as JSON for tools and tests.
     write_json(report_dir, "verdicts.json", {"summary": summary, "detail": detail})
-    write_json(report_dir, "comparisons.json", report_compare.to_json(comparisons))
+    write_json(report_dir, "comparisons.json", report_answers.to_json(comparisons))
     figures, charts = draw_figures(inp, comparisons, fig_dir)
     write_json(report_dir, "figures.json", figures + charts)
     if inp.ngan is not None:

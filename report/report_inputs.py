@@ -29,6 +29,7 @@ class ReportInputError(Exception):
 # items, a Map from names to values, or ANY (read, but its inside is not the report's contract).
 
 STRING, NUMBER, BOOLEAN, ANY = "string", "number", "boolean", "any"
+SPLIT = "split"  # a results.csv cell kind: one of SPLITS
 
 
 class Field:
@@ -125,6 +126,12 @@ def check_object(obj, schema, path, where=""):
 # study.json (StudySpec's JSON, studies/runner/src/study.cpp)
 
 VERDICT_KINDS = ("relative", "absolute", "max")
+# A fit's role (FitRoleName, studies/runner/src/study.cpp): an ordinary training set; the joint
+# fit to every lighting of [fit] floor (the model's best on these views); the BRDF-space fit.
+FIT_ROLES = ("train", "floor", "brdf")
+# What the runner calls a lighting of a fit (job_graph.cpp): trained on, listed in [fit] test,
+# or neither ("other").
+SPLITS = ("train", "test", "other")
 
 STUDY = Object({
     "name": STRING,
@@ -132,7 +139,11 @@ STUDY = Object({
     # label: what results.csv and the jobs call the fit; model and train: the label's parts, as
     # fields (the label is composed from them in C++, StudySpec::Label; read these, never split
     # the label).
-    "fits": Array(Object({"label": STRING, "model": STRING, "train": Array(STRING)})),
+    # loss and role: absent in study.json files written before a study could list several
+    # losses or floor fits; normalise_fits fills them in (never read them with a default).
+    "fits": Array(Object({"label": STRING, "model": STRING, "train": Array(STRING),
+                          "loss": Optional(STRING),
+                          "role": Optional(STRING, one_of=FIT_ROLES)})),
     "groups": Array(Object({
         "material": STRING,
         "references": Array(Object({"lighting": STRING, "sidecar": STRING})),
@@ -141,8 +152,12 @@ STUDY = Object({
     "test_lightings": Array(STRING),  # empty: every lighting not trained on
     "baseline": Field(STRING, nullable=True),
     "compare": Array(Array(STRING)),
+    "losses": Optional(Array(STRING)),   # absent before several losses: the models' own
+    "floor": Optional(Array(STRING)),    # the floor fits' lightings; [] or absent: none
+    "judging": Optional(Array(STRING), nullable=True),  # [verdicts] judging; null: the default
+    "fit_settings": Optional(Map(Object({"loss": Optional(STRING)}))),
     "probes": Array(STRING),
-    "measured": Array(Object({"materials": Array(STRING)})),
+    "measured": Array(Object({"materials": Array(STRING), "folder": Optional(STRING)})),
     "verdicts": Map(Object({
         "source": STRING,
         "kind": Field(STRING, one_of=VERDICT_KINDS),
@@ -163,8 +178,25 @@ def check_document(value, schema, path):
     check_object(value, schema, path)
 
 
+def normalise_fits(study):
+    """Fills each fit's `loss` and `role` where an older study.json has none: the loss of the
+    model's fit settings (absent: "l2", the runner's default), and "brdf" for train == ["brdf"],
+    else "train". Also `losses` and `floor` at the top level."""
+    settings = study.get("fit_settings") or {}
+    for f in study["fits"]:
+        if "loss" not in f:
+            f["loss"] = (settings.get(f["model"]) or {}).get("loss", "l2")
+        if "role" not in f:
+            f["role"] = "brdf" if f["train"] == ["brdf"] else "train"
+    if "losses" not in study:
+        study["losses"] = sorted({f["loss"] for f in study["fits"]})
+    study.setdefault("floor", [])
+    study.setdefault("judging", None)
+
+
 def check_study(study, path):
     check_document(study, STUDY, path)
+    normalise_fits(study)
     models = [f["model"] for f in study["fits"]]
     if study["baseline"] is not None and study["baseline"] not in models:
         raise ReportInputError(f"{path}: field 'baseline': '{study['baseline']}' is not a "
@@ -203,7 +235,7 @@ FIT_JOB = Object({
     })),
     "evaluations": Array(Object({
         "lighting": STRING,
-        "split": Field(STRING, one_of=("train", "test")),
+        "split": Field(STRING, one_of=SPLITS),
         "metrics": NUMBERS,
         "measured_fraction": Optional(NUMBER),
         # Absent when the study writes no previews; "domain" on measured references only.
@@ -277,13 +309,22 @@ NUMBER_COLUMNS = ["rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "m
 NUMBER_COLUMNS += [c + "_all" for c in NUMBER_COLUMNS] + ["measured_fraction"]
 # The columns the report needs (its metrics table, figures and verdicts); the other number
 # columns are checked where present (a verdict or question may name any of them).
-RESULT_COLUMNS = {"material": STRING, "lighting": STRING, "label": STRING, "split": STRING,
+RESULT_COLUMNS = {"material": STRING, "lighting": STRING, "label": STRING, "split": SPLIT,
                   "converged": BOOLEAN, "rmse": NUMBER, "relative_rmse": NUMBER, "psnr": NUMBER,
                   "ssim": NUMBER, "ciede2000_mean": NUMBER, "flip_ldr_mean": NUMBER,
                   "flip_hdr_mean": NUMBER}
 
 
+# Per image region (outputs.cpp): mean signed and absolute luminance error, mean reference
+# luminance and pixel count, measured pixels only. Absent in results.csv files written before.
+REGIONS = ("highlight", "rim", "body")
+REGION_COLUMNS = [f"region_{r}_{q}" for r in REGIONS for q in ("signed", "abs", "ref", "pixels")]
+
+
 def check_cell(text, kind, path, line, column):
+    if kind == SPLIT and text not in SPLITS:
+        raise ReportInputError(f"{path}:{line}: field '{column}': expected "
+                               + " or ".join(repr(s) for s in SPLITS) + f", got '{text}'")
     if kind == BOOLEAN and text not in ("0", "1"):
         raise ReportInputError(f"{path}:{line}: field '{column}': expected 0 or 1, got '{text}'")
     if kind == NUMBER and text != "":
@@ -307,7 +348,7 @@ def read_results(path):
     if missing:
         raise ReportInputError(f"{path}: column '{missing[0]}': missing")
     checked = dict(RESULT_COLUMNS)
-    checked.update({c: NUMBER for c in NUMBER_COLUMNS if c in header})
+    checked.update({c: NUMBER for c in NUMBER_COLUMNS + REGION_COLUMNS if c in header})
     for line, row in enumerate(rows, 2):
         if None in row or any(row[c] is None for c in checked):
             raise ReportInputError(f"{path}:{line}: wrong number of cells")
@@ -355,7 +396,12 @@ def read_jobs(study_dir):
 
 
 def check_verdict_columns(study, study_path, rows, csv_path):
-    """A verdict on the metrics names a number column of results.csv, and a split."""
+    """A verdict on the metrics names a number column of results.csv, and a split; so does
+    every metric of the study's judging set."""
+    for i, m in enumerate(study.get("judging") or []):
+        if m not in NUMBER_COLUMNS or (rows and m not in rows[0]):
+            raise ReportInputError(f"{study_path}: field 'judging[{i}]': '{m}' is not a "
+                                   f"metric column of {csv_path}")
     for name, v in study["verdicts"].items():
         if v["source"] != "metrics":
             continue

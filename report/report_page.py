@@ -12,6 +12,8 @@ import json
 import os
 import re
 
+import judging
+import report_answers
 import report_compare
 import report_summary
 
@@ -204,10 +206,10 @@ def answers_html(comparisons, figures, floor_lines=()):
     """The comparative answers, first on the page: how they are computed, then per question its
     sentences and its figure; then the data floor's sentences (report/data_floor.py), if any."""
     out = ["<section id='answers'><h2>Answers</h2>",
-           f"<p class='method'>{esc(report_compare.method_text(comparisons))}</p>"]
+           f"<p class='method'>{esc(report_answers.method_text(comparisons))}</p>"]
     by_question = {f.get("question"): f for f in figures if f.get("kind") == "comparison"}
     for rec in comparisons:
-        lines = report_compare.answer_lines([rec])
+        lines = report_answers.answer_lines([rec])
         title = report_compare.question_title(rec)
         out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
                    + (" <span class='default'>(default question)</span>" if rec["default"] else "")
@@ -331,7 +333,8 @@ def nav_html(families, titles, charts, materials):
 def within_tolerance_html(study, summary, labels, comparisons):
     """The tolerance matrix, then why the image questions judge by their metric: each metric
     against human judgments."""
-    hcols, hrows = report_compare.human_agreement_table(comparisons)
+    hcols, hrows = judging.human_agreement_table(
+        next((r["metrics"] for r in comparisons if r["source"] == "metrics"), []))
     return ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
             "are within the study's fixed tolerance, out of those judged, per question and "
             "fit. Every number is computed from the result files (rules: docs/studies.md). A "
@@ -339,7 +342,7 @@ def within_tolerance_html(study, summary, labels, comparisons):
             matrix_html(study, summary, labels),
             "<h3 id='human-agreement'>Image metrics against human judgments</h3>"
             f"<p class='method'>Spearman rho of each metric with the human distance over "
-            f"{esc(report_compare.HUMAN_AGREEMENT_SOURCE)}.</p>"
+            f"{esc(judging.HUMAN_AGREEMENT_SOURCE)}. {esc(judging.RULE_TEXT)}.</p>"
             + html_table((hcols, hrows), cls="agreement")]
 
 

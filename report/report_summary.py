@@ -3,8 +3,13 @@ verdict matrix, the encoding search and the comparison with Ngan et al. 2005."""
 
 import datetime
 
-import report_compare
+import judging
+import report_answers
 from report_util import labels_of, materials_of, md_escape
+
+
+def judged_metrics(comparisons):
+    return next((r["metrics"] for r in comparisons if r["source"] == "metrics"), [])
 
 
 def not_valid_reasons(summary, name):
@@ -18,12 +23,12 @@ def summary_markdown(study, summary, matrix, provenance, comparisons, floor_line
     lines = [f"# {study['name']}", "", study["description"], "",
              f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
              f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
-             "## Answers", "", report_compare.method_text(comparisons), ""]
-    lines += report_compare.answer_lines(comparisons)
-    hcols, hrows = report_compare.human_agreement_table(comparisons)
+             "## Answers", "", report_answers.method_text(comparisons), ""]
+    lines += report_answers.answer_lines(comparisons)
+    hcols, hrows = judging.human_agreement_table(judged_metrics(comparisons))
     lines += ["", "### Image metrics against human judgments", "",
               f"Spearman rho of each metric with the human distance over "
-              f"{report_compare.HUMAN_AGREEMENT_SOURCE}.", "",
+              f"{judging.HUMAN_AGREEMENT_SOURCE}. {judging.RULE_TEXT}.", "",
               "| " + " | ".join(hcols) + " |", "|---|---:|---:|---|"]
     lines += ["| " + " | ".join(r) + " |" for r in hrows]
     if floor_lines:

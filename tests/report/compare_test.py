@@ -78,10 +78,14 @@ def write_study(d, materials, errors, verdicts=None, measured=False, all_errors=
                 evaluations.append({"lighting": l, "split": split, "images": images,
                                     "metrics": {}, "measured_fraction": 0.5})
                 e = errors[f["label"]][i]
+                # Every metric of the default judging set scales with e (1 - SSIM too), so a
+                # fit's ratio is the same under each.
                 row = {"material": m, "lighting": l, "label": f["label"], "split": split,
                        "converged": "1", "rmse": f"{e / 10:.17g}", "relative_rmse": f"{e:.17g}",
-                       "psnr": "30", "ssim": "0.9", "ciede2000_mean": "2",
-                       "flip_ldr_mean": f"{e / 2:.17g}", "flip_hdr_mean": "0.2"}
+                       "log_rmse": f"{e / 3:.17g}", "psnr": "30", "ssim": f"{1 - e / 4:.17g}",
+                       "ms_ssim": f"{1 - e / 5:.17g}", "ciede2000_mean": f"{e * 4:.17g}",
+                       "flip_ldr_mean": f"{e / 2:.17g}", "flip_hdr_mean": f"{e / 6:.17g}",
+                       "delta_e_itp_mean": f"{e * 3:.17g}"}
                 if all_errors is not None:
                     row["relative_rmse_all"] = f"{all_errors[f['label']][i]:.17g}"
                 rows.append(row)
@@ -138,38 +142,45 @@ def main(argv):
     d = os.path.join(out, "twice")
     write_study(d, materials, {"blinn-phong": base, "ggx": base / 2})
     comp, md, page = run(make_report, d)
-    c = question(comp, "image")["comparisons"][0]
-    check(c["fit"] == "ggx" and c["baseline"] == "blinn-phong", f"2x: pair {c['fit']}/{c['baseline']}")
-    check(abs(c["effect"] - 2) < 1e-9, f"2x: ratio {c['effect']}, want 2")
-    check(c["ci"][0] is not None and c["ci"][0] <= 2 + 1e-9 <= c["ci"][1] + 2e-9,
-          f"2x: CI {c['ci']} does not contain 2")
-    check(c["closer"] == 20 and c["n"] == 20, f"2x: closer {c['closer']} of {c['n']}")
-    check(c["p"] < 0.001 and c["p_holm"] < 0.001, f"2x: p {c['p']}, Holm {c['p_holm']}")
+    pair = question(comp, "image")["comparisons"][0]
+    check(pair["fit"] == "ggx" and pair["baseline"] == "blinn-phong",
+          f"2x: pair {pair['fit']}/{pair['baseline']}")
+    judged = question(comp, "image")["metrics"]
+    check(len(pair["per_metric"]) == 8 and [c["metric"] for c in pair["per_metric"]] == judged,
+          f"2x: not answered under the 8 metrics of the default set: {judged}")
     want_p = stats.wilcoxon(np.full(20, math.log(2.0))).pvalue
-    check(abs(c["p"] - want_p) <= 1e-12 * max(1, want_p), f"2x: p {c['p']} != scipy {want_p}")
+    for c in pair["per_metric"]:
+        m = c["metric"]
+        check(abs(c["effect"] - 2) < 1e-9, f"2x: {m}: ratio {c['effect']}, want 2")
+        check(c["ci"][0] is not None and c["ci"][0] <= 2 + 1e-9 <= c["ci"][1] + 2e-9,
+              f"2x: {m}: CI {c['ci']} does not contain 2")
+        check(c["closer"] == 20 and c["n"] == 20, f"2x: {m}: closer {c['closer']} of {c['n']}")
+        check(c["p"] < 0.001 and c["p_holm"] < 0.001, f"2x: {m}: p {c['p']}, Holm {c['p_holm']}")
+        check(abs(c["p"] - want_p) <= 1e-12 * max(1, want_p), f"2x: p {c['p']} != scipy {want_p}")
+    check(pair["verdict"]["word"] == "smaller under all 8 metrics",
+          f"2x: verdict {pair['verdict']['word']}")
     # The answers come first, as sentences, in both pages.
-    answers = md.split("## Answers", 1)[-1].split("##", 1)[0]
-    check("ggx's error is 2x smaller than blinn-phong's" in answers,
-          "2x: summary.md's Answers do not say 'ggx's error is 2x smaller than blinn-phong's'")
-    check("closer on 20 of 20 materials" in answers, "2x: summary.md: no 'closer on 20 of 20'")
+    answers = md.split("## Answers", 1)[-1].split("\n## ", 1)[0]
+    check("ggx vs blinn-phong: smaller under all 8 metrics" in answers,
+          "2x: summary.md's Answers do not say 'ggx vs blinn-phong: smaller under all 8 metrics'")
+    check("error ratio 0.5-0.5x" in answers and "closer on 20-20 of 20 materials" in answers,
+          "2x: summary.md: no ratio range 0.5-0.5x, closer on 20-20 of 20")
     check(md.index("## Answers") < md.index("## Verdict matrix"), "2x: Answers not first")
     check("id='answers'" in page and page.index("id='answers'") < page.index("id='verdicts'"),
           "2x: index.html does not open with the answers")
-    check("2x smaller than blinn-phong" in page, "2x: index.html: no sentence")
-    # The human-agreement table of the metrics, with the judging metric marked, in both pages.
-    check("| relative RMSE | 0.62 | 0.35 to 0.79 | yes |" in md,
-          "2x: summary.md has no human-agreement row for relative RMSE")
+    check("smaller under all 8 metrics" in page, "2x: index.html: no sentence")
+    # The human-agreement table of the metrics, with the judging set marked, in both pages.
+    check("| relative RMSE | 0.62 | 0.35 to 0.79 | yes |" in md
+          and "| mean LDR-FLIP | 0.34 | -0.06 to 0.63 |  |" in md,
+          "2x: summary.md's human-agreement table does not mark the judging set")
     check("id='human-agreement'" in page and "Lavoue" in page,
           "2x: index.html has no human-agreement table")
-    figs = json.load(open(os.path.join(d, "report", "figures.json"), encoding="utf-8"))
-    check(any(f.get("kind") == "comparison" and f.get("question") == "image" for f in figs),
-          "2x: no comparison figure for the image question")
-    # Each material's error per fit is a record, the fit and material as fields (schema /2).
-    errs = question(comp, "image")["errors"]
-    check(comp["schema"] == "shadefit.comparisons/2" and len(errs) == 40
-          and all(set(r) == {"material", "fit", "error"} for r in errs)
+    # Each material's error per fit and metric is a record, as fields (schema /3).
+    errs = [r for r in question(comp, "image")["errors"] if r["metric"] == "relative_rmse"]
+    check(comp["schema"] == "shadefit.comparisons/3" and len(errs) == 40
+          and all(set(r) == {"material", "fit", "metric", "error"} for r in errs)
           and {r["fit"] for r in errs} == {"blinn-phong", "ggx"},
-          f"2x: errors are not 40 records {{material, fit, error}}: {errs[:2]}")
+          f"2x: errors are not 40 records {{material, fit, metric, error}}: {errs[:2]}")
     ratio = {r["material"]: r["error"] for r in errs if r["fit"] == "blinn-phong"}
     check(all(abs(ratio[r["material"]] / r["error"] - 2) < 1e-9 for r in errs if r["fit"] == "ggx"),
           "2x: the records' errors are not the 2x pair")
@@ -178,9 +189,13 @@ def main(argv):
     d = os.path.join(out, "same")
     write_study(d, materials, {"blinn-phong": base, "ggx": base.copy()})
     comp, md, _ = run(make_report, d)
-    c = question(comp, "image")["comparisons"][0]
-    check(c["effect"] == 1.0 and c["p"] == 1.0 and c["p_holm"] == 1.0 and c["closer"] == 0,
-          f"identical: ratio {c['effect']}, p {c['p']}, Holm {c['p_holm']}, closer {c['closer']}")
+    pair = question(comp, "image")["comparisons"][0]
+    for c in pair["per_metric"]:
+        check(c["effect"] == 1.0 and c["p"] == 1.0 and c["p_holm"] == 1.0 and c["closer"] == 0,
+              f"identical: ratio {c['effect']}, p {c['p']}, Holm {c['p_holm']}, "
+              f"closer {c['closer']}")
+    check(pair["verdict"]["kind"] == "mixed" and len(pair["verdict"]["equal"]) == 8,
+          f"identical: verdict {pair['verdict']}")
 
     # 3. Noisy errors against independent calls.
     factor = np.exp(rng.normal(0.4, 0.6, 20))
@@ -192,7 +207,8 @@ def main(argv):
     write_study(d, materials, {"blinn-phong": base, "ggx": ggx}, verdicts=verdicts)
     comp, md, _ = run(make_report, d)
     logs = np.log(base / ggx)
-    c = question(comp, "image_flip")["comparisons"][0]
+    per = question(comp, "image_flip")["comparisons"][0]["per_metric"]
+    c = next(c for c in per if c["metric"] == "relative_rmse")
     check(abs(c["effect"] - math.exp(np.mean(logs))) < 1e-9,
           f"noisy: effect {c['effect']} != {math.exp(np.mean(logs))}")
     check(c["closer"] == int(np.sum(ggx < base)), f"noisy: closer {c['closer']}")
@@ -203,13 +219,15 @@ def main(argv):
     check(abs(c["ci"][0] - math.exp(boot.low)) < 1e-9 and abs(c["ci"][1] - math.exp(boot.high)) < 1e-9,
           f"noisy: CI {c['ci']} != scipy {math.exp(boot.low)}-{math.exp(boot.high)}")
     check(math.exp(boot.low) < c["effect"] < math.exp(boot.high), "noisy: effect outside its CI")
-    # Holm over the study's three tests (image_flip, and the default image? no: a metric
-    # verdict on train exists, so only the default transfer question is added).
+    # Holm over the study's 16 tests (two questions, each under 8 metrics: image_flip, the
+    # study's metric verdict on train, names the train question; the default transfer is added).
     names = [q["name"] for q in comp["questions"]]
     check(names == ["image_flip", "transfer"], f"noisy: questions {names}")
-    ps = [q["comparisons"][0]["p"] for q in comp["questions"]]
-    want = holm(ps)
-    got = [q["comparisons"][0]["p_holm"] for q in comp["questions"]]
+    tests = [c for q in comp["questions"] for c in q["comparisons"][0]["per_metric"]]
+    want = holm([c["p"] for c in tests])
+    got = [c["p_holm"] for c in tests]
+    check(len(tests) == 16 and all(c["holm_family"] == 16 for c in tests),
+          f"noisy: Holm family of {len(tests)} tests, want 16")
     check(all(abs(a - b) < 1e-12 for a, b in zip(got, want)), f"noisy: Holm {got} != {want}")
 
     # 4. Few materials: the exact sign test.
@@ -218,7 +236,7 @@ def main(argv):
     worse = five * np.array([0.5, 0.6, 0.7, 1.5, 0.8])
     write_study(d, materials[:5], {"blinn-phong": five, "ggx": worse})
     comp, md, _ = run(make_report, d)
-    c = question(comp, "image")["comparisons"][0]
+    c = question(comp, "image")["comparisons"][0]["per_metric"][0]
     p_b = stats.binomtest(4, 5, 0.5).pvalue
     check(c["test"] == "sign test" and abs(c["p"] - p_b) < 1e-12,
           f"few: {c['test']} p {c['p']}, want sign test {p_b}")
@@ -253,10 +271,13 @@ def main(argv):
           in page, "measured: the viewer does not show the measured domain")
     # The all-pixel numbers beside the measured-pixel ones.
     img = question(comp, "image")
-    check(abs(img["comparisons"][0]["effect"] - 2) < 1e-9, "measured: measured-pixel ratio")
-    check("all_pixels" in img and abs(img["all_pixels"][0]["effect"] - 0.5) < 1e-9,
+    check(abs(img["comparisons"][0]["per_metric"][0]["effect"] - 2) < 1e-9,
+          "measured: measured-pixel ratio")
+    check("all_pixels" in img
+          and abs(img["all_pixels"][0]["per_metric"][0]["effect"] - 0.5) < 1e-9,
           f"measured: all-pixel comparison {img.get('all_pixels')}")
-    check("all pixels, extrapolated data included: 2x larger" in md,
+    check("all pixels, extrapolated data included: smaller under 0 and larger under 1 of 1 "
+          "metrics" in md,
           "measured: summary.md does not print the all-pixel comparison beside")
 
     for f in FAILURES:
