@@ -21,7 +21,6 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import data_floor  # noqa: E402
-import report_answers  # noqa: E402
 import report_charts  # noqa: E402
 import report_compare  # noqa: E402
 import report_grids  # noqa: E402
@@ -30,6 +29,7 @@ import report_metric_figures  # noqa: E402
 import report_ngan  # noqa: E402
 import report_page  # noqa: E402
 import report_probe_figures  # noqa: E402
+import report_sections  # noqa: E402
 import report_summary  # noqa: E402
 import report_tables  # noqa: E402
 import report_verdicts  # noqa: E402
@@ -112,7 +112,8 @@ CAPTIONS = {
     "encoding": "Encoding of the photographs: each candidate's RMSE in stored values",
 }
 # The columns before the first numeric one (left-aligned) per table.
-NUMERIC_FROM = {"comparisons": 3, "metrics": 4, "parameters": 3, "probes": 3, "verdicts": 4,
+NUMERIC_FROM = {"comparisons": 4, "floors": 6, "regions": 4, "metrics": 4, "parameters": 3,
+                "probes": 3, "verdicts": 4,
                 "verdict_details": 4, "matrix": 2, "ngan2005": 3, "ngan2005_spearman": 3,
                 "floor": 3, "encoding": 3}
 
@@ -131,14 +132,20 @@ class Inputs:
         self.floor = data_floor.compute_floor(study_dir, self.study, self.fits)
 
 
-def study_tables(inp, summary, detail, comparisons):
-    """{key: (columns, rows)} of every table the study has, in report.tex's order of keys."""
+def study_tables(inp, summary, detail, answers):
+    """({key: (columns, rows)} of every table the study has, in report.tex's order of keys,
+    the answers' tables first; {key: caption})."""
     verdicts, verdict_details, matrix = report_verdicts.verdict_tables(inp.study, summary, detail)
-    tables = {"comparisons": report_compare.comparison_table(comparisons, fmt),
-              "metrics": report_tables.metrics_table(inp.study, inp.rows),
-              "parameters": report_tables.parameters_table(inp.study, inp.fits),
-              "probes": report_tables.probes_table(inp.study, inp.probes), "verdicts": verdicts,
-              "verdict_details": verdict_details, "matrix": matrix}
+    captions = dict(CAPTIONS)
+    tables = {}
+    for key, (caption, t) in answers.tables().items():
+        captions[key] = caption
+        tables[key] = t
+    tables.update({"comparisons": report_compare.comparison_table(answers.records, fmt),
+                   "metrics": report_tables.metrics_table(inp.study, inp.rows),
+                   "parameters": report_tables.parameters_table(inp.study, inp.fits),
+                   "probes": report_tables.probes_table(inp.study, inp.probes),
+                   "verdicts": verdicts, "verdict_details": verdict_details, "matrix": matrix})
     if inp.ngan is not None:
         tables["ngan2005"] = report_ngan.ngan_table(inp.ngan)
         tables["ngan2005_spearman"] = report_ngan.spearman_table(inp.ngan)
@@ -147,13 +154,15 @@ def study_tables(inp, summary, detail, comparisons):
     encoding = report_tables.encoding_table(inp.fits)
     if encoding[1]:
         tables["encoding"] = encoding
-    return tables
+    return tables, captions
 
 
-def write_tables(table_dir, tables):
+def write_tables(table_dir, tables, captions):
     for key, (cols, trows) in tables.items():
+        # Findings: the question, then a column per compared pair.
+        numeric_from = 1 if key.startswith("findings") else NUMERIC_FROM[key]
         # A part of the probes table without the reference column would compare with nothing.
-        report_latex.write_table(table_dir, key, cols, trows, CAPTIONS[key], NUMERIC_FROM[key],
+        report_latex.write_table(table_dir, key, cols, trows, captions[key], numeric_from,
                                  keep=4 if key == "probes" else None)
 
 
@@ -161,10 +170,12 @@ def write_json(report_dir, name, value):
     write_text(os.path.join(report_dir, name), json.dumps(value, indent=1))
 
 
-def draw_figures(inp, comparisons, fig_dir):
-    """(figures, charts): the records of figures.json, in the page's order."""
+def draw_figures(inp, answers, fig_dir):
+    """(figures, charts): the records of figures.json, in the page's order: the findings'
+    forest plot first."""
     figures = []
-    for rec in (r for r in comparisons if r["source"] != "metrics"):
+    answers.figures([f["label"] for f in inp.study["fits"]], fig_dir, figures)
+    for rec in (r for r in answers.records if r["source"] != "metrics"):
         report_metric_figures.paired_errors_figure(
             rec, inp.study, fig_dir, figures, report_compare.question_title(rec),
             report_compare.error_label(rec))
@@ -183,13 +194,13 @@ def make_report(study_dir):
     os.makedirs(fig_dir, exist_ok=True)
 
     summary, detail = report_verdicts.compute_verdicts(inp.study, inp.rows, inp.probes)
-    comparisons = report_answers.compare_study(inp.study, inp.rows, summary, to_float)
-    tables = study_tables(inp, summary, detail, comparisons)
-    write_tables(os.path.join(report_dir, "tables"), tables)
+    answers = report_sections.Answers(inp.study, inp.rows, summary, to_float, study_dir)
+    tables, captions = study_tables(inp, summary, detail, answers)
+    write_tables(os.path.join(report_dir, "tables"), tables, captions)
     # The verdicts also as JSON for tools and tests.
     write_json(report_dir, "verdicts.json", {"summary": summary, "detail": detail})
-    write_json(report_dir, "comparisons.json", report_answers.to_json(comparisons))
-    figures, charts = draw_figures(inp, comparisons, fig_dir)
+    write_json(report_dir, "comparisons.json", answers.json())
+    figures, charts = draw_figures(inp, answers, fig_dir)
     write_json(report_dir, "figures.json", figures + charts)
     if inp.ngan is not None:
         write_json(report_dir, "ngan2005.json", inp.ngan)
@@ -199,10 +210,10 @@ def make_report(study_dir):
         write_json(report_dir, "floor.json", inp.floor)
         floor_lines = data_floor.floor_sentences(inp.floor)
     write_text(os.path.join(report_dir, "summary.md"), report_summary.summary_markdown(
-        inp.study, summary, tables["matrix"], inp.provenance, comparisons, floor_lines,
-        inp.fits, inp.ngan))
+        inp.study, summary, tables["matrix"], inp.provenance, answers, floor_lines,
+        inp.fits, inp.ngan, figures))
     report_page.write_index(report_dir, inp.study, tables, figures, inp.provenance, summary,
-                            inp.rows, inp.fits, charts, write_text, comparisons, floor_lines)
+                            inp.rows, inp.fits, charts, write_text, answers, floor_lines)
     report_latex.write_latex_document(report_dir, tables, figures + charts)
     return os.path.join(report_dir, "index.html")
 

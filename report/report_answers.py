@@ -79,6 +79,12 @@ def ratio_range(per_metric):
     return (min(r), max(r)) if r else None
 
 
+def fmt_range(rng, digits=3):
+    """'0.52-0.88x', or '0.5x' where the ends agree at `digits` significant digits."""
+    lo, hi = (f"{v:.{digits}g}" for v in rng)
+    return f"{lo}x" if lo == hi else f"{lo}-{hi}x"
+
+
 def names(metrics):
     return ", ".join(judging.metric_name(m) for m in metrics) or "none"
 
@@ -89,15 +95,15 @@ def pair_sentence(pair):
     v, per = pair["verdict"], pair["per_metric"]
     fit, base = pair["fit"], pair["baseline"]
     rng = ratio_range(per)
-    ratios = "" if rng is None else f"error ratio {rng[0]:.3g}-{rng[1]:.3g}x over the metrics; "
-    closer = [c["closer"] for c in per]
+    ratios = "" if rng is None else f"error ratio {fmt_range(rng)} over the metrics; "
+    closer = sorted({c["closer"] for c in per})
+    closer = f"{closer[0]}" if len(closer) == 1 else f"{closer[0]}-{closer[-1]}"
     n_mat = max(c["n"] for c in per)
     if v["kind"] in ("smaller", "larger"):
         sig = v["significant_smaller"] if v["kind"] == "smaller" else v["significant_larger"]
         return (f"{fit} vs {base}: {v['word']}: {fit}'s error is {v['kind']} than {base}'s "
-                f"under every metric of the judging set ({ratios}closer on {min(closer)}-"
-                f"{max(closer)} of {n_mat} materials; Holm p < {ALPHA:g} under {len(sig)} of "
-                f"{v['n']})")
+                f"under every metric of the judging set ({ratios}closer on {closer} of {n_mat} "
+                f"materials; Holm p < {ALPHA:g} under {len(sig)} of {v['n']})")
     text = (f"{fit} vs {base}: {v['word']}: {fit}'s error is smaller under "
             f"{names(v['smaller'])} and larger under {names(v['larger'])}")
     if v["equal"]:

@@ -186,7 +186,7 @@ def comparison_pairs(study):
 # Statistics of one pair on one question
 
 
-def _bootstrap_ci(values):
+def bootstrap_ci(values):
     """95% bootstrap interval of the mean of `values` (materials resampled; BCa, or the
     percentile interval where BCa is undefined). Constant values: the value itself."""
     values = np.asarray(values, dtype=float)
@@ -244,12 +244,12 @@ def compare_pair(errors, materials, label, base, mode):
     if mode == "ratio":
         x = np.log(b / a)  # > 0: `label` is closer.
         effect = float(np.exp(np.mean(x)))
-        lo, hi = _bootstrap_ci(x)
+        lo, hi = bootstrap_ci(x)
         ci = (None, None) if lo is None else (math.exp(lo), math.exp(hi))
     else:
         x = b - a
         effect = float(np.mean(x))
-        ci = _bootstrap_ci(x)
+        ci = bootstrap_ci(x)
     p, test = paired_test(x)
     return {"fit": label, "baseline": base, "materials": used, "n": n, "mode": mode,
             "effect": effect, "ci": list(ci), "closer": int(np.sum(a < b)),

@@ -137,9 +137,20 @@ def write_latex_document(report_dir, tables, figures):
     body = ["\\documentclass[10pt]{article}", "\\usepackage[a4paper,margin=1.5cm]{geometry}",
             "\\usepackage{booktabs}", "\\usepackage{longtable}", "\\usepackage{graphicx}",
             "\\setlength{\\LTcapwidth}{\\textwidth}", "\\begin{document}",
-            "\\section*{Tables}"]
-    for key in ["comparisons", "matrix", "verdicts", "verdict_details", "metrics", "parameters", "probes",
-                "ngan2005_spearman", "ngan2005"]:
+            "\\section*{Findings}"]
+    # Findings first: a verdict table per training set, then the forest plot.
+    for key in (k for k in tables if k.startswith("findings")):
+        body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",
+                 f"\\input{{tables/{key}.long.tex}}", "}"]
+    for f in (f for f in figures if f.get("kind") == "forest"):
+        body += ["\\begin{figure}[h]\\centering",
+                 f"\\includegraphics[width={f['width_in']:g}in,height=0.85\\textheight,"
+                 f"keepaspectratio]{{{f['pdf']}}}",
+                 f"\\caption{{{latex_escape(f['caption'])}}}\\end{{figure}}", "\\clearpage"]
+    figures = [f for f in figures if f.get("kind") != "forest"]
+    body.append("\\section*{Tables}")
+    for key in ["comparisons", "floors", "regions", "matrix", "verdicts", "verdict_details",
+                "metrics", "parameters", "probes", "ngan2005_spearman", "ngan2005"]:
         if key in tables:
             body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",
                      f"\\input{{tables/{key}.long.tex}}", "}"]

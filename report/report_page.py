@@ -202,24 +202,47 @@ def matrix_html(study, summary, labels):
     return "\n".join(out)
 
 
-def answers_html(comparisons, figures, floor_lines=()):
-    """The comparative answers, first on the page: how they are computed, then per question its
-    sentences and its figure; then the data floor's sentences (report/data_floor.py), if any."""
+def findings_html(answers, figures):
+    """The findings, first on the page: a table per training set and the forest plot."""
+    out = ["<section id='findings'><h2>Findings</h2><p class='method'>Cells: the verdict, the "
+           "range of error ratios (fit / baseline) over the judging set, and how many metrics "
+           "are Holm-significant (p &lt; 0.05). The sentences, per question and pair, follow "
+           "under Answers.</p>"]
+    for title, t in answers.findings:
+        out.append(f"<h3>{esc(title)}</h3>" + html_table(t, cls="findings"))
+    out += [figure_html(f) for f in figures if f.get("kind") == "forest"]
+    out.append("</section>")
+    return "\n".join(out)
+
+
+def folded(summary, inner):
+    return [f"<details><summary>{esc(summary)}</summary>"] + inner + ["</details>"]
+
+
+def answers_html(answers, figures, floor_lines=()):
+    """The comparative answers after the findings: how they are computed, then per question its
+    sentences (folded) and its figure; the floors, regions and classes (folded); then the data
+    floor's sentences (report/data_floor.py), if any."""
+    comparisons = answers.records
     out = ["<section id='answers'><h2>Answers</h2>",
            f"<p class='method'>{esc(report_answers.method_text(comparisons))}</p>"]
-    by_question = {f.get("question"): f for f in figures if f.get("kind") == "comparison"}
+    by_question = {f.get("question"): f for f in figures
+                   if f.get("kind") in ("comparison", "regions")}
     for rec in comparisons:
         lines = report_answers.answer_lines([rec])
         title = report_compare.question_title(rec)
         out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
                    + (" <span class='default'>(default question)</span>" if rec["default"] else "")
-                   + "</h3><ul class='answers'>")
-        for line in lines[1:]:
-            out.append(f"<li>{esc(line.strip()[2:])}</li>")
-        out.append("</ul>")
+                   + "</h3>")
+        out += folded(f"{len(lines) - 1} sentences", ["<ul class='answers'>"]
+                      + [f"<li>{esc(line.strip()[2:])}</li>" for line in lines[1:]] + ["</ul>"])
         f = by_question.get(rec["name"])
         if f is not None:
             out.append(figure_html(f))
+    for key, title, lines in answers.sections():
+        out.append(f"<h3 id='{anchor('a', key)}'>{esc(title)}</h3>")
+        out += folded(f"{len(lines)} lines", ["<ul class='answers'>"]
+                      + [f"<li>{esc(line.strip()[2:])}</li>" for line in lines] + ["</ul>"])
     if floor_lines:
         out.append("<h3 id='data-floor'>Data floor</h3><ul class='answers'>")
         out += [f"<li>{esc(line)}</li>" for line in floor_lines]
@@ -321,7 +344,8 @@ def question_families(verdicts):
 
 
 def nav_html(families, titles, charts, materials):
-    nav = ["<nav><a href='#answers'>Answers</a><a href='#verdicts'>Within tolerance</a>"]
+    nav = ["<nav><a href='#findings'>Findings</a><a href='#answers'>Answers</a>"
+           "<a href='#verdicts'>Within tolerance</a>"]
     nav += [f"<a href='#{anchor('q', k)}'>{esc(titles.get(k, k))}</a>" for k in families]
     if charts:
         nav.append("<a href='#charts'>Parameter charts</a>")
@@ -462,7 +486,7 @@ def provenance_html(provenance):
 
 
 def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
-                write_text, comparisons=(), floor_lines=()):
+                write_text, answers, floor_lines=()):
     labels = [f["label"] for f in study["fits"]]
     materials = [g["material"] for g in study["groups"]]
     families = question_families(study["verdicts"])  # Reading order: the FAMILIES order.
@@ -473,8 +497,8 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              "</head><body>",
              f"<h1>{esc(study['name'])}</h1><p>{esc(study['description'])}</p>",
              nav_html(families, titles, charts, materials),
-             answers_html(comparisons, figures, floor_lines)]
-    parts += within_tolerance_html(study, summary, labels, comparisons)
+             findings_html(answers, figures), answers_html(answers, figures, floor_lines)]
+    parts += within_tolerance_html(study, summary, labels, answers.records)
     parts += encoding_html(tables)
     parts += pin_html(fits)
     parts += question_sections_html(study, families, titles, tables, summary, figures, charts,

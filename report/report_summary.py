@@ -5,6 +5,7 @@ import datetime
 
 import judging
 import report_answers
+import report_findings
 from report_util import labels_of, materials_of, md_escape
 
 
@@ -16,15 +17,24 @@ def not_valid_reasons(summary, name):
     return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
 
 
-def summary_markdown(study, summary, matrix, provenance, comparisons, floor_lines, fits, ngan):
-    """summary.md's text. `floor_lines`: the data floor's sentences (none without photographs);
-    `ngan`: report_ngan.ngan_comparison's record, or None."""
+def summary_markdown(study, summary, matrix, provenance, answers, floor_lines, fits, ngan,
+                     figures=()):
+    """summary.md's text: the findings first (a table per training set, the forest plot),
+    then the sentences. `answers`: report_sections.Answers; `floor_lines`: the data floor's
+    sentences (none without photographs); `ngan`: report_ngan.ngan_comparison's record, or
+    None; `figures`: figures.json's records (the forest plot's is linked)."""
     labels = labels_of(study)
+    comparisons = answers.records
     lines = [f"# {study['name']}", "", study["description"], "",
              f"Materials: {', '.join(materials_of(study))}. Fits: {', '.join(labels)}. "
              f"Training lightings: {'; '.join('+'.join(t) for t in study['training_sets'])}.", "",
-             "## Answers", "", report_answers.method_text(comparisons), ""]
+             "## Findings", ""]
+    lines += report_findings.findings_markdown(answers.findings)
+    lines += [f"![{f['caption']}]({f['png']})" for f in figures if f.get("kind") == "forest"]
+    lines += ["", "## Answers", "", report_answers.method_text(comparisons), ""]
     lines += report_answers.answer_lines(comparisons)
+    for _, title, section in answers.sections():
+        lines += ["", f"### {title}", ""] + section
     hcols, hrows = judging.human_agreement_table(judged_metrics(comparisons))
     lines += ["", "### Image metrics against human judgments", "",
               f"Spearman rho of each metric with the human distance over "

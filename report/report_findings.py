@@ -1,0 +1,172 @@
+"""Findings first: one compact table per training set (rows: questions; columns: compared
+pairs; cells: the verdict word, the range of error ratios over the judging set and how many
+metrics are Holm-significant) and one forest plot (each pair's error ratio with its 95% CI, one
+marker per metric), which summary.md, index.html and report.tex open with (docs/studies.md,
+"Findings")."""
+
+import math
+
+import judging
+import report_answers
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+from report_figures import (FONT_PT, OKABE_ITO, PAGE_IN, legend_layout, plt, save_figure,
+                            text_width_in, wrap_to_width)
+
+MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "h"]
+METRIC_COLOURS = OKABE_ITO + ["#000000", "#777777", "#999933", "#882255"]
+
+
+def set_key(pair, fit_of):
+    f = fit_of[pair["fit"]]
+    return ("+".join(f["train"]), f["loss"], f["role"])
+
+
+def set_title(key, several_losses):
+    train, loss, role = key
+    head = {"floor": "Floor fits (every floor lighting)", "brdf": "BRDF-space fits"}.get(
+        role, f"Trained on {train}")
+    return head + (f", loss {loss}" if several_losses and role != "brdf" else "")
+
+
+def cell(pair):
+    """The verdict in a few words: 'smaller under all 8 metrics; 0.52-0.88x; 8/8 sig.'; a
+    probe question's single comparison: '2.3x smaller; sig.'."""
+    if "verdict" in pair:
+        v = pair["verdict"]
+        rng = report_answers.ratio_range(pair["per_metric"])
+        r = "" if rng is None else f"; {report_answers.fmt_range(rng, 2)}"
+        if v["kind"] in ("smaller", "larger"):
+            sig = len(v[f"significant_{v['kind']}"])
+            return f"{v['word']}{r}; {sig}/{v['n']} sig."
+        return (f"{v['word']}{r}; sig. smaller {len(v['significant_smaller'])}, larger "
+                f"{len(v['significant_larger'])}")
+    sig = "; sig." if pair.get("p_holm", 1) < report_answers.ALPHA else ""
+    if pair["mode"] == "ratio":
+        r = 1 / pair["effect"] if pair["effect"] > 0 else math.inf
+        side = "smaller" if r < 1 else "larger" if r > 1 else "equal"
+        return f"{side}; {r:.2g}x{sig}"
+    side = "smaller" if pair["effect"] > 0 else "larger" if pair["effect"] < 0 else "equal"
+    return f"{side}; {-pair['effect']:+.2g}{sig}"
+
+
+def findings_tables(study, records):
+    """[(title, (columns, rows))]: per training set and loss, rows the questions, columns the
+    compared pairs (model vs model), cells `cell`."""
+    fit_of = {f["label"]: f for f in study["fits"]}
+    several = len(study.get("losses") or []) > 1
+    sets = {}
+    for rec in records:
+        for p in rec["comparisons"]:
+            key = set_key(p, fit_of)
+            col = f"{fit_of[p['fit']]['model']} vs {fit_of[p['baseline']]['model']}"
+            sets.setdefault(key, {}).setdefault(rec["name"], {})[col] = cell(p)
+    out = []
+    for key, by_q in sets.items():
+        cols = []
+        for cells in by_q.values():
+            cols += [c for c in cells if c not in cols]
+        rows = [[next(r["question"] for r in records if r["name"] == q)]
+                + [cells.get(c, "") for c in cols] for q, cells in by_q.items()]
+        out.append((set_title(key, several), (["question"] + cols, rows)))
+    return out
+
+
+def findings_markdown(tables):
+    lines = ["Cells: the verdict, the range of error ratios (fit / baseline) over the judging "
+             "set, and how many metrics are Holm-significant (p < 0.05).", ""]
+    for title, (cols, rows) in tables:
+        lines += [f"**{title}**", "", "| " + " | ".join(cols) + " |",
+                  "|" + "|".join("---" for _ in cols) + "|"]
+        lines += ["| " + " | ".join(r) + " |" for r in rows] + [""]
+    return lines
+
+
+# --- Forest plot --------------------------------------------------------------------------------
+
+
+def forest_rows(records):
+    """[(pair label, {question name: [(metric, ratio, lo, hi)]})] in reading order."""
+    rows = {}
+    for rec in (r for r in records if r["source"] == "metrics"):
+        for p in rec["comparisons"]:
+            label = f"{p['fit']} vs {p['baseline']}"
+            pts = []
+            for c in p["per_metric"]:
+                r = report_answers.error_ratio(c)
+                lo, hi = c["ci"]
+                if r is not None:
+                    pts.append((c["metric"], r, None if hi is None else 1 / hi,
+                                None if lo is None else 1 / lo))
+            rows.setdefault(label, {})[rec["name"]] = pts
+    return list(rows.items())
+
+
+def forest_plot(records, fig_dir, manifest):
+    """Log error ratio (fit / baseline) with its 95% CI: a row per pair, a marker per metric,
+    a panel per image question."""
+    questions = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    rows = forest_rows(records)
+    if not questions or not rows:
+        return
+    metrics = questions[0]["metrics"]
+    names = [judging.metric_name(m) for m in metrics]
+    labels = [wrap_to_width(label, 2.6, FONT_PT - 1) for label, _ in rows]
+    label_in = max(text_width_in(l, FONT_PT - 1) for l in labels) + 0.15
+    cols, _, legend_in = legend_layout(names, PAGE_IN - 0.2, handlelength=1.0)
+    row_in = max(0.3, 0.055 * len(metrics) + 0.1)
+    axes_in = row_in * len(rows)
+    title_in, bottom_in = 0.25, 0.4
+    height = legend_in + title_in + axes_in + bottom_in
+    panel_w = (PAGE_IN - label_in - 0.15 * len(questions)) / len(questions)
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    for k, rec in enumerate(questions):
+        x0 = label_in + k * (panel_w + 0.15)
+        ax = fig.add_axes([x0 / PAGE_IN, bottom_in / height, (panel_w - 0.05) / PAGE_IN,
+                           axes_in / height])
+        draw_panel(ax, rows, rec["name"], metrics)
+        ax.set_yticks(range(len(rows)))
+        ax.set_yticklabels(labels if k == 0 else [""] * len(rows))
+        ax.set_title(wrap_to_width(f"{rec['name']}: {rec['split']} lightings", panel_w - 0.1,
+                                   FONT_PT), fontsize=FONT_PT, pad=3)
+        ax.set_xlabel("error ratio fit / baseline (log)")
+    handles = [plt.Line2D([], [], marker=MARKERS[j % len(MARKERS)], linestyle="",
+                          color=METRIC_COLOURS[j % len(METRIC_COLOURS)]) for j in range(len(names))]
+    fig.legend(handles, names, loc="upper center", ncol=cols, frameon=False,
+               bbox_to_anchor=(0.5, 1.0), handlelength=1.0)
+    save_figure(fig, fig_dir, "findings-forest", manifest,
+                "Findings: each compared pair's error ratio (fit / baseline; < 1: the fit is "
+                "closer) under every metric of the judging set, with its bootstrap 95% CI over "
+                "materials; one panel per image question",
+                {"kind": "forest"})
+
+
+def draw_panel(ax, rows, question, metrics):
+    m = len(metrics)
+    lows, highs = [], []
+    for i, (_, by_q) in enumerate(rows):
+        for metric, r, lo, hi in by_q.get(question, []):
+            j = metrics.index(metric)
+            y = i + (j - (m - 1) / 2) * (0.8 / max(m, 1))
+            colour = METRIC_COLOURS[j % len(METRIC_COLOURS)]
+            if lo is not None:
+                ax.plot([lo, hi], [y, y], color=colour, linewidth=0.8)
+                lows.append(lo)
+                highs.append(hi)
+            ax.plot([r], [y], marker=MARKERS[j % len(MARKERS)], color=colour, markersize=3,
+                    linestyle="")
+            lows.append(r)
+            highs.append(r)
+    ax.axvline(1.0, color="#555555", linewidth=0.6)
+    ax.set_xscale("log")
+    # Ticks at 1, 2 and 5 per decade, written as plain numbers (0.5, 1, 2), no minor labels.
+    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    if lows:
+        lo, hi = min(lows + [1.0]), max(highs + [1.0])
+        pad = (math.log(hi) - math.log(lo)) * 0.08 + 0.02
+        ax.set_xlim(math.exp(math.log(lo) - pad), math.exp(math.log(hi) + pad))
+    ax.set_ylim(len(rows) - 0.5, -0.5)
+    for i in range(1, len(rows)):
+        ax.axhline(i - 0.5, color="#dddddd", linewidth=0.4)

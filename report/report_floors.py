@@ -1,0 +1,171 @@
+"""The model's floor and the transfer penalty (docs/studies.md, "Floors").
+
+A study with `[fit] floor = [...]` fits each model jointly to every lighting of that list (role
+"floor", label `<model>@floor`): the best that model does on these views. Floor vs floor is an
+ordinary pair of the training question (the floor set is a training set of its own). Here, per
+image question and per metric of the judging set:
+
+- each training set's **error over the floor**: for a fit trained on T, the ratio
+  error(fit, L) / error(floor fit of the same model and loss, L) for every floor lighting L of
+  the question (the training question: the floor lightings T trains on; the new-lighting
+  question: the floor lightings T does not train on), the geometric mean over those lightings
+  per material, then the geometric mean over materials with a bootstrap 95% CI (the same
+  bootstrap as every comparison, report_compare);
+- the BRDF-space fit (role "brdf") likewise against each floor fit of its model, on the
+  new-lighting question (it trains on no image);
+- where the floors' verdict on a model pair differs from the verdict of the same pair trained on
+  one training set, a sentence says so.
+"""
+
+import math
+
+import numpy as np
+
+import judging
+from report_answers import fmt_range
+from report_compare import bootstrap_ci, metric_error
+
+
+def lighting_errors(rows, metrics, to_float):
+    """{(material, label, lighting): {metric: error oriented smaller-is-better}}."""
+    out = {}
+    for r in rows:
+        cell = out.setdefault((r["material"], r["label"], r["lighting"]), {})
+        for m in metrics:
+            v = to_float(r.get(m))
+            if v is not None:
+                cell[m] = metric_error(m, [v])
+    return out
+
+
+def floor_lightings(fit, floor, split):
+    """The floor lightings a question judges `fit` on: trained ones for the training question,
+    the others for the new-lighting question."""
+    trained = set(fit["train"])
+    if split == "train":
+        return [l for l in floor if l in trained]
+    return [l for l in floor if l not in trained]
+
+
+def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
+    """Per material the geometric mean over `lightings` of error(label) / error(floor); then
+    the geometric mean over materials and its bootstrap 95% CI. None without a material."""
+    logs, used = [], []
+    for mat in materials:
+        per = []
+        for l in lightings:
+            a = errs.get((mat, label, l), {}).get(metric)
+            b = errs.get((mat, floor_label, l), {}).get(metric)
+            if a is not None and b is not None and a > 0 and b > 0:
+                per.append(math.log(a / b))
+        if per:
+            logs.append(float(np.mean(per)))
+            used.append(mat)
+    if not logs:
+        return None
+    lo, hi = bootstrap_ci(logs)
+    return {"ratio": math.exp(float(np.mean(logs))), "n": len(logs),
+            "ci": [None, None] if lo is None else [math.exp(lo), math.exp(hi)],
+            "per_material": {m: math.exp(x) for m, x in zip(used, logs)}}
+
+
+def floor_fits_of(study, fit):
+    """The floor fits a fit is measured against: the same model's floor under the fit's loss;
+    for the BRDF fit, the model's floor under every loss."""
+    floors = [f for f in study["fits"] if f["role"] == "floor" and f["model"] == fit["model"]]
+    if fit["role"] == "brdf":
+        return floors
+    return [f for f in floors if f["loss"] == fit["loss"]]
+
+
+def floor_study(study, rows, records, to_float):
+    """{question name: [entry per (fit, floor fit)]}: each entry's lightings and, per metric,
+    the ratio over the floor with its CI. Empty without floor fits."""
+    if not study.get("floor") or not any(f["role"] == "floor" for f in study["fits"]):
+        return {}
+    image = [r for r in records if r["source"] == "metrics"]
+    metrics = image[0]["metrics"] if image else []
+    errs = lighting_errors(rows, metrics, to_float)
+    materials = [g["material"] for g in study["groups"]]
+    out = {}
+    for rec in image:
+        entries = []
+        for fit in (f for f in study["fits"] if f["role"] in ("train", "brdf")):
+            lightings = floor_lightings(fit, study["floor"], rec["split"])
+            for fl in floor_fits_of(study, fit) if lightings else []:
+                per = {m: ratio_over_floor(errs, materials, fit["label"], fl["label"],
+                                           lightings, m) for m in metrics}
+                per = {m: v for m, v in per.items() if v is not None}
+                if per:
+                    entries.append({"fit": fit["label"], "floor": fl["label"],
+                                    "role": fit["role"], "lightings": lightings,
+                                    "metrics": per})
+        out[rec["name"]] = entries
+    return out
+
+
+def floor_sentence(e):
+    ratios = [v["ratio"] for v in e["metrics"].values()]
+    los = [v["ci"][0] for v in e["metrics"].values() if v["ci"][0] is not None]
+    his = [v["ci"][1] for v in e["metrics"].values() if v["ci"][1] is not None]
+    ci = f"; 95% CIs from {min(los):.3g} to {max(his):.3g}" if los and his else ""
+    above = sum(1 for v in e["metrics"].values() if v["ci"][0] is not None and v["ci"][0] > 1)
+    what = "the BRDF-space fit" if e["role"] == "brdf" else e["fit"]
+    return (f"{what}'s error over its floor {e['floor']} on {', '.join(e['lightings'])}: "
+            f"{fmt_range((min(ratios), max(ratios)))} over the {len(ratios)} metrics{ci}; the CI "
+            f"lies above 1 under {above} of {len(ratios)}")
+
+
+def ordering_sentences(records):
+    """Where the floors order a model pair otherwise than a training set does: a sentence per
+    (question, pair). The floors' verdict is the floor pair's on the training question (the
+    floor fits train on every floor lighting)."""
+    train_q = next((r for r in records if r["source"] == "metrics" and r["split"] == "train"),
+                   None)
+    if train_q is None:
+        return {}
+    floors = {(p["model"], p["baseline_model"], p["loss"]): p for p in train_q["comparisons"]
+              if p["role"] == "floor"}
+    out = {}
+    for rec in (r for r in records if r["source"] == "metrics"):
+        lines = []
+        for p in (p for p in rec["comparisons"] if p["role"] == "train"):
+            fp = floors.get((p["model"], p["baseline_model"], p["loss"]))
+            if fp is None or fp["verdict"]["kind"] == p["verdict"]["kind"]:
+                continue
+            lines.append(f"The floors order {p['model']} and {p['baseline_model']} otherwise "
+                         f"than one training set does: {fp['fit']} vs {fp['baseline']} is "
+                         f"'{fp['verdict']['word']}', {p['fit']} vs {p['baseline']} on this "
+                         f"question is '{p['verdict']['word']}'")
+        out[rec["name"]] = lines
+    return out
+
+
+def floor_lines(floors, records):
+    """Markdown lines per question: the ratios over the floor, then the ordering sentences."""
+    if not floors:
+        return []
+    order = ordering_sentences(records)
+    lines = []
+    for rec in (r for r in records if r["source"] == "metrics"):
+        entries = floors.get(rec["name"], [])
+        if not entries and not order.get(rec["name"]):
+            continue
+        lines.append(f"- **{rec['question']}**")
+        lines += [f"  - {floor_sentence(e)}." for e in entries]
+        lines += [f"  - {s}." for s in order.get(rec["name"], [])]
+    return lines
+
+
+def floor_table(floors):
+    cols = ["question", "fit", "floor", "lightings", "metric", "materials",
+            "error ratio fit/floor", "95% CI"]
+    out = []
+    for q, entries in floors.items():
+        for e in entries:
+            for m, v in e["metrics"].items():
+                lo, hi = v["ci"]
+                out.append([q, e["fit"], e["floor"], "+".join(e["lightings"]),
+                            judging.metric_name(m), str(v["n"]), f"{v['ratio']:.3g}x",
+                            "" if lo is None else f"{lo:.3g}-{hi:.3g}"])
+    return cols, out
