@@ -59,6 +59,8 @@ std::string LossName(Loss loss) {
       return "huber";
     case Loss::kCauchy:
       return "cauchy";
+    case Loss::kRelative:
+      return "relative";
   }
   return "?";
 }

@@ -87,7 +87,8 @@ Loss ParseLoss(const std::string& name) {
                        {"log", Loss::kLog},
                        {"cuberoot", Loss::kCubeRoot},
                        {"huber", Loss::kHuber},
-                       {"cauchy", Loss::kCauchy}});
+                       {"cauchy", Loss::kCauchy},
+                       {"relative", Loss::kRelative}});
 }
 
 DerivativePath ParsePath(const std::string& name) {

@@ -251,6 +251,7 @@ double CompressRadianceDerivative(Loss loss, double x) {
       const double c = std::cbrt(x + kCubeRootEpsilon);
       return 1.0 / (3.0 * c * c);
     }
+    case Loss::kRelative: return 1.0 / (x + kRelativeEpsilon);
     default: return 1.0;
   }
 }

@@ -91,7 +91,7 @@ Reference = Union[PathLike, Tuple[Union[PathLike, FloatImage], Scene],
 
 def fit(references: Union[Reference, Sequence[Reference]], model: str, *,
         fixed: Union[None, Mapping[str, Union[float, Sequence[float]]], Sequence[str]] = None,
-        loss: Literal["l2", "log", "cuberoot", "huber", "cauchy"] = "l2",
+        loss: Literal["l2", "log", "cuberoot", "huber", "cauchy", "relative"] = "l2",
         loss_scale: float = 0.0, starts: Optional[int] = None, seed: int = 1,
         exposure: Literal["fixed", "free"] = "fixed",
         path: Literal["auto", "gbuffer", "gl"] = "auto",

@@ -124,7 +124,7 @@ void AddInputOptions(CLI::App* cmd, FitCommandOptions* opt) {
 
 // The options of the fit itself: loss, starts, exposure, encoding, path and solver.
 void AddSolverOptions(CLI::App* cmd, FitCommandOptions* opt) {
-  cmd->add_option("--loss", opt->loss, "l2 | log | cuberoot | huber | cauchy")
+  cmd->add_option("--loss", opt->loss, "l2 | log | cuberoot | relative | huber | cauchy")
       ->capture_default_str();
   cmd->add_option("--loss-scale", opt->loss_scale,
                   "Huber/Cauchy scale in radiance units (default: 0.05 x p99 of the reference)");

@@ -116,7 +116,8 @@ TEST_P(GradientCheckTest, GBufferResidualMatchesNumericDerivatives) {
   const ModelInfo& model = FindModel(GetParam());
   const Geometry& g = SmallGeometry();
   const fit::Parametrization param(model, {});
-  for (fit::Loss loss : {fit::Loss::kL2, fit::Loss::kLog, fit::Loss::kCubeRoot}) {
+  for (fit::Loss loss :
+       {fit::Loss::kL2, fit::Loss::kLog, fit::Loss::kCubeRoot, fit::Loss::kRelative}) {
     std::vector<double> targets(3 * g.points.size(), 0.05);
     const fit::ResidualSettings settings{model.id, loss, &param};
     std::unique_ptr<ceres::CostFunction> cost(fit::CreateGBufferResidual(

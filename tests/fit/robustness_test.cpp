@@ -184,7 +184,7 @@ TEST(LossTest, EveryLossRecoversOwnRender) {
   const std::vector<double> truth = {0.6, 0.3, 0.1, 0.04, 0.04, 0.04, 0.3};
   const auto refs = testing::SyntheticReferences("ggx", truth, TwoLightings());
   for (fit::Loss loss : {fit::Loss::kL2, fit::Loss::kLog, fit::Loss::kCubeRoot,
-                         fit::Loss::kHuber, fit::Loss::kCauchy}) {
+                         fit::Loss::kHuber, fit::Loss::kCauchy, fit::Loss::kRelative}) {
     fit::FitProblem problem{FindModel("ggx"), refs, {}};
     fit::FitOptions options = Options();
     options.loss = loss;

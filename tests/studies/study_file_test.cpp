@@ -209,3 +209,65 @@ TEST(StudyFile, PhotoTemplateFixedIsPerModel) {
 
 }  // namespace
 }  // namespace shadefit::studies
+
+// Losses and floors (docs/studies.md, "Losses and floors"): a list of losses is a fit per loss,
+// labelled and listed like training sets; the floor is one more training set, labelled "floor".
+namespace shadefit::studies {
+namespace {
+
+TEST(StudyFile, LossListAndFloorAreFitsOfTheirOwn) {
+  const StudySpec s = LoadStudy(WriteStudy(
+      "losses.toml", Base("loss = [\"l2\", \"relative\"]\nfloor = [\"camera\", \"key\", \"side\"]\n")));
+  EXPECT_EQ(s.losses, (std::vector<fit::Loss>{fit::Loss::kL2, fit::Loss::kRelative}));
+  EXPECT_EQ(s.floor_lightings, (std::vector<std::string>{"camera", "key", "side"}));
+  ASSERT_EQ(s.training_sets.size(), 2u);
+  std::vector<std::string> labels, roles;
+  for (const FitSpec& f : s.Fits()) {
+    labels.push_back(f.label);
+    roles.push_back(FitRoleName(f.role));
+    EXPECT_EQ(s.SettingsOf(f.model, f.loss).loss, f.loss);
+  }
+  EXPECT_EQ(labels, (std::vector<std::string>{
+                        "ggx@key:l2", "ggx@key:relative", "blinn-phong@key:l2",
+                        "blinn-phong@key:relative", "ggx@floor:l2", "ggx@floor:relative",
+                        "blinn-phong@floor:l2", "blinn-phong@floor:relative"}));
+  EXPECT_EQ(roles[0], "train");
+  EXPECT_EQ(roles[4], "floor");
+  const nlohmann::json j = s.ToJson();
+  EXPECT_EQ(j["losses"], (nlohmann::json{"l2", "relative"}));
+  EXPECT_EQ(j["floor"], (nlohmann::json{"camera", "key", "side"}));
+  EXPECT_EQ(j["fits"][5]["loss"], "relative");
+  EXPECT_EQ(j["fits"][5]["role"], "floor");
+  EXPECT_TRUE(j["judging"].is_null());
+  // One loss as a list: no suffix, the loss everywhere.
+  const StudySpec one = LoadStudy(WriteStudy("one-loss.toml", Base("loss = [\"log\"]\n")));
+  ASSERT_EQ(one.Fits().size(), 2u);
+  EXPECT_EQ(one.Fits()[0].label, "ggx");
+  EXPECT_EQ(one.Fits()[0].loss, fit::Loss::kLog);
+}
+
+TEST(StudyFile, JudgingMetricsAreChecked) {
+  std::string text = Base() + "[verdicts]\njudging = [\"relative_rmse\", \"ms_ssim\"]\n";
+  const StudySpec s = LoadStudy(WriteStudy("judging.toml", text));
+  ASSERT_TRUE(s.judging.has_value());
+  EXPECT_EQ(*s.judging, (std::vector<std::string>{"relative_rmse", "ms_ssim"}));
+  EXPECT_EQ(s.ToJson()["judging"], (nlohmann::json{"relative_rmse", "ms_ssim"}));
+}
+
+TEST(StudyFile, BadLossesFloorsAndJudging) {
+  ExpectError("l1.toml", Base("loss = [\"l2\", \"l3\"]\n"), "fit.loss: unknown loss 'l3'");
+  ExpectError("l2.toml", Base("loss = [\"l2\", \"l2\"]\n"), "fit.loss: 'l2' listed twice");
+  ExpectError("l3.toml", Base("loss = []\n"), "fit.loss: empty list of losses");
+  ExpectError("l4.toml", Base("loss = [\"l2\", \"log\"]\n[fit.override.ggx]\nloss = \"log\"\n"),
+              "fit.override.ggx.loss: fit.loss lists the losses");
+  ExpectError("f1.toml", Base("floor = [\"key\", \"nowhere\"]\n"),
+              "has no reference under lighting 'nowhere'");
+  ExpectError("f2.toml", Base("floor = [\"key\"]\n"), "fit.floor: the floor equals a training set");
+  ExpectError("f3.toml", Base("floor = []\n"), "fit.floor: empty");
+  ExpectError("j1.toml", Base() + "[verdicts]\njudging = [\"relative_rmes\"]\n",
+              "verdicts.judging: unknown metric 'relative_rmes' (did you mean 'relative_rmse'?)");
+  ExpectError("j2.toml", Base() + "[verdicts]\njudging = 3\n", "verdicts.judging: expected metric names");
+}
+
+}  // namespace
+}  // namespace shadefit::studies

@@ -13,6 +13,7 @@
 #include "job_kinds.h"
 #include "job_records.h"
 #include "outputs.h"
+#include "region_errors.h"
 #include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
@@ -376,6 +377,10 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
             {"metrics_all_masked", all.report ? json(all.masked) : json(nullptr)},
             {"metrics_full", main.report ? metrics::MetricsToJson(*main.report) : json(nullptr)}};
   if (!main.report) e["metrics_none"] = main.why_none;
+  // Where the error lies, over the same pixels as "metrics": none where that pass has none.
+  e["regions"] = main.report ? RegionErrors(ref_rgb, fit_rgb, measured,
+                                            renderer.RenderGBuffer(ref.scene))
+                             : json(nullptr);
   if (!all.report) e["metrics_all_none"] = all.why_none;
   if (spec.previews) {
     WritePreviews(context, job, rs, ref, prediction, covered, maps, &e, outputs);
@@ -461,7 +466,7 @@ FitJobRecord FitRecord(const RunContext& context, const Job& job, const FitSetti
 
 void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const ReferenceGroup& g = context.spec.groups[job.group];
-  const FitSettings& s = context.spec.SettingsOf(job.model);
+  const FitSettings s = context.spec.SettingsOf(job.model, job.loss);
   const auto t0 = Clock::now();
 
   std::vector<reference_images::Reference> references;

@@ -20,10 +20,8 @@ inline double ProbeJobCost(std::size_t probes) { return 1.0 + 0.5 * probes; }
 // Every job of one material with `references` references.
 inline double MaterialCost(const StudySpec& spec, std::size_t references) {
   double cost = 0;
-  for (const auto& train : spec.training_sets) {
-    for (const auto& model : spec.models) {
-      cost += FitJobCost(spec.SettingsOf(model), train.size(), references);
-    }
+  for (const FitSpec& f : spec.Fits()) {
+    cost += FitJobCost(spec.SettingsOf(f.model, f.loss), f.train.size(), references);
   }
   if (!spec.probes.empty()) cost += ProbeJobCost(spec.probes.size());
   return cost;

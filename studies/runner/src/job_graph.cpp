@@ -20,14 +20,14 @@ using json = nlohmann::json;
 namespace {
 
 // A fit job's hash context: everything its results depend on besides shadefit's version.
-json FitContext(const StudySpec& spec, ModelRef model, const std::vector<std::string>& train,
-                const std::string& label, const json& refs) {
+json FitContext(const StudySpec& spec, const FitSettings& settings, const FitSpec& f,
+                const json& refs) {
   return {{"kind", "fit"},
-          {"model", model->name},
-          {"label", label},
-          {"train", train},
+          {"model", f.model->name},
+          {"label", f.label},
+          {"train", f.train},
           {"test_lightings", spec.test_lightings},
-          {"settings", spec.SettingsOf(model).ToJson()},
+          {"settings", settings.ToJson()},
           {"metrics", {{"exposure_stops", spec.metrics_exposure_stops}, {"ppd", spec.metrics_ppd}}},
           {"previews", spec.previews},
           {"references", refs}};
@@ -81,29 +81,30 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
     }
     std::vector<int> fit_jobs;
     std::vector<std::string> fit_hashes;
-    for (const auto& train : spec.training_sets) {
-      for (ModelRef model : spec.models) {
-        Job job;
-        job.kind = Job::Kind::kFit;
-        job.group = static_cast<int>(gi);
-        job.model = model;
-        job.train = train;
-        job.label = spec.Label(model->name, train);
-        job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, model->name, JoinTrain(train)));
-        json context = FitContext(spec, model, train, job.label, refs);
-        // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it; so
-        // does an image fit that starts from one.
-        const std::string brdf_path = MeasuredBrdfPath(spec, g.material);
-        if (TrainsInBrdfSpace(train) ||
-            (spec.SettingsOf(model).start == StartFrom::kBrdf && !brdf_path.empty())) {
-          context["brdf"] = BrdfHashes(brdf_path);
-        }
-        job.hash = Sha256String(version + "\n" + context.dump());
-        job.weight = FitJobCost(spec.SettingsOf(model), train.size(), g.references.size());
-        fit_jobs.push_back(static_cast<int>(jobs.size()));
-        fit_hashes.push_back(job.hash);
-        jobs.push_back(job);
+    for (const FitSpec& f : spec.Fits()) {
+      Job job;
+      job.kind = Job::Kind::kFit;
+      job.group = static_cast<int>(gi);
+      job.model = f.model;
+      job.train = f.train;
+      job.loss = f.loss;
+      job.label = f.label;
+      job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, f.model->name, JoinTrain(f.train)));
+      // A study of several losses: one job per loss (the BRDF-space fit: one, unsuffixed).
+      if (spec.losses.size() > 1 && f.role != FitRole::kBrdf) job.id += "." + fit::LossName(f.loss);
+      const FitSettings settings = spec.SettingsOf(f.model, f.loss);
+      json context = FitContext(spec, settings, f, refs);
+      // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it; so
+      // does an image fit that starts from one.
+      const std::string brdf_path = MeasuredBrdfPath(spec, g.material);
+      if (f.role == FitRole::kBrdf || (settings.start == StartFrom::kBrdf && !brdf_path.empty())) {
+        context["brdf"] = BrdfHashes(brdf_path);
       }
+      job.hash = Sha256String(version + "\n" + context.dump());
+      job.weight = FitJobCost(settings, f.train.size(), g.references.size());
+      fit_jobs.push_back(static_cast<int>(jobs.size()));
+      fit_hashes.push_back(job.hash);
+      jobs.push_back(job);
     }
     if (!spec.probes.empty()) {
       Job job;

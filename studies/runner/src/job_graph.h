@@ -30,6 +30,7 @@ struct Job {
   ModelRef model;           // Fit jobs: resolved when the study was loaded.
   std::string label;
   std::vector<std::string> train;
+  fit::Loss loss = fit::Loss::kL2;  // Fit jobs: the loss it is fitted under.
   std::vector<int> deps;    // Job indices.
   std::string hash;
   double weight = 1;        // Relative cost estimate for the ETA.

@@ -18,6 +18,7 @@
 #include "fit_status.h"
 #include "job_kinds.h"
 #include "job_records.h"
+#include "metric_columns.h"
 #include "shadefit/base/files.h"
 
 namespace shadefit::studies::internal {
@@ -30,9 +31,7 @@ namespace {
 // pixels; every covered pixel otherwise), then measured_fraction, then the same metrics over every
 // covered pixel as <metric>_all ("metrics_all"; equal to the first for references without a
 // measured domain). docs/measured_and_imported.md, "The measured domain".
-const std::vector<std::string> kMetricColumns = {
-    "rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim", "ciede2000_mean",
-    "flip_ldr_mean", "flip_hdr_mean", "delta_e_itp_mean"};
+// kMetricColumns: metric_columns.h.
 
 std::string Cell(const json& v) {
   return v.is_number() ? fmt::format("{:.9g}", v.get<double>()) : std::string();
@@ -50,14 +49,17 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
   const auto row_start = [&](const std::string& lighting, const std::string& reference,
                              const std::string& split) {
     csv << fit.material << "," << lighting << "," << reference << "," << fit.label << ","
-        << fit.model << "," << JoinTrain(fit.train) << "," << split << ","
+        << fit.model << "," << JoinTrain(fit.train) << "," << fit::LossName(job.loss) << ","
+        << split << ","
         << (fit.converged ? 1 : 0) << "," << FitStatusName(fit.status);
   };
   if (!HasFit(fit.status)) {  // No parameters: one row per reference, no metrics.
     for (const ReferenceSpec& r : context.spec.groups[job.group].references) {
       row_start(r.lighting, r.name, SplitOf(context.spec, r.lighting, job.train));
-      // kMetricColumns, measured_fraction, the _all columns: all empty.
-      csv << std::string(2 * kMetricColumns.size() + 1, ',') << "\n";
+      // kMetricColumns, measured_fraction, the _all columns, the regions: all empty.
+      csv << std::string(2 * kMetricColumns.size() + 1 + kRegionColumns.size() *
+                                                              kRegionNames.size(), ',')
+          << "\n";
     }
     return;
   }
@@ -66,6 +68,12 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
     for (const auto& c : kMetricColumns) csv << "," << Cell(e.metrics.value(c, json()));
     csv << "," << Cell(json(e.measured_fraction));
     for (const auto& c : kMetricColumns) csv << "," << Cell(e.metrics_all.value(c, json()));
+    const json regions = e.details.value("regions", json());
+    for (const auto& r : kRegionNames) {
+      for (const auto& c : kRegionColumns) {
+        csv << "," << (regions.is_object() ? Cell(regions[r][c]) : std::string());
+      }
+    }
     csv << "\n";
   }
 }
@@ -121,10 +129,13 @@ void WriteStudyJson(const RunContext& context) {
 
 void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs) {
   std::ostringstream csv;
-  csv << "material,lighting,reference,label,model,train,split,converged,status";
+  csv << "material,lighting,reference,label,model,train,loss,split,converged,status";
   for (const auto& c : kMetricColumns) csv << "," << c;
   csv << ",measured_fraction";
   for (const auto& c : kMetricColumns) csv << "," << c << "_all";
+  for (const auto& r : kRegionNames) {
+    for (const auto& c : kRegionColumns) csv << ",region_" << r << "_" << c;
+  }
   csv << "\n";
   for (const Job& job : jobs) {
     if (job.kind == Job::Kind::kFit) AppendResultRows(context, job, csv);

@@ -5,6 +5,7 @@
 
 #include <optional>
 
+#include "metric_columns.h"
 #include "study_file.h"
 
 namespace shadefit::studies {
@@ -46,8 +47,53 @@ fit::FitOptions FitSettings::Options() const {
 std::string StudySpec::Label(const std::string& model,
                              const std::vector<std::string>& train) const {
   if (training_sets.size() <= 1) return model;
+  if (RoleOf(train) == FitRole::kFloor) return model + "@floor";
   std::string out = model + "@";
   for (std::size_t i = 0; i < train.size(); ++i) out += (i ? "+" : "") + train[i];
+  return out;
+}
+
+std::string StudySpec::Label(const std::string& model, const std::vector<std::string>& train,
+                             fit::Loss loss) const {
+  std::string out = Label(model, train);
+  if (losses.size() > 1 && RoleOf(train) != FitRole::kBrdf) out += ":" + fit::LossName(loss);
+  return out;
+}
+
+FitRole StudySpec::RoleOf(const std::vector<std::string>& train) const {
+  if (TrainsInBrdfSpace(train)) return FitRole::kBrdf;
+  if (!floor_lightings.empty() && train == floor_lightings) return FitRole::kFloor;
+  return FitRole::kTrain;
+}
+
+const char* FitRoleName(FitRole role) {
+  switch (role) {
+    case FitRole::kTrain: return "train";
+    case FitRole::kFloor: return "floor";
+    case FitRole::kBrdf: return "brdf";
+  }
+  return "train";
+}
+
+FitSettings StudySpec::SettingsOf(ModelRef model, fit::Loss loss) const {
+  FitSettings s = SettingsOf(model);
+  s.loss = loss;
+  return s;
+}
+
+std::vector<FitSpec> StudySpec::Fits() const {
+  std::vector<FitSpec> out;
+  for (const auto& train : training_sets) {
+    const FitRole role = RoleOf(train);
+    for (ModelRef m : models) {
+      // The BRDF-space fit has one objective (fit/brdf_space.h), whatever the image losses.
+      std::vector<fit::Loss> of_model = losses;
+      if (of_model.empty() || role == FitRole::kBrdf) of_model = {SettingsOf(m).loss};
+      for (fit::Loss loss : of_model) {
+        out.push_back({m, train, loss, role, Label(m->name, train, loss)});
+      }
+    }
+  }
   return out;
 }
 
@@ -82,12 +128,16 @@ nlohmann::json StudySpec::ToJson() const {
   nlohmann::json labels = nlohmann::json::array();
   nlohmann::json model_names = nlohmann::json::array();
   for (ModelRef m : models) model_names.push_back(m->name);
-  for (const auto& train : training_sets) {
-    for (ModelRef m : models) {
-      labels.push_back({{"label", Label(m->name, train)}, {"model", m->name}, {"train", train}});
-    }
+  for (const FitSpec& f : Fits()) {
+    labels.push_back({{"label", f.label},
+                      {"model", f.model->name},
+                      {"train", f.train},
+                      {"loss", fit::LossName(f.loss)},
+                      {"role", FitRoleName(f.role)}});
   }
-  return {{"schema", "shadefit.study/1"},
+  nlohmann::json loss_names = nlohmann::json::array();
+  for (fit::Loss l : losses) loss_names.push_back(fit::LossName(l));
+  return {{"schema", "shadefit.study/2"},
           {"name", name},
           {"description", description},
           {"path", path},
@@ -111,6 +161,9 @@ nlohmann::json StudySpec::ToJson() const {
           {"fit_settings", settings},
           {"training_sets", training_sets},
           {"test_lightings", test_lightings},
+          {"losses", loss_names},
+          {"floor", floor_lightings},
+          {"judging", judging.has_value() ? nlohmann::json(*judging) : nlohmann::json()},
           {"metrics", {{"exposure_stops", metrics_exposure_stops}, {"ppd", metrics_ppd}}},
           {"probes", ProbeNamesJson(probes)},
           {"verdicts", verdicts},
@@ -205,12 +258,38 @@ nlohmann::json ReadVerdict(const Reader& r, const std::string& name, const toml:
   return j;
 }
 
+// [verdicts] judging = ["relative_rmse", ...]: the image metrics every image question is answered
+// under, instead of the report's default judging set (docs/studies.md, "Comparative answers").
+std::vector<std::string> ReadJudging(const Reader& r, const toml::node& node) {
+  const toml::array* a = node.as_array();
+  if (a == nullptr || a->empty()) r.Fail(&node, "verdicts.judging", "expected metric names");
+  std::vector<std::string> out;
+  for (const toml::node& e : *a) {
+    if (!e.is_string()) r.Fail(&e, "verdicts.judging", "expected metric names");
+    const std::string m = *e.value<std::string>();
+    if (std::find(internal::kMetricColumns.begin(), internal::kMetricColumns.end(), m) ==
+        internal::kMetricColumns.end()) {
+      r.Fail(&e, "verdicts.judging",
+             "unknown metric '" + m + "'" + DidYouMean(m, internal::kMetricColumns));
+    }
+    if (std::find(out.begin(), out.end(), m) != out.end()) {
+      r.Fail(&e, "verdicts.judging", "'" + m + "' listed twice");
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
 // [verdicts.<phenomenon>]
 void ReadVerdicts(const Reader& r, const toml::table& root, StudySpec* spec) {
   spec->verdicts = nlohmann::json::object();
   if (const toml::table* v = r.Table(root, "", "verdicts")) {
     for (const auto& [key, node] : *v) {
       const std::string name(key.str());
+      if (name == "judging") {
+        spec->judging = ReadJudging(r, node);
+        continue;
+      }
       spec->verdicts[name] = ReadVerdict(r, name, node);
     }
   }

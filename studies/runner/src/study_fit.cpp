@@ -1,5 +1,7 @@
 // A study's [fit] table and the checks of what it names: models, their settings and `fixed`
 // values, training lightings, and the [study] comparisons between models (docs/studies.md).
+#include <optional>
+
 #include "shadefit/render/models.h"
 #include "study_file.h"
 
@@ -33,7 +35,7 @@ void ReadFitSettings(const Reader& r, const toml::table& t, const std::string& p
       r.Fail(t.get(key), prefix + key, e.problem);
     }
   };
-  choice("loss", fit::ParseLoss, &s->loss);
+  if (!(t.contains("loss") && t.get("loss")->is_array())) choice("loss", fit::ParseLoss, &s->loss);
   choice("exposure", fit::ParseExposure, &s->exposure);
   choice("path", fit::ParsePath, &s->path);
   choice("encoding", fit::ParseEncodingMode, &s->encoding);
@@ -104,6 +106,29 @@ std::vector<FixedValue> FixedFor(const Reader& r, const ModelInfo& model,
   return out;
 }
 
+// `loss` given as a list in `t` ([fit] or [quick]): every model is fitted under each, a fit per
+// loss (docs/studies.md, "Losses and floors"); nothing when it is a single name.
+std::optional<std::vector<fit::Loss>> ReadLosses(const Reader& r, const toml::table& t,
+                                                 const std::string& prefix) {
+  const toml::node* n = t.get("loss");
+  if (n == nullptr || !n->is_array()) return std::nullopt;
+  std::vector<fit::Loss> out;
+  for (const toml::node& e : *n->as_array()) {
+    if (!e.is_string()) r.Fail(&e, prefix + "loss", "expected loss names");
+    try {
+      const fit::Loss loss = fit::ParseLoss(*e.value<std::string>());
+      if (std::find(out.begin(), out.end(), loss) != out.end()) {
+        r.Fail(&e, prefix + "loss", "'" + fit::LossName(loss) + "' listed twice");
+      }
+      out.push_back(loss);
+    } catch (const fit::FitOptionError& err) {
+      r.Fail(&e, prefix + "loss", err.problem);
+    }
+  }
+  if (out.empty()) r.Fail(n, prefix + "loss", "empty list of losses");
+  return out;
+}
+
 // [fit] models, resolved here once, and their settings: the defaults, [fit.override.<model>],
 // then [quick].
 void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q, StudySpec* spec) {
@@ -121,6 +146,11 @@ void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q
   }
   FitSettings defaults;
   FixedSource default_fixed;
+  spec->losses = ReadLosses(r, fit, "fit.").value_or(std::vector<fit::Loss>{});
+  if (qt != nullptr && qt->contains("loss")) {
+    spec->losses = ReadLosses(r, *qt, "quick.").value_or(std::vector<fit::Loss>{});
+  }
+  if (!spec->losses.empty()) defaults.loss = spec->losses.front();
   ReadFitSettings(r, fit, "fit.", &defaults, &default_fixed);
   const toml::table* overrides = r.Table(fit, "fit.", "override");
   if (overrides != nullptr) {
@@ -131,6 +161,14 @@ void ReadFitModels(const Reader& r, const toml::table& fit, const QuickFilter& q
       }
       if (!node.is_table()) r.Fail(&node, "fit.override." + model, "expected a table");
       r.CheckKeys(*node.as_table(), "fit.override." + model + ".", kFitKeys);
+      if (!spec->losses.empty() && node.as_table()->contains("loss")) {
+        r.Fail(node.as_table()->get("loss"), "fit.override." + model + ".loss",
+               "fit.loss lists the losses every model is fitted under; remove it here");
+      }
+      if (node.as_table()->contains("loss") && node.as_table()->get("loss")->is_array()) {
+        r.Fail(node.as_table()->get("loss"), "fit.override." + model + ".loss",
+               "a list of losses goes under [fit] loss");
+      }
     }
   }
   for (ModelRef model : spec->models) {
@@ -188,7 +226,9 @@ void CheckTrainingLightings(const Reader& r, const toml::table& fit, const Study
                          kBrdfSpaceTraining));
     }
     for (const auto& [model, s] : spec.model_settings) {
-      if (s.loss != fit::Loss::kL2 || s.exposure != fit::Exposure::kFixed ||
+      // With a list of losses the BRDF-space fit is made once, under its own L2 objective.
+      const bool loss_ok = s.loss == fit::Loss::kL2 || !spec.losses.empty();
+      if (!loss_ok || s.exposure != fit::Exposure::kFixed ||
           s.encoding != fit::EncodingMode::kAsImported) {
         r.Fail(fit.get("train"), "fit.train",
                fmt::format("'{}' fits the cosine-weighted BRDF in L2 with no scale: model '{}' "
@@ -228,6 +268,33 @@ void CheckTrainingLightings(const Reader& r, const toml::table& fit, const Study
   }
 }
 
+// [fit] floor: the lightings of each model's floor fit, appended to the training sets. Under
+// --quick only the floor lightings [quick] keeps (none left: no floor).
+void ReadFloor(const Reader& r, const toml::table& fit, const QuickFilter& q, StudySpec* spec) {
+  std::vector<std::string> floor = r.Strings(fit, "fit.", "floor");
+  if (!fit.contains("floor")) return;
+  if (floor.empty()) r.Fail(fit.get("floor"), "fit.floor", "empty: list the floor's lightings");
+  std::set<std::string> seen;
+  for (const std::string& l : floor) {
+    if (l == kBrdfSpaceTraining) {
+      r.Fail(fit.get("floor"), "fit.floor", "the floor is a fit to images; 'brdf' is a training set");
+    }
+    if (!seen.insert(l).second) r.Fail(fit.get("floor"), "fit.floor", "'" + l + "' listed twice");
+  }
+  if (q.table != nullptr) {
+    std::erase_if(floor, [&](const std::string& l) { return !q.KeepsLighting(l); });
+    if (floor.size() < 2) return;
+  }
+  for (const auto& set : spec->training_sets) {
+    if (set == floor) {
+      r.Fail(fit.get("floor"), "fit.floor",
+             "the floor equals a training set of fit.train; a floor is fitted anyway");
+    }
+  }
+  spec->floor_lightings = floor;
+  spec->training_sets.push_back(floor);
+}
+
 }  // namespace
 
 // [fit]
@@ -236,7 +303,7 @@ void ReadFit(const Reader& r, const toml::table& root, const QuickFilter& q, Stu
   if (fit == nullptr) r.Fail(nullptr, "fit", "missing [fit] table");
   {
     std::set<std::string> allowed = kFitKeys;
-    for (const char* k : {"models", "train", "test", "override"}) allowed.insert(k);
+    for (const char* k : {"models", "train", "test", "override", "floor"}) allowed.insert(k);
     r.CheckKeys(*fit, "fit.", allowed);
   }
   ReadFitModels(r, *fit, q, spec);
@@ -246,6 +313,7 @@ void ReadFit(const Reader& r, const toml::table& root, const QuickFilter& q, Stu
   }
   if (spec->training_sets.empty()) r.Fail(fit->get("train"), "fit.train", "missing or empty");
   spec->test_lightings = r.Strings(*fit, "fit.", "test");
+  ReadFloor(r, *fit, q, spec);
   CheckTrainingLightings(r, *fit, *spec);
 }
 

@@ -42,18 +42,25 @@ enum class Loss {
   kCubeRoot,  // r = cbrt(x + eps) - cbrt(y + eps), eps = kCubeRootEpsilon (Fores et al. 2012).
   kHuber,     // r = x - y per channel, ceres::HuberLoss(scale) on each pixel's RGB norm^2.
   kCauchy,    // r = x - y per channel, ceres::CauchyLoss(scale) on each pixel's RGB norm^2.
+  kRelative,  // r = log(x + eps) - log(y + eps), eps = kRelativeEpsilon: relative error, the
+              // loss relative RMSE (mean |x - y| / (y + 0.01)) and log RMSE judge by.
 };
 
 // Offset inside the cube root: keeps the Jet derivative 1 / (3 (x + eps)^(2/3)) finite at x = 0
 // (bounded by 155) while changing values above ~0.01 radiance by under 1%.
 inline constexpr double kCubeRootEpsilon = 1e-4;
 
+// Offset inside the relative loss's log: the same 0.01 radiance that relative RMSE adds to its
+// denominator (metrics/), so that dark pixels, whose relative error is noise, weigh as a pixel
+// of radiance 0.01 would; derivative 1 / (x + eps) <= 100.
+inline constexpr double kRelativeEpsilon = 1e-2;
+
 enum class DerivativePath { kAuto, kGBuffer, kGl };
 enum class Exposure { kFixed, kFree };
 
 // The Parse functions throw FitOptionError (option_checks.h) on unknown names.
 Loss ParseLoss(const std::string& name);
-std::string LossName(Loss loss);                       // "l2", "log", "cuberoot", ...
+std::string LossName(Loss loss);                       // "l2", "log", "cuberoot", "relative", ...
 DerivativePath ParsePath(const std::string& name);     // "auto", "gbuffer", "gl".
 std::string PathName(DerivativePath path);
 Exposure ParseExposure(const std::string& name);       // "fixed", "free".

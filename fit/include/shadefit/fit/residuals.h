@@ -127,6 +127,7 @@ T CompressRadiance(Loss loss, const T& x) {
   switch (loss) {
     case Loss::kLog: return log(T(1) + x);
     case Loss::kCubeRoot: return cbrt(x + T(kCubeRootEpsilon));
+    case Loss::kRelative: return log(x + T(kRelativeEpsilon));
     default: return x;
   }
 }

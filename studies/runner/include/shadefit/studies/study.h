@@ -89,6 +89,21 @@ inline bool TrainsInBrdfSpace(const std::vector<std::string>& train) {
   return train.size() == 1 && train[0] == kBrdfSpaceTraining;
 }
 
+// What a fit's training set is for (docs/studies.md, "Losses and floors"): an ordinary training
+// set of [fit] train, the floor (a joint fit to every lighting of [fit] floor: the best the model
+// does on these views, against which one image's fit is judged), or the BRDF-space fit.
+enum class FitRole { kTrain, kFloor, kBrdf };
+const char* FitRoleName(FitRole role);  // "train", "floor", "brdf"
+
+// One fit of a study, for every material: a model, a training set and a loss, and its label.
+struct FitSpec {
+  ModelRef model;
+  std::vector<std::string> train;
+  fit::Loss loss = fit::Loss::kL2;
+  FitRole role = FitRole::kTrain;
+  std::string label;
+};
+
 struct StudySpec {
   std::string name;         // [study] name; names the output folder.
   std::string description;
@@ -101,7 +116,17 @@ struct StudySpec {
   std::vector<ModelRef> models;          // Resolved when the file is loaded.
   std::map<std::string, FitSettings> model_settings;  // Every model, overrides applied.
   const FitSettings& SettingsOf(ModelRef model) const { return model_settings.at(model->name); }
-  std::vector<std::vector<std::string>> training_sets;  // Lighting names per set.
+  // The model's settings with the loss of one of its fits.
+  FitSettings SettingsOf(ModelRef model, fit::Loss loss) const;
+  std::vector<std::vector<std::string>> training_sets;  // Lighting names per set, the floor last.
+  // [fit] loss given as a list: every model is fitted under each loss, a fit per loss like a
+  // training set (the BRDF-space fit has its own objective: once). Empty: each model's `loss`.
+  std::vector<fit::Loss> losses;
+  // [fit] floor: the lightings of the floor fit (also the last of training_sets); empty: none.
+  std::vector<std::string> floor_lightings;
+  // [verdicts] judging: the image metrics the report answers each image question under; unset:
+  // the report's default judging set (report/report_judging.py).
+  std::optional<std::vector<std::string>> judging;
   std::vector<std::string> test_lightings;  // Empty: every lighting not in the training set.
 
   float metrics_exposure_stops = 0.0f;
@@ -122,8 +147,15 @@ struct StudySpec {
   std::optional<bool> floor;
 
   // Label of a fit in outputs: the model name when the study has one training set, else
-  // "<model>@<lighting>+<lighting>".
+  // "<model>@<lighting>+<lighting>" ("<model>@floor" for the floor); ":<loss>" appended when the
+  // study lists several losses (never to the BRDF-space fit, which has one objective).
   std::string Label(const std::string& model, const std::vector<std::string>& train) const;
+  std::string Label(const std::string& model, const std::vector<std::string>& train,
+                    fit::Loss loss) const;
+  FitRole RoleOf(const std::vector<std::string>& train) const;
+  // Every fit of a material, in the order jobs and tables list them: per training set, per
+  // model, per loss.
+  std::vector<FitSpec> Fits() const;
   // Whether `lighting` is tested for a fit trained on `train`.
   bool IsTest(const std::string& lighting, const std::vector<std::string>& train) const;
 
