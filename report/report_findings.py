@@ -111,7 +111,8 @@ def forest_plot(records, fig_dir, manifest):
         return
     metrics = questions[0]["metrics"]
     names = [judging.metric_name(m) for m in metrics]
-    labels = [wrap_to_width(label, 2.6, FONT_PT - 1) for label, _ in rows]
+    # "fit vs" over "baseline": two short lines instead of one that takes half the page.
+    labels = [pair_label(label) for label, _ in rows]
     label_in = max(text_width_in(l, FONT_PT - 1) for l in labels) + 0.15
     cols, _, legend_in = legend_layout(names, PAGE_IN - 0.2, handlelength=1.0)
     row_in = max(0.3, 0.055 * len(metrics) + 0.1)
@@ -139,6 +140,13 @@ def forest_plot(records, fig_dir, manifest):
                 "closer) under every metric of the judging set, with its bootstrap 95% CI over "
                 "materials; one panel per image question",
                 {"kind": "forest"})
+
+
+def pair_label(label):
+    """'ggx@key vs\nblinn-phong@key', each side wrapped at 2 in."""
+    fit, base = label.split(" vs ", 1)
+    return (wrap_to_width(fit, 2.0, FONT_PT - 1) + " vs\n"
+            + wrap_to_width(base, 2.0, FONT_PT - 1))
 
 
 def draw_panel(ax, rows, question, metrics):

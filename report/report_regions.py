@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 
-from report_figures import (FONT_PT, OKABE_ITO, PAGE_IN, legend_layout, plt, save_figure,
+from report_figures import (FONT_PT, PAGE_IN, bar_style, legend_layout, plt, save_figure,
                             text_width_in)
 from report_inputs import REGIONS
 
@@ -100,19 +100,19 @@ def region_figure(means, rec, labels, fig_dir, manifest):
     cols, _, legend_in = legend_layout(fits, PAGE_IN - 0.2, handlelength=1.5, columnspacing=1.5)
     label_in = max(text_width_in(g, FONT_PT) for g in REGIONS) + 0.55
     panel_in, gap_in = 1.1, 0.3
-    height = legend_in + len(REGIONS) * (panel_in + gap_in) + 0.15
+    height = legend_in + 0.1 + len(REGIONS) * (panel_in + gap_in) + 0.15
     fig = plt.figure(figsize=(PAGE_IN, height))
     width = 0.8 / len(fits)
     x = np.arange(len(lightings))
     for k, g in enumerate(REGIONS):
-        y0 = (height - legend_in - (k + 1) * (panel_in + gap_in) + gap_in) / height
+        y0 = (height - legend_in - 0.1 - (k + 1) * (panel_in + gap_in) + gap_in) / height
         ax = fig.add_axes([label_in / PAGE_IN, y0, 1 - (label_in + 0.1) / PAGE_IN,
                            panel_in / height])
         for i, f in enumerate(fits):
             cells = [means.get((split, l, g, f)) for l in lightings]
             xs = x + (i - (len(fits) - 1) / 2) * width
             ax.bar(xs, [c["abs"] if c else np.nan for c in cells], width,
-                   color=OKABE_ITO[i % len(OKABE_ITO)], label=f if k == 0 else None)
+                   label=f if k == 0 else None, **bar_style(i, f))
             ax.scatter(xs, [c["signed"] if c else np.nan for c in cells], marker="_",
                        color="black", s=30, linewidths=1.0, zorder=3)
         ax.axhline(0, color="#555555", linewidth=0.5)
