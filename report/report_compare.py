@@ -346,8 +346,8 @@ def comparison_table(records, fmt):
     the comparison uses them: smaller is better (1 - SSIM for the SSIM family, -PSNR for
     PSNR)."""
     cols = ["question", "fit", "baseline", "metric", "materials", "fit error median [IQR]",
-            "baseline error median [IQR]", "effect", "95% CI", "closer", "test", "p",
-            "p (Holm)", "verdict"]
+            "baseline error median [IQR]", "effect", "95% CI", "error ratio fit/baseline",
+            "closer", "test", "p", "p (Holm)", "verdict"]
     out = []
     for rec in records:
         for pair in rec["comparisons"]:
@@ -365,6 +365,8 @@ def comparison_row(rec, c, fmt, word):
     ci = "" if lo is None else (f"{lo:.3g}-{hi:.3g}" if c["mode"] == "ratio"
                                 else f"{lo:+.3g} to {hi:+.3g}")
     metric = METRIC_NAMES.get(c["metric"], c["metric"]) if "metric" in c else ""
+    # The same ratio the other way round, as issue 40's table and the findings read it.
+    inverse = f"{1 / c['effect']:.3g}" if c["mode"] == "ratio" and c["effect"] > 0 else ""
     return [rec["name"], c["fit"], c["baseline"], metric, str(c["n"]), med(c["fit_quartiles"]),
-            med(c["baseline_quartiles"]), effect, ci, f"{c['closer']}/{c['n']}", c["test"],
-            fmt_p(c["p"]), fmt_p(c.get("p_holm")), word]
+            med(c["baseline_quartiles"]), effect, ci, inverse, f"{c['closer']}/{c['n']}",
+            c["test"], fmt_p(c["p"]), fmt_p(c.get("p_holm")), word]

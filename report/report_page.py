@@ -159,9 +159,12 @@ def matrix_groups(study, labels):
     if len(labels) <= MATRIX_MAX_FITS:
         return [("", [(l, l) for l in labels])]
     groups = {}
+    several = len(study.get("losses") or []) > 1
     for f in study["fits"]:
         if f["label"] in labels:
-            key = "+".join(f["train"])
+            # One column per model: with several losses, a group per (training set, loss).
+            key = "+".join(f["train"]) + (f", loss {f['loss']}" if several
+                                          and f["role"] != "brdf" else "")
             groups.setdefault(key, []).append((f["label"], f["model"]))
     return [(f"Trained on {k}", cols) for k, cols in groups.items()]
 
