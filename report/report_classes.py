@@ -27,16 +27,18 @@ def read_tsv(path, column):
 
 
 def coarse_path(study, study_dir):
-    """merl-material-types.tsv beside the first measured folder that has one, or None. A
-    relative folder is taken from the study folder."""
+    """merl-material-types.tsv beside the first measured folder that has one, or None. The
+    runner writes the folder joined to the study file's folder (study_materials.cpp), so a
+    relative one is relative to where the study ran; failing that, to the study's out folder."""
     for src in study["measured"]:
         folder = src.get("folder")
         if not folder:
             continue
-        folder = folder if os.path.isabs(folder) else os.path.join(study_dir, folder)
-        path = os.path.join(os.path.dirname(os.path.normpath(folder)), COARSE_NAME)
-        if os.path.exists(path):
-            return path
+        for where in ([folder] if os.path.isabs(folder)
+                      else [os.path.abspath(folder), os.path.join(study_dir, folder)]):
+            path = os.path.join(os.path.dirname(os.path.normpath(where)), COARSE_NAME)
+            if os.path.exists(path):
+                return path
     return None
 
 

@@ -253,7 +253,19 @@ def test_other_split(make_report, out):
           f"other: make_report.py exit {r.returncode}: {r.stderr.strip()[-300:]}")
     if r.returncode == 0:
         metrics = read(d, os.path.join("tables", "metrics.csv"))
-        check(",other," in metrics or "other" in metrics, "other: the metrics table drops 'other'")
+        check(",other," in metrics, "other: the metrics table drops the 'other' rows")
+    # A split the runner never writes is still one error line naming the cell.
+    path = os.path.join(d, "results.csv")
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text.replace(",other,", ",elsewhere,", 1))
+    shutil.rmtree(os.path.join(d, "report"))
+    r = subprocess.run(["/usr/bin/python3", make_report.__file__, d], capture_output=True,
+                       text=True)
+    check(r.returncode == 1 and "field 'split': expected 'train' or 'test' or 'other', got "
+          "'elsewhere'" in r.stderr and not os.path.exists(os.path.join(d, "report")),
+          f"other: a bad split: exit {r.returncode}: {r.stderr.strip()}")
 
 
 def test_floor(make_report, out):
