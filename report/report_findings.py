@@ -39,8 +39,8 @@ def cell(pair):
         if v["kind"] in ("smaller", "larger"):
             sig = len(v[f"significant_{v['kind']}"])
             return f"{v['word']}{r}; {sig}/{v['n']} sig."
-        return (f"{v['word']}{r}; sig. smaller {len(v['significant_smaller'])}, larger "
-                f"{len(v['significant_larger'])}")
+        a, b = len(v["significant_smaller"]), len(v["significant_larger"])
+        return f"{v['word']}{r}; " + (f"sig.: {a} smaller, {b} larger" if a or b else "none sig.")
     sig = "; sig." if pair.get("p_holm", 1) < report_answers.ALPHA else ""
     if pair["mode"] == "ratio":
         r = 1 / pair["effect"] if pair["effect"] > 0 else math.inf
