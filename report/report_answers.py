@@ -17,6 +17,8 @@ Fits are paired within one (training set, loss); whether a pair's verdict holds 
 study's losses is said per question and model pair.
 """
 
+import math
+
 import judging
 from report_compare import (BOOTSTRAP_RESAMPLES, BOOTSTRAP_SEED, SIGN_TEST_BELOW, compare_pair,
                             comparison_pairs, fmt_p, holm_by_pair, material_errors, metric_mode,
@@ -323,3 +325,49 @@ def to_json(records, extra=None):
            "questions": records}
     out.update(extra or {})
     return out
+
+
+# ------------------------------------------------------------------------------------------------
+# Every metric measured, judged or not (descriptive: the numbers behind issue 40's table)
+
+
+def every_metric_table(study, rows, summary, records, to_float, columns):
+    """(columns, rows): per compared pair and every metric column results.csv has (`columns`,
+    in that order), the error ratio fit / baseline (geometric mean over materials; a mean
+    difference for PSNR) and on how many materials the fit is closer, per image question. No
+    test and no verdict: it shows how far the judging set's agreement reaches."""
+    image = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    if not image or not rows:
+        return None
+    materials = materials_of(study)
+    metrics = [m for m in columns if m in rows[0]]
+    judged = set(image[0]["metrics"])
+    cells = {}
+    for rec in image:
+        for m in metrics:
+            errs, _ = material_errors(study, rows, summary, rec, to_float, metric=m)
+            for p in rec["comparisons"]:
+                cells[(p["fit"], p["baseline"], m, rec["name"])] = describe(
+                    errs, materials, p["fit"], p["baseline"], m)
+    pairs = list(dict.fromkeys((p["fit"], p["baseline"]) for r in image for p in r["comparisons"]))
+    head = ["fit", "baseline", "metric", "in the judging set"] + [
+        f"{r['name']}: ratio, closer" for r in image]
+    out = [[f, b, judging.metric_name(m), "yes" if m in judged else ""]
+           + [cells.get((f, b, m, r["name"]), "") for r in image]
+           for f, b in pairs for m in metrics]
+    return head, out
+
+
+def describe(errors, materials, label, base, metric):
+    a, b = [], []
+    for m in materials:
+        ea, eb = errors.get((m, label)), errors.get((m, base))
+        if ea is not None and eb is not None:
+            a.append(ea)
+            b.append(eb)
+    if not a:
+        return ""
+    closer = f"{sum(x < y for x, y in zip(a, b))}/{len(a)}"
+    if metric_mode(metric) == "ratio" and min(a) > 0 and min(b) > 0:
+        return f"{math.exp(sum(math.log(x / y) for x, y in zip(a, b)) / len(a)):.3g}x, {closer}"
+    return f"{sum(x - y for x, y in zip(a, b)) / len(a):+.3g}, {closer}"

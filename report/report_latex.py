@@ -149,7 +149,7 @@ def write_latex_document(report_dir, tables, figures):
                  f"\\caption{{{latex_escape(f['caption'])}}}\\end{{figure}}", "\\clearpage"]
     figures = [f for f in figures if f.get("kind") != "forest"]
     body.append("\\section*{Tables}")
-    for key in ["comparisons", "floors", "regions", "matrix", "verdicts", "verdict_details",
+    for key in ["comparisons", "every_metric", "floors", "regions", "matrix", "verdicts", "verdict_details",
                 "metrics", "parameters", "probes", "ngan2005_spearman", "ngan2005"]:
         if key in tables:
             body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",

@@ -458,6 +458,9 @@ def details_html(tables, figures, charts):
              "LaTeX.</p>"]
     # The worst-quantity verdict rows are in the question sections already.
     named = [("comparisons", "Comparative answers, every comparison"),
+             ("every_metric", "Every image metric measured, judged or not (descriptive)"),
+             ("floors", "Error over the model's floor"),
+             ("regions", "Error per lighting and image region"),
              ("matrix", "Within tolerance: verdict matrix"), ("verdict_details", "Verdicts per quantity"),
              ("metrics", "Image metrics per reference and fit"),
              ("parameters", "Fitted parameters"), ("probes", "Probe numbers"),

@@ -8,6 +8,10 @@ import report_classes
 import report_findings
 import report_floors
 import report_regions
+from report_inputs import NUMBER_COLUMNS
+
+# The metric columns themselves (not their all-pixel twins, not measured_fraction).
+METRIC_COLUMNS = [c for c in NUMBER_COLUMNS if not c.endswith("_all") and c != "measured_fraction"]
 
 
 class Answers:
@@ -18,6 +22,8 @@ class Answers:
         self.regions = report_regions.region_means(rows, to_float)
         self.classes = report_classes.class_answers(study, rows, summary, to_float, study_dir)
         self.findings = report_findings.findings_tables(study, self.records)
+        self.every_metric = report_answers.every_metric_table(study, rows, summary, self.records,
+                                                              to_float, METRIC_COLUMNS)
 
     def sections(self):
         """[(anchor, title, markdown lines)] after the per-question sentences: floors, regions
@@ -38,6 +44,11 @@ class Answers:
         the findings per training set first."""
         out = {f"findings-{i + 1}": (f"Findings: {title}", t)
                for i, (title, t) in enumerate(self.findings)}
+        if self.every_metric:
+            out["every_metric"] = ("Every image metric measured, judged or not: error ratio "
+                                   "fit / baseline (geometric mean over materials) and closer "
+                                   "on k of n materials, per image question; descriptive, no "
+                                   "test", self.every_metric)
         if self.floors:
             out["floors"] = ("Error over the model's floor per fit, question and metric "
                              "(geometric mean over materials, bootstrap 95% CI)",
@@ -63,4 +74,6 @@ class Answers:
             "regions": [] if not self.regions else [
                 dict(zip(("split", "lighting", "region", "fit"), k), **v)
                 for k, v in sorted(self.regions.items())],
-            "classes": self.classes})
+            "classes": self.classes,
+            "every_metric": None if not self.every_metric else {
+                "columns": self.every_metric[0], "rows": self.every_metric[1]}})

@@ -168,6 +168,12 @@ def test_metric_dependent(make_report, out):
           "metric-dependent: report.tex does not open with the findings and the forest plot")
     figs = read(d, "figures.json")
     check(figs[0].get("kind") == "forest", "metric-dependent: the forest plot is not first")
+    # Every metric measured, judged or not, in one descriptive table (issue 40's table).
+    every = {(r[2], r[3]): r for r in comp["every_metric"]["rows"]}
+    flip, rmse = every.get(("mean LDR-FLIP", "")), every.get(("RMSE", "yes"))
+    check(flip is not None and rmse is not None and flip[5].startswith("0.5")
+          and rmse[5].startswith("2.0") and rmse[5].endswith(", 0/12"),
+          f"metric-dependent: every-metric table rows {flip}, {rmse}")
 
     # One metric the other way, not significant: "mixed" (never one metric's answer either).
     d = os.path.join(out, "mixed")
