@@ -2,11 +2,12 @@
 """Comparative answers (report/report_compare.py, docs/studies.md "Comparative answers") on
 result files with known answers, written here:
 
-- a fit better by exactly 2x on every one of 20 materials: ratio 2, a 95% CI containing 2,
-  closer on 20 of 20, p < 0.001;
+- a fit better by exactly 2x on every one of 20 materials under every metric of the judging set:
+  ratio 2, a 95% CI containing 2, closer on 20 of 20, p < 0.001, "smaller under all 8 metrics";
 - identical fits: ratio 1, p = 1;
-- noisy errors: the effect, CI, closer count, Wilcoxon p and Holm-corrected p equal independent
-  calls of numpy, scipy.stats and a hand-written Holm step-down here;
+- noisy errors: the effect, CI, closer count, Wilcoxon p and Holm-corrected p (one family of 16:
+  two questions under 8 metrics) equal independent calls of numpy, scipy.stats and a
+  hand-written Holm step-down here;
 - five materials: the exact sign test (scipy.stats.binomtest);
 - a probe not valid on measured references (image-space Fresnel) reads "n/a" with its reason in
   the verdicts, the matrix and summary.md, and is never judged;
