@@ -16,6 +16,7 @@
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
+#include "shadefit/fit/training_pixels.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/reference_images/reference.h"
 
@@ -91,20 +92,6 @@ reference_images::Reference MakeReference(RefArg& a, std::size_t index) {
                             r.image.width, r.image.height));
   }
   return r;
-}
-
-// Every stride-th pixel in x and y of the reference's own mask: the study runner's pixel_stride
-// (studies/runner/src/fit_job.cpp, FitProblemOf), a mask, no resampling.
-void ApplyStride(reference_images::Reference* ref, int stride) {
-  if (stride <= 1) return;
-  Image mask(ref->image.width, ref->image.height, 1, 0.0f);
-  for (int y = 0; y < mask.height; y += stride) {
-    for (int x = 0; x < mask.width; x += stride) {
-      const bool use = ref->mask.empty() || ref->mask.at(x, y, 0) > 0.5f;
-      mask.at(x, y, 0) = use ? 1.f : 0.f;
-    }
-  }
-  ref->mask = std::move(mask);
 }
 
 template <typename T>
@@ -228,8 +215,8 @@ py::dict FitArrays(py::list references, const std::string& model_name,
     problem.model = model;
     problem.fixed = std::move(fixed);
     for (std::size_t i = 0; i < args.size(); ++i) {
-      problem.references.push_back(MakeReference(args[i], i));
-      ApplyStride(&problem.references.back(), stride);
+      // The pixels a fit trains on: the rule the study and the CLI apply (fit/training_pixels.h).
+      problem.references.push_back(fit::TrainingPixels(MakeReference(args[i], i), stride));
     }
     result = SharedGl::With([&](Renderer& renderer, GlContext&) {
       o.renderer = &renderer;

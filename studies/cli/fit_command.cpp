@@ -15,6 +15,7 @@
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
+#include "shadefit/fit/training_pixels.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
@@ -26,7 +27,7 @@ namespace {
 // Loads the --ref images and fits them (with the encoding search when asked).
 fit::FitResult FitImages(fit::FitProblem& problem, const std::vector<std::string>& refs,
                          const std::string& scene, const std::vector<std::string>& masks,
-                         fit::FitOptions options, fit::EncodingMode encoding,
+                         int pixel_stride, fit::FitOptions options, fit::EncodingMode encoding,
                          nlohmann::json* extra) {
   // The EGL context takes 50-75 ms with llvmpipe, several times the reading of a 256^2 EXR and
   // its sidecar, so a helper thread makes it meanwhile. A bad reference is still reported before
@@ -37,8 +38,10 @@ fit::FitResult FitImages(fit::FitProblem& problem, const std::vector<std::string
     return made;
   });
   for (std::size_t i = 0; i < refs.size(); ++i) {
-    problem.references.push_back(
-        fit::LoadReference(refs[i], scene, masks.empty() ? std::string() : masks[i]));
+    // The pixels a fit trains on: the rule the study and Python apply (fit/training_pixels.h).
+    problem.references.push_back(fit::TrainingPixels(
+        fit::LoadReference(refs[i], scene, masks.empty() ? std::string() : masks[i]),
+        pixel_stride));
   }
   const std::unique_ptr<GlContext> context = pending_context.get();
   context->MakeCurrent();
@@ -91,7 +94,7 @@ struct FitCommandOptions {
   double brdf_max_theta = fit::BrdfSpaceSampling{}.max_theta_deg;
   std::string scene, model, loss = "l2", exposure = "fixed", path = "auto", output;
   int starts = fit::FitOptions{}.starts, max_iterations = fit::FitOptions{}.max_iterations;
-  int threads = fit::FitOptions{}.num_threads, env_samples = 0;
+  int threads = fit::FitOptions{}.num_threads, env_samples = 0, pixel_stride = 1;
   std::string solver = "auto";
   std::string encoding = "as-imported";
   int env_pixels = fit::FitOptions{}.environment_pixels;
@@ -120,6 +123,10 @@ void AddInputOptions(CLI::App* cmd, FitCommandOptions* opt) {
   cmd->add_option("--mask", opt->masks,
                   "Mask image per --ref, in order (channel 0 > 0.5 = fit this pixel)");
   cmd->add_option("--model", opt->model, "Shading model (see `shadefit models`)")->required();
+  cmd->add_option("--pixel-stride", opt->pixel_stride,
+                  "Fit on every n-th pixel in x and y (a study's pixel_stride); measured "
+                  "references train on their measured pixels only, whatever the stride")
+      ->capture_default_str();
 }
 
 // The options of the fit itself: loss, starts, exposure, encoding, path and solver.
@@ -167,6 +174,7 @@ void AddSolverOptions(CLI::App* cmd, FitCommandOptions* opt) {
 
 // Rejects combinations of --ref, --brdf, --scene and --mask that do not make one fit.
 void CheckInputs(const FitCommandOptions& opt) {
+  if (opt.pixel_stride < 1) throw Error("", "--pixel-stride", "must be >= 1");
   if (opt.refs.empty() == opt.brdf.empty()) {
     throw Error("", "--ref",
                 "give reference images (--ref) or a measured BRDF (--brdf), one of them");
@@ -248,7 +256,8 @@ void RunFitCommand(const FitCommandOptions& opt) {
     }
     result = FitBrdf(opt, problem, options);
   } else {
-    result = FitImages(problem, opt.refs, opt.scene, opt.masks, options, encoding, &extra);
+    result = FitImages(problem, opt.refs, opt.scene, opt.masks, opt.pixel_stride, options,
+                       encoding, &extra);
   }
   fit::WriteFitOutputs(result, opt.output, extra);
   PrintFit(result, opt.output);

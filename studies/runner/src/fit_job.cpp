@@ -18,6 +18,7 @@
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
+#include "shadefit/fit/training_pixels.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/report.h"
 #include "shadefit/metrics/ssim.h"
@@ -53,10 +54,9 @@ FitJobRecord FitRecordHeader(const RunContext& context, const Job& job, FitStatu
   return r;
 }
 
-// The training references, each subsampled to every stride-th pixel by a mask (the images are
-// never resampled; metrics still use every pixel). A measured reference trains on its measured
-// pixels only (reference_images::IsMeasuredPixel): a fit must not chase values its reference's BRDF
-// only extrapolates (docs/measured_and_imported.md, "The measured domain").
+// The training references, each narrowed to the pixels a fit trains on at the study's
+// pixel_stride (fit::TrainingPixels: measured pixels only, every stride-th; the rule `shadefit
+// fit` and shadefit.fit() apply too).
 fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const ReferenceGroup& g,
                              const std::vector<reference_images::Reference>& references) {
   fit::FitProblem problem;
@@ -64,20 +64,7 @@ fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const Referen
   problem.fixed = s.fixed;
   for (std::size_t i = 0; i < references.size(); ++i) {
     if (!Trains(job, g.references[i].lighting)) continue;
-    reference_images::Reference ref = references[i];
-    if (s.pixel_stride > 1 || !ref.extrapolated_share.empty()) {
-      const int stride = std::max(1, s.pixel_stride);
-      Image mask(ref.image.width, ref.image.height, 1, 0.0f);
-      for (int y = 0; y < mask.height; y += stride) {
-        for (int x = 0; x < mask.width; x += stride) {
-          const bool use = (ref.mask.empty() || ref.mask.at(x, y, 0) > 0.5f) &&
-                           reference_images::IsMeasuredPixel(ref, x, y);
-          mask.at(x, y, 0) = use ? 1.f : 0.f;
-        }
-      }
-      ref.mask = std::move(mask);
-    }
-    problem.references.push_back(std::move(ref));
+    problem.references.push_back(fit::TrainingPixels(references[i], s.pixel_stride));
   }
   return problem;
 }
