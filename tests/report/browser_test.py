@@ -159,18 +159,21 @@ def main(argv):
 
         first_table = driver.execute_script(
             "const t = document.querySelector('table'); return t ? t.className : null")
-        if first_table != "matrix":
-            failures.append(f"the first table is not the verdict matrix (class {first_table!r})")
-        # The comparative answers open the page: before the matrix, each with a sentence.
+        if first_table != "findings":
+            failures.append(f"the first table is not the findings' (class {first_table!r})")
+        # The findings open the page, then the comparative answers (each question with its
+        # sentences, folded), both before the matrix.
         answers_first = driver.execute_script(
-            "const a = document.querySelector('#answers'), t = document.querySelector('table.matrix');"
-            "return !!a && !!t && !!(a.compareDocumentPosition(t) & Node.DOCUMENT_POSITION_FOLLOWING)"
-            " && a.querySelectorAll('ul.answers li').length > 0")
+            "const f = document.querySelector('#findings'), a = document.querySelector('#answers'),"
+            " t = document.querySelector('table.matrix');"
+            "const after = (x, y) => !!(x.compareDocumentPosition(y) & Node.DOCUMENT_POSITION_FOLLOWING);"
+            "return !!f && !!a && !!t && after(f, a) && after(a, t)"
+            " && a.querySelectorAll('details ul.answers li').length > 0")
         if not answers_first:
-            failures.append("the page does not open with the comparative answers")
+            failures.append("the page does not open with the findings, then the answers (folded)")
         before_fig = driver.execute_script(
             "const t = document.querySelector('table.matrix'),"
-            " f = document.querySelector('section:not(#answers) figure');"
+            " f = document.querySelector('section:not(#answers):not(#findings) figure');"
             "return !!t && !!f && !!(t.compareDocumentPosition(f) & Node.DOCUMENT_POSITION_FOLLOWING)")
         if not before_fig:
             failures.append("the verdict matrix does not come before the first evidence figure")
