@@ -112,8 +112,8 @@ CAPTIONS = {
     "encoding": "Encoding of the photographs: each candidate's RMSE in stored values",
 }
 # The columns before the first numeric one (left-aligned) per table.
-NUMERIC_FROM = {"comparisons": 4, "every_metric": 4, "floors": 6, "regions": 4, "metrics": 4, "parameters": 3,
-                "probes": 3, "verdicts": 4,
+NUMERIC_FROM = {"comparisons": 4, "every_metric": 4, "floors": 6, "regions": 4, "metrics": 4,
+                "parameters": 3, "probes": 3, "verdicts": 4,
                 "verdict_details": 4, "matrix": 2, "ngan2005": 3, "ngan2005_spearman": 3,
                 "floor": 3, "encoding": 3}
 

@@ -267,7 +267,8 @@ def answer_lines(records):
     hold across losses."""
     lines = []
     for rec in records:
-        lines.append(f"- **{question_title(rec)}**" + (" (default question)" if rec["default"] else ""))
+        lines.append(f"- **{question_title(rec)}**"
+                     + (" (default question)" if rec["default"] else ""))
         if rec["source"] == "metrics":
             lines.append("  - Judged under " + names(rec["metrics"]) + ". " + rec["judging"])
             lines += [f"  - {pair_sentence(p)}.{all_pixels_text(rec, p)}"
