@@ -224,6 +224,21 @@ def test_judging_set(make_report, out):
           f"own set, unknown metric: exit {r.returncode}: {r.stderr.strip()}")
 
 
+def test_old_study(make_report, out):
+    """A study.json from before losses and floors: each fit's loss is its model's fit-settings
+    loss, its role "brdf" for train == ["brdf"], else "train"."""
+    import report_inputs
+    study = {"fits": [{"label": "ggx@key", "model": "ggx", "train": ["key"]},
+                      {"label": "ggx@brdf", "model": "ggx", "train": ["brdf"]},
+                      {"label": "bp@key", "model": "bp", "train": ["key"]}],
+             "fit_settings": {"ggx": {"loss": "log"}, "bp": {}}}
+    report_inputs.normalise_fits(study)
+    got = [(f["loss"], f["role"]) for f in study["fits"]]
+    check(got == [("log", "train"), ("log", "brdf"), ("l2", "train")]
+          and study["losses"] == ["l2", "log"] and study["floor"] == []
+          and study["judging"] is None, f"old study.json: {got}, {study}")
+
+
 def test_losses(make_report, out):
     fits = [fit(m, ["key"], loss, label=f"{m}:{loss}") for loss in ("l2", "log")
             for m in ("blinn-phong", "ggx")]
@@ -382,7 +397,7 @@ def main(argv):
     report_src, out = argv[1], os.path.abspath(argv[2])
     sys.path.insert(0, report_src)
     import make_report  # noqa: E402
-    for test in (test_metric_dependent, test_judging_set, test_losses, test_other_split,
+    for test in (test_metric_dependent, test_judging_set, test_old_study, test_losses, test_other_split,
                  test_floor, test_regions, test_classes):
         test(make_report, out)
     for f in FAILURES:
