@@ -69,7 +69,26 @@ def findings_tables(study, records):
         rows = [[next(r["question"] for r in records if r["name"] == q)]
                 + [cells.get(c, "") for c in cols] for q, cells in by_q.items()]
         out.append((set_title(key, several), (["question"] + cols, rows)))
-    return out
+    losses = losses_table(records)
+    return out + ([("Across losses", losses)] if losses else [])
+
+
+def losses_table(records):
+    """(columns, rows) or None: per image question and model pair (per training set), whether
+    the verdict holds across the study's losses, else each loss's verdict."""
+    cells = {}
+    for rec in (r for r in records if r["source"] == "metrics"):
+        for a in rec.get("across_losses", []):
+            where = "floor" if a["role"] == "floor" else a["train"]
+            col = f"{a['model']} vs {a['baseline']} ({where})"
+            verdicts = ", ".join(f"{loss} {kind}" for loss, kind in a["verdicts"].items())
+            cells.setdefault(rec["question"], {})[col] = (
+                f"holds: {next(iter(a['verdicts'].values()))}" if a["holds"]
+                else f"differs: {verdicts}")
+    cols = list(dict.fromkeys(c for by in cells.values() for c in by))
+    if not cols:
+        return None
+    return (["question"] + cols, [[q] + [by.get(c, "") for c in cols] for q, by in cells.items()])
 
 
 def findings_markdown(tables):
