@@ -72,9 +72,9 @@ def not_valid_reason(study, source, material):
 
 def questions_of(study, rows):
     """The study's questions: one image question per split of IMAGE_SPLITS the results have
-    (named and worded by the study's first metric verdict on that split, else the default
-    "image" and "transfer"), answered under the judging set; then every probe verdict. Each is
-    a dict with the verdict's fields plus `name` and `default` (True for the added ones)."""
+    (named by the study's first metric verdict on that split, else "image" and "transfer"; worded
+    without a metric), answered under the judging set; then every probe verdict. Each is a dict
+    with the verdict's fields plus `name` and `default` (True for the added ones)."""
     out = [dict(v, name=name, default=False) for name, v in study["verdicts"].items()
            if v["source"] != "metrics"]
     splits = {r["split"] for r in rows}
@@ -84,14 +84,14 @@ def questions_of(study, rows):
                                      "error under test lightings)?")}
     image = []
     for split in IMAGE_SPLITS:
-        named = [dict(v, name=n, default=False) for n, v in study["verdicts"].items()
+        named = [n for n, v in study["verdicts"].items()
                  if v["source"] == "metrics" and v.get("split") == split]
-        if named:
-            image.append(named[0])
-        elif split in splits:
-            name, text = defaults[split]
-            image.append({"name": name, "default": True, "source": "metrics", "split": split,
-                          "kind": "max", "question": text})
+        if named or split in splits:
+            # The question in words of no metric (a verdict's text may name the metric its
+            # tolerance is on; the answer is under every metric of the judging set).
+            name, text = named[0] if named else defaults[split][0], defaults[split][1]
+            image.append({"name": name, "default": not named, "source": "metrics",
+                          "split": split, "kind": "max", "question": text})
     # Reading order: image closeness, new lighting, then the phenomena (BRDF space first: on
     # measured references it is where the lobe and the Fresnel rise are measured).
     rank = {"brdf": 2, "highlight": 3, "fresnel": 4, "energy": 5}

@@ -44,9 +44,12 @@ def cell(pair):
     sig = "; sig." if pair.get("p_holm", 1) < report_answers.ALPHA else ""
     if pair["mode"] == "ratio":
         r = 1 / pair["effect"] if pair["effect"] > 0 else math.inf
-        side = "smaller" if r < 1 else "larger" if r > 1 else "equal"
-        return f"{side}; {r:.2g}x{sig}"
-    side = "smaller" if pair["effect"] > 0 else "larger" if pair["effect"] < 0 else "equal"
+        if r == 1:
+            return "equal"
+        return f"{'smaller' if r < 1 else 'larger'}; {r:.2g}x{sig}"
+    if pair["effect"] == 0:
+        return "equal"
+    side = "smaller" if pair["effect"] > 0 else "larger"
     return f"{side}; {-pair['effect']:+.2g}{sig}"
 
 
