@@ -8,7 +8,7 @@ import math
 
 import judging
 import report_answers
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
 from report_figures import (FONT_PT, OKABE_ITO, PAGE_IN, legend_layout, plt, save_figure,
                             text_width_in, wrap_to_width)
@@ -189,8 +189,9 @@ def draw_panel(ax, rows, question, metrics):
             highs.append(r)
     ax.axvline(1.0, color="#555555", linewidth=0.6)
     ax.set_xscale("log")
-    # Ticks at 1, 2 and 5 per decade, written as plain numbers (0.5, 1, 2), no minor labels.
-    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    # Ticks at 1, 2, 3 and 5 per decade, written as plain numbers (0.5, 1, 2), no minor labels.
+    ax.xaxis.set_major_locator(FixedLocator([k * 10.0 ** e for e in range(-3, 4)
+                                             for k in (1, 2, 3, 5)]))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.xaxis.set_minor_formatter(NullFormatter())
     if lows:
