@@ -14,6 +14,7 @@
 #include "job_records.h"
 #include "outputs.h"
 #include "region_errors.h"
+#include "stage_clock.h"
 #include "shadefit/base/error.h"
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
@@ -32,7 +33,6 @@
 namespace shadefit::studies::internal {
 namespace {
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
@@ -309,7 +309,7 @@ void CheckFinite(const Image& prediction, const Image& reference, const std::str
 // The fit rendered under one reference's lighting and compared with it.
 EvaluationRecord Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
               const reference_images::Reference& ref, const fit::FitResult& result,
-              Renderer& renderer, json* outputs) {
+              Renderer& renderer, json* outputs, StageClock* clock) {
   const StudySpec& spec = context.spec;
   Image prediction;
   const double rmse = fit::EvaluateModelOnReference(ref, *job.model, result.values, result.exposure,
@@ -318,6 +318,7 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
     prediction.at(prediction.width / 2, prediction.height / 2, 0) =
         std::numeric_limits<float>::infinity();
   CheckFinite(prediction, ref.image, rs.name);
+  clock->Lap("render");
   // Two masks: every covered pixel, and those of them in the reference's measured domain (the
   // same without a domain). "metrics" are the measured pixels', "metrics_all" every covered
   // pixel's; the second pass runs only when the masks differ (metrics are costly).
@@ -345,6 +346,7 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
     main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured, mp,
                       false, nullptr);
   }
+  clock->Lap("metrics");
   EvaluationRecord record;
   record.reference = rs.name;
   record.lighting = rs.lighting;
@@ -369,9 +371,11 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
                                             renderer.RenderGBuffer(ref.scene))
                              : json(nullptr);
   if (!all.report) e["metrics_all_none"] = all.why_none;
+  clock->Lap("regions");
   if (spec.previews) {
     WritePreviews(context, job, rs, ref, prediction, covered, maps, &e, outputs);
   }
+  clock->Lap("previews");
   return record;
 }
 
@@ -454,7 +458,7 @@ FitJobRecord FitRecord(const RunContext& context, const Job& job, const FitSetti
 void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const ReferenceGroup& g = context.spec.groups[job.group];
   const FitSettings s = context.spec.SettingsOf(job.model, job.loss);
-  const auto t0 = Clock::now();
+  StageClock clock;
 
   std::vector<reference_images::Reference> references;
   for (const ReferenceSpec& r : g.references) {
@@ -462,9 +466,11 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   }
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);
+  clock.Lap("read");
   if (s.start == StartFrom::kBrdf && !TrainsInBrdfSpace(job.train)) {
     AddBrdfSpaceStart(context, job, s, g.material, &fo);
   }
+  clock.Lap("start");
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.
@@ -474,6 +480,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
     WriteFailedFit(context, job, FitStatus::kDegenerateReference, e.what());
     return;
   }
+  clock.Lap("fit");
   KillPoint("fit");
   if (FaultArmed("nan-residuals")) {
     result.final_cost = std::numeric_limits<double>::quiet_NaN();
@@ -496,7 +503,8 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   try {
     for (std::size_t i = 0; i < references.size(); ++i) {
       evaluations.push_back(
-          Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs));
+          Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs,
+                   &clock));
     }
   } catch (const NonFiniteRenderError& e) {
     RemoveFitPreviews(context, outputs);
@@ -505,9 +513,10 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   }
   const FitJobRecord record =
       FitRecord(context, job, s, result, std::move(evaluations), outputs, encoding);
-  WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(),
-              result.seconds);
-  WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
+  const std::string text = ToJson(record).dump(1) + "\n";
+  clock.Lap("write");
+  WriteTiming(context, job, clock, result.seconds);
+  WriteJobJson(context.paths.JobJson(job), text);
 }
 
 void WriteFailedFit(const RunContext& context, const Job& job, FitStatus status,
@@ -516,7 +525,7 @@ void WriteFailedFit(const RunContext& context, const Job& job, FitStatus status,
       fmt::format("{}: {}: {}; recorded, the study goes on", job.id, FitStatusName(status), error));
   FitJobRecord record = FitRecordHeader(context, job, status);
   record.error = error;
-  WriteTiming(context, job, 0.0, -1.0);
+  WriteTiming(context, job, StageClock(), -1.0);
   WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }
 

@@ -143,21 +143,30 @@ void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs) {
   WriteTextAtomic((context.paths.dir / "results.csv").string(), csv.str());
 }
 
-void WriteTiming(const RunContext& context, const Job& job, double seconds,
+void WriteTiming(const RunContext& context, const Job& job, const StageClock& clock,
                  double solver_seconds) {
-  json t = {{"schema", "shadefit.study.timing/1"},
+  json stages = json::object();
+  for (const std::string& s : kStageNames) {
+    if (clock.Seconds(s) > 0) stages[s] = clock.Seconds(s);
+  }
+  json t = {{"schema", "shadefit.study.timing/2"},
             {"id", job.id},
-            {"seconds", seconds},
+            {"seconds", clock.Total()},
+            {"stages", stages},
             {"host", HostName()},
             {"shard", context.options.shard.Name()}};
   if (solver_seconds >= 0) t["solver_seconds"] = solver_seconds;  // Fits only.
   WriteTextAtomic(context.paths.TimingJson(job), t.dump(1) + "\n");
 }
 
-// Kept out of results.csv, which holds results only and is the same bytes on every run.
-void WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs) {
+// Kept out of results.csv, which holds results only and is the same bytes on every run. Returns
+// the totals per stage over the jobs (kStageNames' order), for the closing table.
+std::vector<double> WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs) {
   std::ostringstream csv;
-  csv << "id,kind,material,label,seconds,solver_seconds,host,shard\n";
+  csv << "id,kind,material,label,seconds,solver_seconds,host,shard";
+  for (const std::string& s : kStageNames) csv << "," << s << "_seconds";
+  csv << "\n";
+  std::vector<double> totals(kStageNames.size(), 0.0);
   for (const Job& job : jobs) {
     json t = json::object();
     std::ifstream in(context.paths.TimingJson(job));
@@ -168,19 +177,43 @@ void WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs) {
         t = json::object();  // A timing is a diagnostic; a bad one leaves its cells empty.
       }
     }
-    const auto number = [&](const char* key) {
-      return t.contains(key) && t[key].is_number() ? fmt::format("{:.3f}", t[key].get<double>())
-                                                   : std::string();
+    const auto number = [](const json& o, const std::string& key) {
+      return o.is_object() && o.contains(key) && o[key].is_number()
+                 ? fmt::format("{:.3f}", o[key].get<double>())
+                 : std::string();
     };
     const auto text = [&](const char* key) {
       return t.contains(key) && t[key].is_string() ? t[key].get<std::string>() : std::string();
     };
     csv << job.id << "," << (job.kind == Job::Kind::kFit ? "fit" : "probe") << ","
         << context.spec.groups[job.group].material << "," << job.label << ","
-        << number("seconds") << "," << number("solver_seconds") << "," << text("host") << ","
-        << text("shard") << "\n";
+        << number(t, "seconds") << "," << number(t, "solver_seconds") << "," << text("host")
+        << "," << text("shard");
+    const json stages = t.value("stages", json::object());
+    for (std::size_t i = 0; i < kStageNames.size(); ++i) {
+      csv << "," << number(stages, kStageNames[i]);
+      if (job.state == Job::State::kDone && stages.is_object() &&
+          stages.contains(kStageNames[i]) && stages[kStageNames[i]].is_number()) {
+        totals[i] += stages[kStageNames[i]].get<double>();
+      }
+    }
+    csv << "\n";
   }
   WriteTextAtomic((context.paths.dir / "timings.csv").string(), csv.str());
+  return totals;
+}
+
+std::string StageTable(const std::vector<double>& totals) {
+  double sum = 0;
+  for (double t : totals) sum += t;
+  if (sum <= 0) return "";
+  std::string out = fmt::format("where the jobs' {:.1f} s went (summed over workers):", sum);
+  for (std::size_t i = 0; i < kStageNames.size(); ++i) {
+    if (totals[i] <= 0) continue;
+    out += fmt::format("\n  {:<9} {:8.1f} s  {:5.1f}%", kStageNames[i], totals[i],
+                       100.0 * totals[i] / sum);
+  }
+  return out;
 }
 
 void WriteProvenance(const RunContext& context, const std::vector<Job>& jobs,

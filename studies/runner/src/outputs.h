@@ -9,6 +9,7 @@
 
 #include "job_graph.h"
 #include "run_context.h"
+#include "stage_clock.h"
 
 namespace shadefit::studies::internal {
 
@@ -19,13 +20,18 @@ void WriteStudyJson(const RunContext& context);
 // run (no times, no hosts).
 void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs);
 
-// jobs/<id>.timing.json: the job's wall seconds (and the fit's solver seconds when >= 0), host
-// and shard. Times are not results: they stay out of the job JSON.
-void WriteTiming(const RunContext& context, const Job& job, double seconds,
+// jobs/<id>.timing.json: the job's wall seconds (the clock's total) and their split into stages
+// (stage_clock.h), the fit's solver seconds when >= 0, host and shard. Times are not results:
+// they stay out of the job JSON.
+void WriteTiming(const RunContext& context, const Job& job, const StageClock& clock,
                  double solver_seconds);
 
-// timings.csv: where the time went, per job, from the timing files.
-void WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs);
+// timings.csv: where the time went, per job and stage, from the timing files. Returns the totals
+// per stage (kStageNames' order) of the jobs that ran in this run.
+std::vector<double> WriteTimingsCsv(const RunContext& context, const std::vector<Job>& jobs);
+
+// The closing table of `study run`: seconds per stage over the jobs that ran, and their share.
+std::string StageTable(const std::vector<double>& totals);
 
 // provenance.json: inputs and their hashes, jobs, versions, machine and run settings.
 void WriteProvenance(const RunContext& context, const std::vector<Job>& jobs,

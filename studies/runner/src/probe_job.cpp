@@ -12,6 +12,7 @@
 
 #include "job_kinds.h"
 #include "job_records.h"
+#include "stage_clock.h"
 #include "outputs.h"
 #include "shadefit/probes/probes.h"
 #include "shadefit/reference_images/measured_brdf.h"
@@ -23,7 +24,6 @@ namespace shadefit::studies::internal {
 namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 std::vector<probes::ProbeReference> ProbeReferences(const ReferenceGroup& g,
                                                     Renderer& renderer) {
@@ -81,7 +81,7 @@ std::vector<probes::ModelUnderTest> FittedModels(const RunContext& context, cons
 void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Job>& jobs,
                  Renderer& renderer) {
   const ReferenceGroup& g = context.spec.groups[job.group];
-  const auto t0 = Clock::now();
+  StageClock clock;
   probes::ProbeInputs in;
   in.renderer = &renderer;
   in.references = ProbeReferences(g, renderer);
@@ -127,7 +127,8 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
       if (fs::exists(p)) record.outputs.push_back(fs::relative(p, context.paths.dir).string());
     }
   }
-  WriteTiming(context, job, std::chrono::duration<double>(Clock::now() - t0).count(), -1.0);
+  clock.Lap("probes");
+  WriteTiming(context, job, clock, -1.0);
   WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }
 

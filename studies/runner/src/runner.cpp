@@ -407,7 +407,8 @@ void StudyRun::WriteStudyOutputs(bool complete) {
     return;
   }
   internal::WriteResultsCsv(context_, jobs_);
-  internal::WriteTimingsCsv(context_, jobs_);
+  const std::string stages = internal::StageTable(internal::WriteTimingsCsv(context_, jobs_));
+  if (!stages.empty()) log_->Say(stages);
   if (internal::WritesGeometry(spec_)) {
     // The data floor's geometry (report/data_floor.py): one G-buffer per reference, on a context
     // of its own (the workers' are gone; a merge never had one).

@@ -1,0 +1,39 @@
+// Where a job's seconds go (docs/studies.md, "Timings"): a job laps one StageClock at the end of
+// each stage it runs; its timing JSON records the stages, timings.csv lists them, and `study run`
+// ends with a table of the totals per stage.
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+namespace shadefit::studies::internal {
+
+// The stages of the jobs, in the order timings.csv and the closing table list them.
+inline const std::vector<std::string> kStageNames = {
+    "read",      // reading the references (images, sidecars, scenes, domains)
+    "start",     // the BRDF-space start of an image fit ([fit] start = "brdf")
+    "fit",       // fit::Fit: preparing the G-buffers and the solve (solver_seconds: its solve)
+    "render",    // the fit rendered under every lighting of the material
+    "metrics",   // every image metric, over the measured and over all covered pixels
+    "regions",   // where the error lies (a G-buffer per lighting, region_errors.h)
+    "previews",  // the reference, fit and error PNGs
+    "write",     // the job's record
+    "probes",    // a probe job's probes
+};
+
+class StageClock {
+ public:
+  StageClock() : last_(Clock::now()), start_(last_) {}
+  // Adds the time since the previous lap (or the clock's start) to `stage`, one of kStageNames.
+  void Lap(const std::string& stage);
+  double Seconds(const std::string& stage) const;
+  double Total() const { return std::chrono::duration<double>(last_ - start_).count(); }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point last_, start_;
+  std::vector<double> seconds_ = std::vector<double>(kStageNames.size(), 0.0);
+};
+
+}  // namespace shadefit::studies::internal
