@@ -19,14 +19,20 @@ METRIC_COLOURS = OKABE_ITO + ["#000000", "#777777", "#999933", "#882255"]
 
 def set_key(pair, fit_of):
     f = fit_of[pair["fit"]]
-    return ("+".join(f["train"]), f["loss"], f["role"])
+    return ("+".join(f["train"]), f["role"])
 
 
-def set_title(key, several_losses):
-    train, loss, role = key
-    head = {"floor": "Floor fits (every floor lighting)", "brdf": "BRDF-space fits"}.get(
+def set_title(key):
+    train, role = key
+    return {"floor": "Floor fits (every floor lighting)", "brdf": "BRDF-space fits"}.get(
         role, f"Trained on {train}")
-    return head + (f", loss {loss}" if several_losses and role != "brdf" else "")
+
+
+def column(pair, fit_of, several_losses):
+    """'ggx vs blinn-phong', and '(log)' after it where the study has several losses."""
+    f, b = fit_of[pair["fit"]], fit_of[pair["baseline"]]
+    col = f"{f['model']} vs {b['model']}"
+    return col + (f" ({f['loss']})" if several_losses and f["role"] != "brdf" else "")
 
 
 def cell(pair):
@@ -54,16 +60,16 @@ def cell(pair):
 
 
 def findings_tables(study, records):
-    """[(title, (columns, rows))]: per training set and loss, rows the questions, columns the
-    compared pairs (model vs model), cells `cell`."""
+    """[(title, (columns, rows))]: per training set, rows the questions, columns the compared
+    pairs (model vs model, per loss), cells `cell`; then "Across losses" where there are
+    several."""
     fit_of = {f["label"]: f for f in study["fits"]}
     several = len(study.get("losses") or []) > 1
     sets = {}
     for rec in records:
         for p in rec["comparisons"]:
-            key = set_key(p, fit_of)
-            col = f"{fit_of[p['fit']]['model']} vs {fit_of[p['baseline']]['model']}"
-            sets.setdefault(key, {}).setdefault(rec["name"], {})[col] = cell(p)
+            col = column(p, fit_of, several)
+            sets.setdefault(set_key(p, fit_of), {}).setdefault(rec["name"], {})[col] = cell(p)
     out = []
     for key, by_q in sets.items():
         cols = []
@@ -71,7 +77,7 @@ def findings_tables(study, records):
             cols += [c for c in cells if c not in cols]
         rows = [[next(r["question"] for r in records if r["name"] == q)]
                 + [cells.get(c, "") for c in cols] for q, cells in by_q.items()]
-        out.append((set_title(key, several), (["question"] + cols, rows)))
+        out.append((set_title(key), (["question"] + cols, rows)))
     losses = losses_table(records)
     return out + ([("Across losses", losses)] if losses else [])
 
