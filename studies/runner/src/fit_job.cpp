@@ -13,6 +13,7 @@
 #include "job_kinds.h"
 #include "job_records.h"
 #include "outputs.h"
+#include "brdf_space_fits.h"
 #include "region_errors.h"
 #include "stage_clock.h"
 #include "shadefit/base/error.h"
@@ -83,6 +84,21 @@ fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
 // [fit] start = "brdf": the material's BRDF-space fit of the same model (l2 on MERL's cells,
 // fixed exposure: fit/brdf_space.h) as one more start of its image fit; nothing for a group that
 // is not a [[measured]] material. Logged with its cost, so that a reader of study.log sees it.
+// The material's BRDF-space fit of the job's model with `options` (l2, fixed exposure, no start
+// points): from the run's BrdfSpaceFits when it has one, which makes each such fit once.
+fit::FitResult BrdfSpaceFitOf(const RunContext& context, const Job& job, const FitSettings& s,
+                              const std::string& path, const fit::FitOptions& options) {
+  if (context.brdf_fits != nullptr) {
+    FitSettings key = s;  // Everything the options come from; the loss is Ngan's l2.
+    key.loss = fit::Loss::kL2;
+    return context.brdf_fits->Get(path, *job.model, s.fixed, options, key.ToJson().dump());
+  }
+  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
+      reference_images::LoadMeasuredBrdf(path);
+  return fit::FitBrdfSpace(*job.model, s.fixed,
+                           fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), options);
+}
+
 void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSettings& s,
                        const std::string& material, fit::FitOptions* fo) {
   const std::string path = MeasuredBrdfPath(context.spec, material);
@@ -91,10 +107,7 @@ void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSetti
   brdf_options.loss = fit::Loss::kL2;
   brdf_options.exposure = fit::Exposure::kFixed;
   brdf_options.start_points.clear();
-  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
-      reference_images::LoadMeasuredBrdf(path);
-  const fit::FitResult start = fit::FitBrdfSpace(
-      *job.model, s.fixed, fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), brdf_options);
+  const fit::FitResult start = BrdfSpaceFitOf(context, job, s, path, brdf_options);
   fo->start_points.push_back(start.values);
   context.log->Line(fmt::format("{}: BRDF-space start (cost {:.6g}) added", job.id,
                                 start.final_cost));
@@ -401,11 +414,8 @@ fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitS
                            std::vector<reference_images::Reference>* references, json* encoding) {
   if (TrainsInBrdfSpace(job.train)) {
     // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
-    // the settings are l2 with a fixed exposure.
-    const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
-        reference_images::LoadMeasuredBrdf(MeasuredBrdfPath(context.spec, material));
-    return fit::FitBrdfSpace(*job.model, s.fixed,
-                             fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), fo);
+    // the exposure is fixed, and the job's loss is l2 (StudySpec::Fits).
+    return BrdfSpaceFitOf(context, job, s, MeasuredBrdfPath(context.spec, material), fo);
   }
   if (s.encoding == fit::EncodingMode::kFit) {
     fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);

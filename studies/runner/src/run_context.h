@@ -5,6 +5,7 @@
 #include <set>
 #include <string>
 
+#include "brdf_space_fits.h"
 #include "job_graph.h"
 #include "shadefit/metrics/flip.h"
 #include "progress_log.h"
@@ -37,6 +38,8 @@ struct RunContext {
   metrics::FlipReferenceCache* flip_cache = nullptr;
   // Shared by the workers; null: every fit writes its reference previews.
   WrittenOnce* reference_previews = nullptr;
+  // Shared by the workers; null: every job makes its own BRDF-space fits.
+  BrdfSpaceFits* brdf_fits = nullptr;
 };
 
 }  // namespace shadefit::studies::internal

@@ -67,7 +67,7 @@ class StudyRun {
       : spec_(spec),
         options_(options),
         flip_cache_(kFlipCacheBytes),
-        context_{spec_, options_, {}, nullptr, &flip_cache_, &reference_previews_} {}
+        context_{spec_, options_, {}, nullptr, &flip_cache_, &reference_previews_, &brdf_fits_} {}
 
   RunSummary Run();
 
@@ -98,6 +98,7 @@ class StudyRun {
   RunOptions options_;
   metrics::FlipReferenceCache flip_cache_;
   internal::WrittenOnce reference_previews_;
+  internal::BrdfSpaceFits brdf_fits_;
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;
   std::map<std::string, internal::InputHashes> hashes_;  // By reference image path.

@@ -86,9 +86,11 @@ std::vector<FitSpec> StudySpec::Fits() const {
   for (const auto& train : training_sets) {
     const FitRole role = RoleOf(train);
     for (ModelRef m : models) {
-      // The BRDF-space fit has one objective (fit/brdf_space.h), whatever the image losses.
+      // The BRDF-space fit has one objective, Ngan's l2 (fit/brdf_space.h), whatever the image
+      // losses.
       std::vector<fit::Loss> of_model = losses;
-      if (of_model.empty() || role == FitRole::kBrdf) of_model = {SettingsOf(m).loss};
+      if (of_model.empty()) of_model = {SettingsOf(m).loss};
+      if (role == FitRole::kBrdf) of_model = {fit::Loss::kL2};
       for (fit::Loss loss : of_model) {
         out.push_back({m, train, loss, role, Label(m->name, train, loss)});
       }
