@@ -159,11 +159,13 @@ def study_tables(inp, summary, detail, answers):
 
 def write_tables(table_dir, tables, captions):
     for key, (cols, trows) in tables.items():
-        # Findings: the question, then a column per compared pair.
-        numeric_from = 1 if key.startswith("findings") else NUMERIC_FROM[key]
+        # Findings: the question, then a column per compared pair, all words: wrapped.
+        findings = key.startswith("findings")
+        numeric_from = 1 if findings else NUMERIC_FROM[key]
+        wrap = {i: 110.0 if i == 0 else 85.0 for i in range(len(cols))} if findings else None
         # A part of the probes table without the reference column would compare with nothing.
         report_latex.write_table(table_dir, key, cols, trows, captions[key], numeric_from,
-                                 keep=4 if key == "probes" else None)
+                                 keep=4 if key == "probes" else None, wrap=wrap)
 
 
 def write_json(report_dir, name, value):
