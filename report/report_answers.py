@@ -117,29 +117,6 @@ def pair_sentence(pair):
     return text
 
 
-def per_metric_rows(rec, pair):
-    """Table rows of one pair on one question: one per metric."""
-    out = []
-    for c in pair["per_metric"]:
-        lo, hi = c["ci"]
-        r = error_ratio(c)
-        if r is not None:
-            eff = f"{r:.3g}x"
-            ci = "" if lo is None else f"{1 / hi:.3g}-{1 / lo:.3g}"
-        else:
-            eff, ci = f"{-c['effect']:+.3g}", "" if lo is None else f"{-hi:+.3g} to {-lo:+.3g}"
-        out.append([rec["name"], pair["fit"], pair["baseline"],
-                    judging.metric_name(c["metric"]), str(c["n"]), eff, ci,
-                    f"{c['closer']}/{c['n']}", c["test"], fmt_p(c["p"]),
-                    fmt_p(c.get("p_holm")), pair["verdict"]["word"]])
-    return out
-
-
-PER_METRIC_COLUMNS = ["question", "fit", "baseline", "metric", "materials",
-                      "error ratio fit/baseline", "95% CI", "closer", "test", "p", "p (Holm)",
-                      "verdict"]
-
-
 def across_losses(pairs, fit_of):
     """Per (training set, role, model, baseline model): the verdict word under each loss and
     whether it holds (the same all-metric verdict under every loss). Only pairs seen under
