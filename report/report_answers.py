@@ -21,7 +21,7 @@ import math
 
 import judging
 from report_compare import (BOOTSTRAP_RESAMPLES, BOOTSTRAP_SEED, SIGN_TEST_BELOW, compare_pair,
-                            comparison_pairs, fmt_p, holm_by_pair, material_errors, metric_mode,
+                            comparison_pairs, holm_by_pair, material_errors, metric_mode,
                             question_mode, question_title, questions_of,
                             sentence)
 from report_util import materials_of
