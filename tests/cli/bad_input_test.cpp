@@ -1210,3 +1210,23 @@ TEST_F(BadInput, StudyAndCommandLineShareTheFitRules) {
 }
 
 }  // namespace
+
+// Job ids are file names: two materials whose names differ only where FileSafe replaces
+// characters would write one job file, so the study is refused before any job runs.
+TEST_F(BadInput, StudyMaterialsWhoseJobIdsCollide) {
+  Reference("m x-key.exr");
+  Reference("m_x-key.exr");
+  ExpectStudyFails("",
+                   "[[group]]\nmaterial = \"m x\"\nimages = [\"m x-*.exr\"]\n"
+                   "[[group]]\nmaterial = \"m_x\"\nimages = [\"m_x-*.exr\"]\n",
+                   "s\\.toml: material: materials 'm x' and 'm_x' would both write "
+                   "jobs/fit\\.m_x\\.ggx\\.key\\.json .*rename one");
+}
+
+TEST_F(BadInput, StudyLossListAndPixelStride) {
+  ExpectStudyFails("loss = [\"l2\", \"l1\"]\n", "",
+                   "s\\.toml:[0-9]+: fit\\.loss: unknown loss 'l1'");
+  Reference("m-key.exr");
+  ExpectCleanFailure("fit --ref in/m-key.exr --model ggx --pixel-stride 0 -o out/fit.json",
+                     "--pixel-stride: must be >= 1");
+}

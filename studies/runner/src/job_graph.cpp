@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "job_cost.h"
+#include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
 #include "shadefit/probes/probes.h"
 #include "shadefit/reference_images/measured_brdf.h"
@@ -89,9 +90,7 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
       job.train = f.train;
       job.loss = f.loss;
       job.label = f.label;
-      job.id = FileSafe(fmt::format("fit.{}.{}.{}", g.material, f.model->name, JoinTrain(f.train)));
-      // A study of several losses: one job per loss (the BRDF-space fit: one, unsuffixed).
-      if (spec.losses.size() > 1 && f.role != FitRole::kBrdf) job.id += "." + fit::LossName(f.loss);
+      job.id = FitJobId(spec, g.material, f);
       const FitSettings settings = spec.SettingsOf(f.model, f.loss);
       json context = FitContext(spec, settings, f, refs);
       // A BRDF-space fit reads the BRDF file itself, not only the images rendered from it; so
@@ -123,6 +122,32 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
     }
   }
   return jobs;
+}
+
+std::string FitJobId(const StudySpec& spec, const std::string& material, const FitSpec& f) {
+  std::string id = FileSafe(fmt::format("fit.{}.{}.{}", material, f.model->name, JoinTrain(f.train)));
+  // A study of several losses: one job per loss (the BRDF-space fit: one, unsuffixed).
+  if (spec.losses.size() > 1 && f.role != FitRole::kBrdf) id += "." + fit::LossName(f.loss);
+  return id;
+}
+
+void CheckJobIds(const StudySpec& spec) {
+  std::map<std::string, std::pair<std::string, std::string>> seen;  // id -> material, label
+  for (const ReferenceGroup& g : spec.groups) {
+    for (const FitSpec& f : spec.Fits()) {
+      const std::string id = FitJobId(spec, g.material, f);
+      const auto [it, inserted] = seen.emplace(id, std::make_pair(g.material, f.label));
+      if (inserted) continue;
+      const auto& [material, label] = it->second;
+      throw Error(spec.path, material == g.material ? "fit" : "material",
+                  material == g.material
+                      ? fmt::format("fits '{}' and '{}' would both write jobs/{}.json", label,
+                                    f.label, id)
+                      : fmt::format("materials '{}' and '{}' would both write jobs/{}.json (file "
+                                    "names replace '/', '\\' and ' ' by '_'): rename one",
+                                    material, g.material, id));
+    }
+  }
 }
 
 std::string JoinTrain(const std::vector<std::string>& train) {

@@ -42,6 +42,15 @@ struct Job {
 // Every job of the study, dependencies before the jobs that need them.
 std::vector<Job> BuildJobs(const StudySpec& spec, const std::map<std::string, InputHashes>& hashes);
 
+// A fit job's id and file name: "fit.<material>.<model>.<lighting>+<lighting>", ".<loss>" added
+// when the study lists several losses, made file-name safe (FileSafe).
+std::string FitJobId(const StudySpec& spec, const std::string& material, const FitSpec& f);
+
+// Throws shadefit::Error naming the study file when two fits of the study would share a job id
+// (two materials, say "a b" and "a_b", that FileSafe maps to one name): LoadStudy's last check,
+// before anything is written.
+void CheckJobIds(const StudySpec& spec);
+
 // "key+rim".
 std::string JoinTrain(const std::vector<std::string>& train);
 

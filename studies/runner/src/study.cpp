@@ -5,6 +5,7 @@
 
 #include <optional>
 
+#include "job_graph.h"
 #include "metric_columns.h"
 #include "study_file.h"
 
@@ -325,6 +326,7 @@ StudySpec LoadStudy(const std::string& path, bool quick) {
   ReadProbes(r, root, q, &spec);
   ReadVerdicts(r, root, &spec);
   ReadOutputs(r, root, &spec);
+  internal::CheckJobIds(spec);
   return spec;
 }
 
