@@ -50,6 +50,7 @@ struct StudyRunOptions {
   bool force = false;
   bool no_report = false;
   bool quiet = false;
+  bool verbose = false;
   std::string shard;  // "i/N"; empty: the whole study.
 };
 
@@ -69,6 +70,7 @@ void RunStudyCommand(const StudyRunOptions& o) {
   std::set<std::string> shard_materials;
   studies::MeasuredOptions mo;
   mo.quiet = o.quiet;
+  mo.verbose = o.verbose;
   if (!shard.whole()) {
     shard_materials = studies::RestrictToShard(&spec, shard);
     mo.materials = &shard_materials;
@@ -92,6 +94,7 @@ void RunStudyCommand(const StudyRunOptions& o) {
   ro.interrupt = &g_interrupt;
   ro.progress_bar = isatty(STDERR_FILENO) != 0;
   ro.quiet = o.quiet;
+  ro.verbose = o.verbose;
   struct sigaction sa {};
   sa.sa_handler = OnSigint;
   sigemptyset(&sa.sa_mask);
@@ -195,6 +198,8 @@ void RegisterStudyCommand(CLI::App& app) {
   run->add_flag("--force", o->force, "Rerun every job, even unchanged ones");
   run->add_flag("--no-report", o->no_report, "Do not make the report at the end");
   run->add_flag("-q,--quiet", o->quiet, "No progress output (study.log is still written)");
+  run->add_flag("-v,--verbose", o->verbose,
+                "A line per finished job and per rendered measured reference");
   run->add_option("--shard", o->shard,
                   "Run share i of N (i/N, 1-based) of the job graph; `study merge` joins them");
   run->callback([o] { RunStudyCommand(*o); });

@@ -125,9 +125,11 @@ std::vector<Job> BuildJobs(const StudySpec& spec,
 }
 
 std::string FitJobId(const StudySpec& spec, const std::string& material, const FitSpec& f) {
-  std::string id = FileSafe(fmt::format("fit.{}.{}.{}", material, f.model->name, JoinTrain(f.train)));
+  std::string id =
+      FileSafe(fmt::format("fit.{}.{}.{}", material, f.model->name, JoinTrain(f.train)));
   // A study of several losses: one job per loss (the BRDF-space fit: one, unsuffixed).
-  if (spec.losses.size() > 1 && f.role != FitRole::kBrdf) id += "." + fit::LossName(f.loss);
+  if (spec.losses.size() > 1 && f.role != FitRole::kBrdf)
+    id += fmt::format(".{}", fit::LossName(f.loss));
   return id;
 }
 
@@ -139,13 +141,13 @@ void CheckJobIds(const StudySpec& spec) {
       const auto [it, inserted] = seen.emplace(id, std::make_pair(g.material, f.label));
       if (inserted) continue;
       const auto& [material, label] = it->second;
-      throw Error(spec.path, material == g.material ? "fit" : "material",
-                  material == g.material
-                      ? fmt::format("fits '{}' and '{}' would both write jobs/{}.json", label,
-                                    f.label, id)
-                      : fmt::format("materials '{}' and '{}' would both write jobs/{}.json (file "
-                                    "names replace '/', '\\' and ' ' by '_'): rename one",
-                                    material, g.material, id));
+      throw Error(
+          spec.path, material == g.material ? "fit" : "material",
+          material == g.material
+              ? fmt::format("fits '{}' and '{}' would both write jobs/{}.json", label, f.label, id)
+              : fmt::format("materials '{}' and '{}' would both write jobs/{}.json (file "
+                            "names replace '/', '\\' and ' ' by '_'): rename one",
+                            material, g.material, id));
     }
   }
 }

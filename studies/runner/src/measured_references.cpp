@@ -106,7 +106,7 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
           WriteTextAtomic(key_path.string(), key + "\n");
           ++summary.rendered;
           summary.seconds += stats.seconds;
-          if (!options.quiet) {
+          if (options.verbose && !options.quiet) {
             fmt::print(stderr, "measured reference {} ({:.2f} s)\n", ref.name, stats.seconds);
           }
         }

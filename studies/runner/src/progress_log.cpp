@@ -36,16 +36,39 @@ void Log::Say(const std::string& text) {
   if (bar_) DrawLocked();
 }
 
-void Log::Progress(double done_weight, double total_weight, int done, int total,
+void Log::Progress(double done_weight, double total_weight, int done, int total, int failed,
                    const std::string& current, double elapsed) {
   std::lock_guard lock(mutex_);
   done_weight_ = done_weight;
   total_weight_ = total_weight;
   done_ = done;
   total_ = total;
-  current_ = current;
+  failed_ = failed;
+  if (!current.empty()) current_ = current;
   elapsed_ = elapsed;
-  if (bar_ && !quiet_) DrawLocked();
+  if (quiet_) return;
+  if (bar_) {
+    DrawLocked();
+    return;
+  }
+  const int quarter = total > 0 ? 4 * done / total : 0;
+  if (quarter > quarter_ && done < total) {
+    quarter_ = quarter;
+    std::fprintf(stderr, "%d/%d jobs (%d%%), %d failed, %s, %s left\n", done, total,
+                 100 * done / total, failed, Rate().c_str(), TimeLeft().c_str());
+  }
+}
+
+std::string Log::Rate() const {
+  if (elapsed_ <= 0 || done_ == 0) return "-- jobs/min";
+  return fmt::format("{:.1f} jobs/min", 60.0 * done_ / elapsed_);
+}
+
+std::string Log::TimeLeft() const {
+  const double f = total_weight_ > 0 ? std::clamp(done_weight_ / total_weight_, 0.0, 1.0) : 0;
+  if (!(f > 0.02 && f < 1)) return "--:--";
+  const int s = static_cast<int>(elapsed_ * (1 - f) / f);
+  return fmt::format("{}:{:02d}", s / 60, s % 60);
 }
 
 void Log::EndBar() {
@@ -57,15 +80,11 @@ void Log::DrawLocked() {
   const int width = 28;
   const double f = total_weight_ > 0 ? std::clamp(done_weight_ / total_weight_, 0.0, 1.0) : 0;
   const int filled = static_cast<int>(std::round(f * width));
-  std::string eta = "--:--";
-  if (f > 0.02 && f < 1) {
-    const int s = static_cast<int>(elapsed_ * (1 - f) / f);
-    eta = fmt::format("{}:{:02d}", s / 60, s % 60);
-  }
-  std::string current = current_.size() > 48 ? current_.substr(0, 45) + "..." : current_;
-  std::fprintf(stderr, "\r\033[K[%s%s] %d/%d  ETA %s  %s", std::string(filled, '#').c_str(),
-               std::string(width - filled, '-').c_str(), done_, total_, eta.c_str(),
-               current.c_str());
+  std::string current = current_.size() > 40 ? current_.substr(0, 37) + "..." : current_;
+  const std::string failed = failed_ > 0 ? fmt::format(", {} failed", failed_) : "";
+  std::fprintf(stderr, "\r\033[K[%s%s] %d/%d%s  %s  %s left  %s", std::string(filled, '#').c_str(),
+               std::string(width - filled, '-').c_str(), done_, total_, failed.c_str(),
+               Rate().c_str(), TimeLeft().c_str(), current.c_str());
   std::fflush(stderr);
 }
 

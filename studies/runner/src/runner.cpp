@@ -99,6 +99,7 @@ class StudyRun {
   metrics::FlipReferenceCache flip_cache_;
   internal::WrittenOnce reference_previews_;
   internal::BrdfSpaceFits brdf_fits_;
+  int failed_ = 0;  // Jobs failed in this run, for the progress line (under the run's mutex).
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;
   std::map<std::string, internal::InputHashes> hashes_;  // By reference image path.
@@ -247,9 +248,10 @@ void StudyRun::ReportStartLocked(const Job& job, int worker,
     }
   }
   const double elapsed = Elapsed();
+  const int failed = failed_;
   lock.unlock();
   log_->Line(fmt::format("start {} (worker {})", job.id, worker));
-  log_->Progress(done_w, total_w, done, static_cast<int>(jobs_.size()), job.id, elapsed);
+  log_->Progress(done_w, total_w, done, static_cast<int>(jobs_.size()), failed, job.id, elapsed);
 }
 
 // Runs the job; "" on success, else the error. A lost GL context: a new context and renderer,
@@ -301,17 +303,18 @@ void StudyRun::FinishLocked(Job& job, const std::string& error, double seconds,
     }
   }
   const double el = Elapsed();
+  if (!error.empty()) ++failed_;
+  const int failed = failed_;
   lock.unlock();
   if (error.empty()) {
     log_->Line(fmt::format("done {} in {:.1f} s", job.id, seconds));
-    if (!options_.progress_bar && !options_.quiet) {
-      std::fprintf(stderr, "[%d/%zu] done %s (%.1f s)\n", finished, jobs_.size(), job.id.c_str(),
-                   seconds);
+    if (options_.verbose && !options_.quiet) {
+      log_->Say(fmt::format("[{}/{}] done {} ({:.1f} s)", finished, jobs_.size(), job.id, seconds));
     }
   } else {
     log_->Say(fmt::format("FAILED {}: {}", job.id, error));
   }
-  log_->Progress(done_w, total_w, finished, static_cast<int>(jobs_.size()), "", el);
+  log_->Progress(done_w, total_w, finished, static_cast<int>(jobs_.size()), failed, "", el);
   lock.lock();
   cv_.notify_all();
 }

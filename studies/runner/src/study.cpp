@@ -57,7 +57,8 @@ std::string StudySpec::Label(const std::string& model,
 std::string StudySpec::Label(const std::string& model, const std::vector<std::string>& train,
                              fit::Loss loss) const {
   std::string out = Label(model, train);
-  if (losses.size() > 1 && RoleOf(train) != FitRole::kBrdf) out += ":" + fit::LossName(loss);
+  if (losses.size() > 1 && RoleOf(train) != FitRole::kBrdf)
+    out += fmt::format(":{}", fit::LossName(loss));
   return out;
 }
 
@@ -69,9 +70,12 @@ FitRole StudySpec::RoleOf(const std::vector<std::string>& train) const {
 
 const char* FitRoleName(FitRole role) {
   switch (role) {
-    case FitRole::kTrain: return "train";
-    case FitRole::kFloor: return "floor";
-    case FitRole::kBrdf: return "brdf";
+    case FitRole::kTrain:
+      return "train";
+    case FitRole::kFloor:
+      return "floor";
+    case FitRole::kBrdf:
+      return "brdf";
   }
   return "train";
 }

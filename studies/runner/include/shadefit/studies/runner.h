@@ -46,8 +46,11 @@ struct RunOptions {
   bool force = false;         // Rerun every job even when its hash is unchanged.
   // Set (from a signal handler) to stop scheduling; running jobs finish, nothing partial is left.
   const std::atomic<bool>* interrupt = nullptr;
-  // Progress: true draws a bar on stderr (a TTY), false prints one line per finished job.
+  // Progress: true draws one live line on stderr (a TTY: done / total, failed, rate, time left,
+  // the job), false prints a line at each quarter of the jobs (a pipe or a log); failures are
+  // printed in full either way.
   bool progress_bar = false;
+  bool verbose = false;       // Also a line per finished job (`-v`).
   bool quiet = false;         // No progress output at all (the log is still written).
   // A shard runs its jobs and writes shards/<i>-of-<N>.json instead of the study-wide outputs
   // (results.csv, timings.csv, provenance.json), which `merge` writes once every shard is done.
@@ -84,6 +87,7 @@ struct MeasuredSummary {
 // RunStudy. Throws shadefit::Error naming the file on an unreadable BRDF or scene.
 struct MeasuredOptions {
   bool quiet = false;
+  bool verbose = false;  // A line per rendered reference (else only the summary line).
   // When set, only these materials are rendered and added as groups (a shard's).
   const std::set<std::string>* materials = nullptr;
   // false (merge): a missing or out-of-date reference is an error, not a render.
