@@ -5,12 +5,12 @@ A study with `[fit] floor = [...]` fits each model jointly to every lighting of 
 ordinary pair of the training question (the floor set is a training set of its own). Here, per
 image question and per metric of the judging set:
 
-- each training set's **error over the floor**: for a fit trained on T, the ratio
-  error(fit, L) / error(floor fit of the same model and loss, L) for every floor lighting L of
-  the question (the training question: the floor lightings T trains on; the new-lighting
-  question: the floor lightings T does not train on), the geometric mean over those lightings
-  per material, then the geometric mean over materials with a bootstrap 95% CI (the same
-  bootstrap as every comparison, report_compare);
+- each training set's **error over the floor**: for a fit trained on T, per material the ratio
+  of its error to the floor fit's (same model and loss), each the mean of the metric over the
+  floor lightings of the question (the training question: the floor lightings T trains on; the
+  new-lighting question: those T does not train on), as every question's material error is;
+  then the geometric mean over materials with a bootstrap 95% CI (the same bootstrap as every
+  comparison, report_compare);
 - the BRDF-space fit (role "brdf") likewise against each floor fit of its model, on the
   new-lighting question (it trains on no image);
 - where the floors' verdict on a model pair differs from the verdict of the same pair trained on
@@ -48,18 +48,17 @@ def floor_lightings(fit, floor, split):
 
 
 def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
-    """Per material the geometric mean over `lightings` of error(label) / error(floor); then
+    """Per material, error(label) / error(floor), each the mean of the metric over
+    `lightings` (as every question's material error is: report_compare.material_errors); then
     the geometric mean over materials and its bootstrap 95% CI. None without a material."""
     logs, used = [], []
     for mat in materials:
-        per = []
-        for l in lightings:
-            a = errs.get((mat, label, l), {}).get(metric)
-            b = errs.get((mat, floor_label, l), {}).get(metric)
-            if a is not None and b is not None and a > 0 and b > 0:
-                per.append(math.log(a / b))
-        if per:
-            logs.append(float(np.mean(per)))
+        pairs = [(errs.get((mat, label, l), {}).get(metric),
+                  errs.get((mat, floor_label, l), {}).get(metric)) for l in lightings]
+        pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
+        a, b = sum(p[0] for p in pairs), sum(p[1] for p in pairs)
+        if pairs and a > 0 and b > 0:
+            logs.append(math.log(a / b))
             used.append(mat)
     if not logs:
         return None
@@ -110,7 +109,7 @@ def floor_sentence(e):
     his = [v["ci"][1] for v in e["metrics"].values() if v["ci"][1] is not None]
     ci = f"; 95% CIs from {min(los):.3g} to {max(his):.3g}" if los and his else ""
     above = sum(1 for v in e["metrics"].values() if v["ci"][0] is not None and v["ci"][0] > 1)
-    what = "the BRDF-space fit" if e["role"] == "brdf" else e["fit"]
+    what = f"{e['fit']} (the BRDF-space fit)" if e["role"] == "brdf" else e["fit"]
     return (f"{what}'s error over its floor {e['floor']} on {', '.join(e['lightings'])}: "
             f"{fmt_range((min(ratios), max(ratios)))} over the {len(ratios)} metrics{ci}; the CI "
             f"lies above 1 under {above} of {len(ratios)}")
