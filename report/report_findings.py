@@ -83,21 +83,23 @@ def findings_tables(study, records):
 
 
 def losses_table(records):
-    """(columns, rows) or None: per image question and model pair (per training set), whether
-    the verdict holds across the study's losses, else each loss's verdict."""
+    """(columns, rows) or None: per image question and training set (a row each), per model
+    pair (a column each), whether the verdict holds across the study's losses, else each
+    loss's verdict."""
     cells = {}
     for rec in (r for r in records if r["source"] == "metrics"):
         for a in rec.get("across_losses", []):
-            where = "floor" if a["role"] == "floor" else a["train"]
-            col = f"{a['model']} vs {a['baseline']} ({where})"
+            where = "floor fits" if a["role"] == "floor" else f"trained on {a['train']}"
             verdicts = ", ".join(f"{loss} {kind}" for loss, kind in a["verdicts"].items())
-            cells.setdefault(rec["question"], {})[col] = (
+            cells.setdefault(f"{rec['question']} ({where})", {})[
+                f"{a['model']} vs {a['baseline']}"] = (
                 f"holds: {next(iter(a['verdicts'].values()))}" if a["holds"]
                 else f"differs: {verdicts}")
     cols = list(dict.fromkeys(c for by in cells.values() for c in by))
     if not cols:
         return None
-    return (["question"] + cols, [[q] + [by.get(c, "") for c in cols] for q, by in cells.items()])
+    return (["question (training set)"] + cols,
+            [[q] + [by.get(c, "") for c in cols] for q, by in cells.items()])
 
 
 def findings_markdown(tables):

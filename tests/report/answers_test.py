@@ -261,7 +261,7 @@ def test_losses(make_report, out):
           f"losses: across losses {a}")
     check("the verdict does not hold across losses" in read(d, "summary.md"),
           "losses: summary.md does not say the verdict does not hold across losses")
-    check("| differs: l2 metric-dependent, log smaller |" in read(d, "summary.md"),
+    check("(trained on key) | differs: l2 metric-dependent, log smaller |" in read(d, "summary.md"),
           "losses: the findings have no 'Across losses' table saying the verdict differs")
 
 
