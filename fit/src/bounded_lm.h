@@ -28,7 +28,7 @@
 
 #include "box_coordinates.h"
 #include "model_structure.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/gbuffer.h"
 

@@ -2,6 +2,8 @@
 // references re-decoded with it, scored in stored values.
 #include "shadefit/fit/encoding_search.h"
 
+#include "shadefit/fit/fitter.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>

@@ -8,7 +8,7 @@
 #include "multistart.h"
 #include "prepared_reference.h"
 #include "problem.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 
 namespace shadefit::fit::internal {

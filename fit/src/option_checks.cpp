@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "shadefit/fit/encoding_search.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 
 namespace shadefit::fit {
 namespace {

@@ -6,7 +6,7 @@
 #include <memory>
 #include <vector>
 
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/gl_context.h"

@@ -11,7 +11,7 @@
 
 #include "bounded_lm.h"
 #include "prepared_reference.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 
 namespace shadefit::fit::internal {

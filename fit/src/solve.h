@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "prepared_reference.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 
 namespace shadefit::fit::internal {

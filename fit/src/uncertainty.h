@@ -3,7 +3,7 @@
 #pragma once
 
 #include "problem.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/fit/residuals.h"
 
 namespace shadefit::fit::internal {

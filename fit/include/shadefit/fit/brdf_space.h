@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gbuffer.h"
 

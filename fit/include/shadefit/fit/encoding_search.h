@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 
 namespace shadefit::fit {
 

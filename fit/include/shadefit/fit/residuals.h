@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/models.h"
 
