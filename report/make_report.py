@@ -111,8 +111,12 @@ CAPTIONS = {
              "(tabulated f(theta_h, theta_d), no model)",
     "encoding": "Encoding of the photographs: each candidate's RMSE in stored values",
 }
+# Columns of words set as wrapped paragraphs in report.tex: {table: {column: width in pt}} (fit
+# labels, which a study with several losses makes 165 pt long; verdicts; lightings).
+WRAP_PT = {"comparisons": {1: 80.0, 2: 80.0, 14: 60.0},
+           "floors": {1: 80.0, 2: 70.0, 3: 60.0}}
 # The columns before the first numeric one (left-aligned) per table.
-NUMERIC_FROM = {"comparisons": 4, "every_metric": 4, "floors": 6, "regions": 4, "metrics": 4,
+NUMERIC_FROM = {"comparisons": 4, "every_metric": 4, "floors": 5, "regions": 4, "metrics": 4,
                 "parameters": 3, "probes": 3, "verdicts": 4,
                 "verdict_details": 4, "matrix": 2, "ngan2005": 3, "ngan2005_spearman": 3,
                 "floor": 3, "encoding": 3}
@@ -162,7 +166,8 @@ def write_tables(table_dir, tables, captions):
         # Findings: the question, then a column per compared pair, all words: wrapped.
         findings = key.startswith("findings")
         numeric_from = 1 if findings else NUMERIC_FROM[key]
-        wrap = {i: 110.0 if i == 0 else 85.0 for i in range(len(cols))} if findings else None
+        wrap = ({i: 110.0 if i == 0 else 85.0 for i in range(len(cols))} if findings
+                else WRAP_PT.get(key))
         # A part of the probes table without the reference column would compare with nothing.
         report_latex.write_table(table_dir, key, cols, trows, captions[key], numeric_from,
                                  keep=4 if key == "probes" else None, wrap=wrap)

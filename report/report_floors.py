@@ -164,7 +164,7 @@ def floor_table(floors):
         for e in entries:
             for m, v in e["metrics"].items():
                 lo, hi = v["ci"]
-                out.append([q, e["fit"], e["floor"], "+".join(e["lightings"]),
+                out.append([q, e["fit"], e["floor"], ", ".join(e["lightings"]),
                             judging.metric_name(m), str(v["n"]), f"{v['ratio']:.3g}x",
                             "" if lo is None else f"{lo:.3g}-{hi:.3g}"])
     return cols, out

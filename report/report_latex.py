@@ -78,6 +78,15 @@ def long_table_parts(plain_cols, rows, keep, wrap=None):
     return True, parts
 
 
+def wrapped(text):
+    """A cell of a paragraph column: a fit label may also break after '@', '+' and ':'
+    ("ggx-metallic@key+mirror60:relative" has no space)."""
+    out = latex_escape(text)
+    for c in "@+:":
+        out = out.replace(c, c + "\\allowbreak{}")
+    return out
+
+
 def long_table(caption, columns, plain_cols, rows, numeric_from, keep, wrap=None):
     """<name>.long.tex for report.tex: one longtable (header repeated on every page), or, when
     the table is wider than the page, one per group of numeric columns (long_table_parts).
@@ -94,7 +103,8 @@ def long_table(caption, columns, plain_cols, rows, numeric_from, keep, wrap=None
             f"\\rotatebox{{90}}{{{latex_escape(columns[i])}}}"
             if rotate and i >= numeric_from and i not in wrap
             else latex_escape(columns[i]) for i in cols) + " \\\\"
-        body = [" & ".join(latex_escape(r[i]) for i in cols) + " \\\\" for r in rows]
+        body = [" & ".join(wrapped(r[i]) if i in wrap else latex_escape(r[i]) for i in cols)
+                + " \\\\" for r in rows]
         span = plain_cols[part[0]] + ("" if len(part) == 1 else f" to {plain_cols[part[-1]]}")
         title = caption if len(parts) == 1 else f"{caption} (part {n + 1} of {len(parts)}: {span})"
         lines += [f"\\begin{{longtable}}{{{align}}}", f"\\caption{{{latex_escape(title)}}}\\\\",
@@ -135,6 +145,19 @@ def write_table(out_dir, name, columns, rows, caption, numeric_from=1, keep=None
     return {"name": name, "caption": caption, "columns": plain_cols, "rows": rows}
 
 
+# LaTeX sets a caption on one line to measure it first: past ~16000 pt (TeX's largest
+# dimension) it stops with "Dimension too large". A parameter chart of the measured study's 35
+# fits lists every fitted point in its caption; report.tex cuts it, figures.json keeps it whole.
+CAPTION_MAX_CHARS = 1200
+
+
+def figure_caption(f):
+    c = f["caption"]
+    if len(c) <= CAPTION_MAX_CHARS:
+        return c
+    return c[:CAPTION_MAX_CHARS].rsplit(" ", 1)[0] + " ... (the whole caption: figures.json)"
+
+
 FLOATS_PER_FLUSH = 8  # Figures between two \clearpage in report.tex, under LaTeX's 18 slots.
 
 
@@ -153,7 +176,7 @@ def write_latex_document(report_dir, tables, figures):
         body += ["\\begin{figure}[h]\\centering",
                  f"\\includegraphics[width={f['width_in']:g}in,height=0.85\\textheight,"
                  f"keepaspectratio]{{{f['pdf']}}}",
-                 f"\\caption{{{latex_escape(f['caption'])}}}\\end{{figure}}", "\\clearpage"]
+                 f"\\caption{{{latex_escape(figure_caption(f))}}}\\end{{figure}}", "\\clearpage"]
     figures = [f for f in figures if f.get("kind") != "forest"]
     body.append("\\section*{Tables}")
     for key in ["comparisons", "every_metric", "floors", "regions", "matrix", "verdicts",
@@ -172,6 +195,6 @@ def write_latex_document(report_dir, tables, figures):
         body += ["\\begin{figure}[p]\\centering",
                  f"\\includegraphics[width={f['width_in']:g}in,height=0.85\\textheight,"
                  f"keepaspectratio]{{{f['pdf']}}}",
-                 f"\\caption{{{latex_escape(f['caption'])}}}\\end{{figure}}"]
+                 f"\\caption{{{latex_escape(figure_caption(f))}}}\\end{{figure}}"]
     body.append("\\end{document}")
     write_text(os.path.join(report_dir, "report.tex"), "\n".join(body) + "\n")
