@@ -101,11 +101,10 @@ def class_lines(answers):
         lines.append(f"- **{c['class']}** ({c['scheme']}; {len(c['materials'])} materials: "
                      f"{', '.join(c['materials'])})")
         for q in c["questions"]:
-            parts = []
+            lines.append(f"  - {q['question']}")
             for p in q["pairs"]:
                 rng = p["ratio_range"]
                 r = "" if rng is None else f", {report_answers.fmt_range(rng)}"
-                parts.append(f"{p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}")
-            lines.append(f"  - {q['question']} " + "; ".join(parts))
+                lines.append(f"    - {p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}")
     lines += [f"- Left out: {s}." for s in answers["skipped"]]
     return lines
