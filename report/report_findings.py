@@ -179,6 +179,18 @@ def pair_label(label):
             + wrap_to_width(base, 2.0, FONT_PT - 1))
 
 
+
+def log_ticks(lo, hi):
+    """Ticks of a log axis over [lo, hi] that do not crowd a panel a third of a page wide: 1, 2, 3
+    and 5 per decade over about a decade, 1, 2 and 5 over two, then powers of ten only, every
+    n-th one so that at most six are labelled (10^0 always among them)."""
+    decades = math.log10(hi / lo)
+    ks = (1, 2, 3, 5) if decades <= 1.2 else (1, 2, 5) if decades <= 2.0 else (1,)
+    step = max(1, math.ceil(decades / 6)) if ks == (1,) else 1
+    e0, e1 = math.floor(math.log10(lo)), math.ceil(math.log10(hi))
+    return [k * 10.0 ** e for e in range(e0, e1 + 1) if e % step == 0 for k in ks
+            if lo <= k * 10.0 ** e <= hi]
+
 def draw_panel(ax, rows, question, metrics):
     m = len(metrics)
     lows, highs = [], []
@@ -197,15 +209,14 @@ def draw_panel(ax, rows, question, metrics):
             highs.append(r)
     ax.axvline(1.0, color="#555555", linewidth=0.6)
     ax.set_xscale("log")
-    # Ticks at 1, 2, 3 and 5 per decade, written as plain numbers (0.5, 1, 2), no minor labels.
-    ax.xaxis.set_major_locator(FixedLocator([k * 10.0 ** e for e in range(-3, 4)
-                                             for k in (1, 2, 3, 5)]))
+    lo, hi = (min(lows + [1.0]), max(highs + [1.0])) if lows else (0.5, 2.0)
+    pad = (math.log(hi) - math.log(lo)) * 0.08 + 0.02
+    lo, hi = math.exp(math.log(lo) - pad), math.exp(math.log(hi) + pad)
+    ax.set_xlim(lo, hi)
+    # Plain numbers (0.5, 1, 2), no minor labels, as many per decade as the range leaves room for.
+    ax.xaxis.set_major_locator(FixedLocator(log_ticks(lo, hi)))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.xaxis.set_minor_formatter(NullFormatter())
-    if lows:
-        lo, hi = min(lows + [1.0]), max(highs + [1.0])
-        pad = (math.log(hi) - math.log(lo)) * 0.08 + 0.02
-        ax.set_xlim(math.exp(math.log(lo) - pad), math.exp(math.log(hi) + pad))
     ax.set_ylim(len(rows) - 0.5, -0.5)
     for i in range(1, len(rows)):
         ax.axhline(i - 0.5, color="#dddddd", linewidth=0.4)

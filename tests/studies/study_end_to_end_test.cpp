@@ -362,15 +362,21 @@ void ExpectReportContent(const fs::path& out, const std::vector<std::string>& ma
     matrix_rows += check_matrix_row(cells, "matrix.tex");
   }
 
-  // index.html: the comparative answers open the page (sentences and their figures, no table);
-  // the tables before the detail tables are then the matrix (first) and the verdicts (in the
-  // question sections, one table per phenomenon).
+  // index.html: the findings open the page (a verdict table per training set and the forest
+  // plot), then the comparative answers (sentences and their figures, no table); the tables
+  // before the detail tables are then the matrix (first) and the verdicts (in the question
+  // sections, one table per phenomenon).
   const std::string html = ReadText(report / "index.html");
   const std::size_t figures_at = html.find("<h2 id='details'>");
   ASSERT_NE(figures_at, std::string::npos);
-  const std::size_t answers_end = html.find("</section>", html.find("<section id='answers'>"));
+  const std::size_t findings_at = html.find("<section id='findings'>");
+  const std::size_t answers_at = html.find("<section id='answers'>");
+  ASSERT_NE(findings_at, std::string::npos) << "no findings section";
+  EXPECT_LT(findings_at, answers_at) << "the answers before the findings";
+  EXPECT_LT(html.find("<table"), answers_at) << "no findings table before the answers";
+  const std::size_t answers_end = html.find("</section>", answers_at);
   ASSERT_NE(answers_end, std::string::npos) << "no answers section";
-  EXPECT_LT(answers_end, html.find("<table")) << "a table before the answers";
+  EXPECT_LT(answers_end, html.find("<table", answers_at)) << "a table inside the answers";
   EXPECT_LT(html.find("<table class='matrix'>"), html.find("<figure", answers_end))
       << "matrix not first after the answers";
   int html_verdicts = 0;

@@ -480,7 +480,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   if (s.start == StartFrom::kBrdf && !TrainsInBrdfSpace(job.train)) {
     AddBrdfSpaceStart(context, job, s, g.material, &fo);
   }
-  clock.Lap("start");
+  clock.Lap("brdf_start");
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.

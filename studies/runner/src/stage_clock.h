@@ -11,15 +11,15 @@ namespace shadefit::studies::internal {
 
 // The stages of the jobs, in the order timings.csv and the closing table list them.
 inline const std::vector<std::string> kStageNames = {
-    "read",      // reading the references (images, sidecars, scenes, domains)
-    "start",     // the BRDF-space start of an image fit ([fit] start = "brdf")
-    "fit",       // fit::Fit: preparing the G-buffers and the solve (solver_seconds: its solve)
-    "render",    // the fit rendered under every lighting of the material
-    "metrics",   // every image metric, over the measured and over all covered pixels
-    "regions",   // where the error lies (a G-buffer per lighting, region_errors.h)
-    "previews",  // the reference, fit and error PNGs
-    "write",     // the job's record
-    "probes",    // a probe job's probes
+    "read",        // reading the references (images, sidecars, scenes, domains)
+    "brdf_start",  // the BRDF-space start of an image fit ([fit] start = "brdf")
+    "fit",         // fit::Fit: preparing the G-buffers and the solve (solver_seconds: its solve)
+    "render",      // the fit rendered under every lighting of the material
+    "metrics",     // every image metric, over the measured and over all covered pixels
+    "regions",     // where the error lies (a G-buffer per lighting, region_errors.h)
+    "previews",    // the reference, fit and error PNGs
+    "write",       // the job's record
+    "probes",      // a probe job's probes
 };
 
 class StageClock {
