@@ -33,6 +33,16 @@ namespace {
 // measured domain). docs/measured_and_imported.md, "The measured domain".
 // kMetricColumns: metric_columns.h.
 
+// A text field of a CSV row as RFC 4180 writes it: in double quotes, inner quotes doubled, when it
+// holds a comma, a quote or a line break (a material named by its user may); as it is otherwise,
+// so that the files of ordinary names are unchanged.
+std::string Text(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
 std::string Cell(const json& v) {
   return v.is_number() ? fmt::format("{:.9g}", v.get<double>()) : std::string();
 }
@@ -48,10 +58,10 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
   const FitJobRecord fit = ReadFitJobRecord(context.paths.JobJson(job));
   const auto row_start = [&](const std::string& lighting, const std::string& reference,
                              const std::string& split) {
-    csv << fit.material << "," << lighting << "," << reference << "," << fit.label << ","
-        << fit.model << "," << JoinTrain(fit.train) << "," << fit::LossName(job.loss) << ","
-        << split << ","
-        << (fit.converged ? 1 : 0) << "," << FitStatusName(fit.status);
+    csv << Text(fit.material) << "," << Text(lighting) << "," << Text(reference) << ","
+        << Text(fit.label) << "," << fit.model << "," << Text(JoinTrain(fit.train)) << ","
+        << fit::LossName(job.loss) << "," << split << "," << (fit.converged ? 1 : 0) << ","
+        << FitStatusName(fit.status);
   };
   if (!HasFit(fit.status)) {  // No parameters: one row per reference, no metrics.
     for (const ReferenceSpec& r : context.spec.groups[job.group].references) {
@@ -185,10 +195,10 @@ std::vector<double> WriteTimingsCsv(const RunContext& context, const std::vector
     const auto text = [&](const char* key) {
       return t.contains(key) && t[key].is_string() ? t[key].get<std::string>() : std::string();
     };
-    csv << job.id << "," << (job.kind == Job::Kind::kFit ? "fit" : "probe") << ","
-        << context.spec.groups[job.group].material << "," << job.label << ","
-        << number(t, "seconds") << "," << number(t, "solver_seconds") << "," << text("host")
-        << "," << text("shard");
+    csv << Text(job.id) << "," << (job.kind == Job::Kind::kFit ? "fit" : "probe") << ","
+        << Text(context.spec.groups[job.group].material) << "," << Text(job.label) << ","
+        << number(t, "seconds") << "," << number(t, "solver_seconds") << ","
+        << Text(text("host")) << "," << text("shard");
     const json stages = t.value("stages", json::object());
     for (std::size_t i = 0; i < kStageNames.size(); ++i) {
       csv << "," << number(stages, kStageNames[i]);
