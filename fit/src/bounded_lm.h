@@ -14,8 +14,10 @@
 // the exact Gauss-Newton/LM step of the remaining entries (the reduced system, not a clipped
 // full step), then projected onto the box. An entry that belongs on its bound reaches it in one
 // projected step and is held there from the next iterate on; one whose gradient turns inward
-// leaves it at once. The damping follows Ceres' LM (Marquardt's diagonal scaling, Nielsen's
-// radius update) so that iteration counts compare with the Ceres solves.
+// leaves it at once. The step is a trust-region LM step with Marquardt's diagonal scaling, and the
+// radius follows More 1978 ("The Levenberg-Marquardt algorithm: implementation and theory"):
+// a quarter of the step below a gain ratio of 0.25, at least twice the step above 0.75
+// (bounded_lm.cpp says how).
 //
 // With the L2 loss and a fixed exposure the solve is a variable projection (Golub and Pereyra
 // 1973; Kaufman 1975): the entries the image is affine in (LinearEntries) are solved exactly at

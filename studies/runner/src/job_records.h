@@ -1,7 +1,7 @@
 // The job JSON (jobs/<id>.json): the contract between a study's stages. A fit job's record is
 // read back by the probe job (the fitted parameters), by results.csv (the evaluations) and by
 // the runner (is the job up to date? did it leave parameters?); the report reads the same files
-// and checks the same fields (report/study_inputs.py). One record type per job kind, written and
+// and checks the same fields (report/report_inputs.py). One record type per job kind, written and
 // read here only. A reader given a file that lacks a field, or has it with another type, throws
 // shadefit::Error naming the file and the field; it never falls back to a default.
 #pragma once

@@ -1,6 +1,6 @@
 // Float images in linear radiance and their file I/O.
 //
-// Conventions (docs/conventions.md): row 0 is the top row of the picture, pixel (x, y) has its
+// Conventions (docs/scenes.md, "Conventions"): row 0 is the top row of the picture, pixel (x, y) has its
 // centre at (x + 0.5, y + 0.5) in pixel units, channels are interleaved. Values are linear and
 // unclamped (HDR) unless a function says otherwise.
 #pragma once
