@@ -102,9 +102,18 @@ def losses_table(records):
             [[q] + [by.get(c, "") for c in cols] for q, by in cells.items()])
 
 
+# What a findings cell says, and how far it may be taken: summary.md, index.html and report.tex
+# print this one text above the tables.
+FINDINGS_LEGEND = (
+    "Cells: the verdict, the range of error ratios (fit / baseline) over the judging set, and how "
+    "many metrics are Holm-significant (p < 0.05). How far a verdict holds: one whose metrics "
+    "are none of them significant (\"0/8 sig.\", \"none sig.\") describes these materials only "
+    "and may turn on others; \"mixed\" and \"metric-dependent\" are no metric's answer; with "
+    "several losses, the Across losses table says whether a verdict holds under each.")
+
+
 def findings_markdown(tables):
-    lines = ["Cells: the verdict, the range of error ratios (fit / baseline) over the judging "
-             "set, and how many metrics are Holm-significant (p < 0.05).", ""]
+    lines = [FINDINGS_LEGEND, ""]
     for title, (cols, rows) in tables:
         lines += [f"**{title}**", "", "| " + " | ".join(cols) + " |",
                   "|" + "|".join("---" for _ in cols) + "|"]

@@ -5,6 +5,7 @@ import csv
 import io
 import os
 
+import report_findings
 from report_util import md_escape, write_text
 
 
@@ -167,7 +168,7 @@ def write_latex_document(report_dir, tables, figures):
     body = ["\\documentclass[10pt]{article}", "\\usepackage[a4paper,margin=1.5cm]{geometry}",
             "\\usepackage{booktabs}", "\\usepackage{longtable}", "\\usepackage{graphicx}",
             "\\setlength{\\LTcapwidth}{\\textwidth}", "\\begin{document}",
-            "\\section*{Findings}"]
+            "\\section*{Findings}", latex_escape(report_findings.FINDINGS_LEGEND)]
     # Findings first: a verdict table per training set, then the forest plot.
     for key in (k for k in tables if k.startswith("findings")):
         body += ["{\\scriptsize\\setlength{\\tabcolsep}{3pt}",

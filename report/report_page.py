@@ -15,6 +15,7 @@ import re
 import judging
 import report_answers
 import report_compare
+import report_findings
 import report_summary
 
 PAGE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "page")
@@ -207,10 +208,9 @@ def matrix_html(study, summary, labels):
 
 def findings_html(answers, figures):
     """The findings, first on the page: a table per training set and the forest plot."""
-    out = ["<section id='findings'><h2>Findings</h2><p class='method'>Cells: the verdict, the "
-           "range of error ratios (fit / baseline) over the judging set, and how many metrics "
-           "are Holm-significant (p &lt; 0.05). The sentences, per question and pair, follow "
-           "under Answers.</p>"]
+    out = ["<section id='findings'><h2>Findings</h2><p class='method'>"
+           + esc(report_findings.FINDINGS_LEGEND)
+           + " The sentences, per question and pair, follow under Answers.</p>"]
     for title, t in answers.findings:
         out.append(f"<h3>{esc(title)}</h3>" + html_table(t, cls="findings"))
     out += [figure_html(f) for f in figures if f.get("kind") == "forest"]
