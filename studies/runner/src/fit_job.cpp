@@ -13,18 +13,15 @@
 #include "job_kinds.h"
 #include "job_records.h"
 #include "outputs.h"
-#include "brdf_space_fits.h"
 #include "region_errors.h"
 #include "stage_clock.h"
 #include "shadefit/base/error.h"
-#include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
 #include "shadefit/fit/training_pixels.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/report.h"
 #include "shadefit/metrics/ssim.h"
-#include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/reference_images/reference.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/image.h"
@@ -81,24 +78,18 @@ fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
   return fo;
 }
 
+// The material's BRDF-space fit of the job's model with `options` (l2, fixed exposure, no start
+// points), from the run's BrdfSpaceFits, which makes each such fit once.
+fit::FitResult BrdfSpaceFitOf(const RunContext& context, const Job& job, const FitSettings& s,
+                              const std::string& path, const fit::FitOptions& options) {
+  FitSettings key = s;  // Everything the options come from; the loss is Ngan's l2.
+  key.loss = fit::Loss::kL2;
+  return context.brdf_fits->Get(path, *job.model, s.fixed, options, key.ToJson().dump());
+}
+
 // [fit] start = "brdf": the material's BRDF-space fit of the same model (l2 on MERL's cells,
 // fixed exposure: fit/brdf_space.h) as one more start of its image fit; nothing for a group that
 // is not a [[measured]] material. Logged with its cost, so that a reader of study.log sees it.
-// The material's BRDF-space fit of the job's model with `options` (l2, fixed exposure, no start
-// points): from the run's BrdfSpaceFits when it has one, which makes each such fit once.
-fit::FitResult BrdfSpaceFitOf(const RunContext& context, const Job& job, const FitSettings& s,
-                              const std::string& path, const fit::FitOptions& options) {
-  if (context.brdf_fits != nullptr) {
-    FitSettings key = s;  // Everything the options come from; the loss is Ngan's l2.
-    key.loss = fit::Loss::kL2;
-    return context.brdf_fits->Get(path, *job.model, s.fixed, options, key.ToJson().dump());
-  }
-  const std::unique_ptr<reference_images::MeasuredBrdf> brdf =
-      reference_images::LoadMeasuredBrdf(path);
-  return fit::FitBrdfSpace(*job.model, s.fixed,
-                           fit::SampleBrdfSpace(*brdf, fit::BrdfSpaceSampling{}), options);
-}
-
 void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSettings& s,
                        const std::string& material, fit::FitOptions* fo) {
   const std::string path = MeasuredBrdfPath(context.spec, material);

@@ -38,7 +38,7 @@ struct RunContext {
   metrics::FlipReferenceCache* flip_cache = nullptr;
   // Shared by the workers; null: every fit writes its reference previews.
   WrittenOnce* reference_previews = nullptr;
-  // Shared by the workers; null: every job makes its own BRDF-space fits.
+  // Shared by the workers; never null (the runner owns it).
   BrdfSpaceFits* brdf_fits = nullptr;
 };
 
