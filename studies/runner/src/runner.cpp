@@ -80,6 +80,11 @@ class StudyRun {
   void WorkerLoop(int index);
   Job* NextJobLocked(bool* waiting);
   void ReportStartLocked(const Job& job, int worker, std::unique_lock<std::mutex>& lock);
+  struct Tally {
+    double done_weight = 0, total_weight = 0;
+    int finished = 0, failed = 0;
+  };
+  Tally TallyLocked() const;
   std::string RunWithGlRetry(Job& job, Worker& worker);
   void FinishLocked(Job& job, const std::string& error, double seconds,
                     std::unique_lock<std::mutex>& lock);
@@ -99,7 +104,6 @@ class StudyRun {
   metrics::FlipReferenceCache flip_cache_;
   internal::WrittenOnce reference_previews_;
   internal::BrdfSpaceFits brdf_fits_;
-  int failed_ = 0;  // Jobs failed in this run, for the progress line (under the run's mutex).
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;
   std::map<std::string, internal::InputHashes> hashes_;  // By reference image path.
@@ -235,23 +239,28 @@ Job* StudyRun::NextJobLocked(bool* waiting) {
   return nullptr;
 }
 
+// The jobs finished (done or failed), failed, and their cost weights, for the progress line.
+StudyRun::Tally StudyRun::TallyLocked() const {
+  Tally t;
+  for (const Job& j : jobs_) {
+    t.total_weight += j.weight;
+    if (!j.Finished()) continue;
+    t.done_weight += j.weight;
+    ++t.finished;
+    if (j.state == Job::State::kFailed) ++t.failed;
+  }
+  return t;
+}
+
 // Marks `job` running and reports it (log, progress); returns with `lock` released.
 void StudyRun::ReportStartLocked(const Job& job, int worker,
                                  std::unique_lock<std::mutex>& lock) {
-  double done_w = 0, total_w = 0;
-  int done = 0;
-  for (const Job& j : jobs_) {
-    total_w += j.weight;
-    if (j.Finished()) {
-      done_w += j.weight;
-      ++done;
-    }
-  }
+  const Tally t = TallyLocked();
   const double elapsed = Elapsed();
-  const int failed = failed_;
   lock.unlock();
   log_->Line(fmt::format("start {} (worker {})", job.id, worker));
-  log_->Progress(done_w, total_w, done, static_cast<int>(jobs_.size()), failed, job.id, elapsed);
+  log_->Progress(t.done_weight, t.total_weight, t.finished, static_cast<int>(jobs_.size()),
+                 t.failed, job.id, elapsed);
 }
 
 // Runs the job; "" on success, else the error. A lost GL context: a new context and renderer,
@@ -293,28 +302,20 @@ void StudyRun::FinishLocked(Job& job, const std::string& error, double seconds,
                             std::unique_lock<std::mutex>& lock) {
   --running_;
   job.state = error.empty() ? Job::State::kDone : Job::State::kFailed;
-  int finished = 0;
-  double done_w = 0, total_w = 0;
-  for (const Job& j : jobs_) {
-    total_w += j.weight;
-    if (j.Finished()) {
-      done_w += j.weight;
-      ++finished;
-    }
-  }
+  const Tally t = TallyLocked();
   const double el = Elapsed();
-  if (!error.empty()) ++failed_;
-  const int failed = failed_;
   lock.unlock();
   if (error.empty()) {
     log_->Line(fmt::format("done {} in {:.1f} s", job.id, seconds));
     if (options_.verbose && !options_.quiet) {
-      log_->Say(fmt::format("[{}/{}] done {} ({:.1f} s)", finished, jobs_.size(), job.id, seconds));
+      log_->Say(
+          fmt::format("[{}/{}] done {} ({:.1f} s)", t.finished, jobs_.size(), job.id, seconds));
     }
   } else {
     log_->Say(fmt::format("FAILED {}: {}", job.id, error));
   }
-  log_->Progress(done_w, total_w, finished, static_cast<int>(jobs_.size()), failed, "", el);
+  log_->Progress(t.done_weight, t.total_weight, t.finished, static_cast<int>(jobs_.size()),
+                 t.failed, "", el);
   lock.lock();
   cv_.notify_all();
 }
