@@ -302,7 +302,8 @@ SIDECAR = Object({
 # results.csv (AppendResultRows, outputs.cpp): one row per fit and reference. Cells are text; a
 # number cell is empty where the metric has no value (no lit pixel, a failed fit).
 
-# Every metric column the runner writes (kMetricColumns, outputs.cpp), then the same over every
+# Every metric column the runner writes (kMetricColumns, studies/runner/src/metric_columns.h;
+# a second copy, issue 42), then the same over every
 # covered pixel as <metric>_all, and measured_fraction.
 NUMBER_COLUMNS = ["rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim",
                   "ciede2000_mean", "flip_ldr_mean", "flip_hdr_mean", "delta_e_itp_mean"]
@@ -315,8 +316,9 @@ RESULT_COLUMNS = {"material": STRING, "lighting": STRING, "label": STRING, "spli
                   "flip_hdr_mean": NUMBER}
 
 
-# Per image region (outputs.cpp): mean signed and absolute luminance error, mean reference
-# luminance and pixel count, measured pixels only. Absent in results.csv files written before.
+# Per image region (kRegionNames, kRegionColumns: metric_columns.h): mean signed and absolute
+# luminance error, mean reference luminance and pixel count, measured pixels only. Absent in
+# results.csv files written before.
 REGIONS = ("highlight", "rim", "body")
 REGION_COLUMNS = [f"region_{r}_{q}" for r in REGIONS for q in ("signed", "abs", "ref", "pixels")]
 
