@@ -13,11 +13,12 @@ Writers: studies/runner/src/study.cpp (study.json), fit_job.cpp (fit jobs), prob
 metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance.json).
 """
 
-import csv
 import glob
 import json
 import math
 import os
+
+import results_csv
 
 
 class ReportInputError(Exception):
@@ -302,25 +303,21 @@ SIDECAR = Object({
 # results.csv (AppendResultRows, outputs.cpp): one row per fit and reference. Cells are text; a
 # number cell is empty where the metric has no value (no lit pixel, a failed fit).
 
-# Every metric column the runner writes (kMetricColumns, studies/runner/src/metric_columns.h;
-# a second copy, issue 42), then the same over every
-# covered pixel as <metric>_all, and measured_fraction.
-NUMBER_COLUMNS = ["rmse", "relative_rmse", "log_rmse", "mae", "psnr", "ssim", "ms_ssim",
-                  "ciede2000_mean", "flip_ldr_mean", "flip_hdr_mean", "delta_e_itp_mean"]
-NUMBER_COLUMNS += [c + "_all" for c in NUMBER_COLUMNS] + ["measured_fraction"]
+# The columns' names: report/results_csv.py, the one Python list (checked against the C++ writer
+# by tests/report/columns_test.py).
+METRIC_COLUMNS = results_csv.METRIC_COLUMNS
+NUMBER_COLUMNS = results_csv.NUMBER_COLUMNS
+REGIONS = results_csv.REGIONS
+REGION_COLUMNS = results_csv.REGION_COLUMNS
+# What a verdict or the judging set may name: a metric, its all-pixel twin, measured_fraction.
+VERDICT_COLUMNS = (results_csv.METRIC_COLUMNS + ["measured_fraction"]
+                   + results_csv.ALL_PIXEL_COLUMNS)
 # The columns the report needs (its metrics table, figures and verdicts); the other number
 # columns are checked where present (a verdict or question may name any of them).
 RESULT_COLUMNS = {"material": STRING, "lighting": STRING, "label": STRING, "split": SPLIT,
                   "converged": BOOLEAN, "rmse": NUMBER, "relative_rmse": NUMBER, "psnr": NUMBER,
                   "ssim": NUMBER, "ciede2000_mean": NUMBER, "flip_ldr_mean": NUMBER,
                   "flip_hdr_mean": NUMBER}
-
-
-# Per image region (kRegionNames, kRegionColumns: metric_columns.h): mean signed and absolute
-# luminance error, mean reference luminance and pixel count, measured pixels only. Absent in
-# results.csv files written before.
-REGIONS = ("highlight", "rim", "body")
-REGION_COLUMNS = [f"region_{r}_{q}" for r in REGIONS for q in ("signed", "abs", "ref", "pixels")]
 
 
 def check_cell(text, kind, path, line, column):
@@ -338,24 +335,18 @@ def check_cell(text, kind, path, line, column):
 
 
 def read_results(path):
-    """results.csv's rows as dicts of text, every declared cell checked."""
-    try:
-        with open(path, newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            rows = list(reader)
-            header = reader.fieldnames or []
-    except (OSError, csv.Error, UnicodeDecodeError) as e:
-        raise ReportInputError(f"{path}: cannot read ({e})")
+    """results.csv's rows as dicts of text, every declared cell checked; `object` is "" in every
+    row of a file written before the column (one object, named after nothing)."""
+    header, rows = results_csv.read_rows(path, ReportInputError)
     missing = [c for c in RESULT_COLUMNS if c not in header]
     if missing:
         raise ReportInputError(f"{path}: column '{missing[0]}': missing")
     checked = dict(RESULT_COLUMNS)
-    checked.update({c: NUMBER for c in NUMBER_COLUMNS + REGION_COLUMNS if c in header})
+    checked.update({c: NUMBER for c in NUMBER_COLUMNS if c in header})
     for line, row in enumerate(rows, 2):
-        if None in row or any(row[c] is None for c in checked):
-            raise ReportInputError(f"{path}:{line}: wrong number of cells")
         for column, kind in checked.items():
             check_cell(row[column], kind, path, line, column)
+        row.setdefault("object", "")
     return rows
 
 
@@ -401,7 +392,7 @@ def check_verdict_columns(study, study_path, rows, csv_path):
     """A verdict on the metrics names a number column of results.csv, and a split; so does
     every metric of the study's judging set."""
     for i, m in enumerate(study.get("judging") or []):
-        if m not in NUMBER_COLUMNS or (rows and m not in rows[0]):
+        if m not in VERDICT_COLUMNS or (rows and m not in rows[0]):
             raise ReportInputError(f"{study_path}: field 'judging[{i}]': '{m}' is not a "
                                    f"metric column of {csv_path}")
     for name, v in study["verdicts"].items():
@@ -410,7 +401,7 @@ def check_verdict_columns(study, study_path, rows, csv_path):
         for field in ("metric", "split"):
             if field not in v:
                 raise ReportInputError(f"{study_path}: field 'verdicts.{name}.{field}': missing")
-        if v["metric"] not in NUMBER_COLUMNS or (rows and v["metric"] not in rows[0]):
+        if v["metric"] not in VERDICT_COLUMNS or (rows and v["metric"] not in rows[0]):
             raise ReportInputError(f"{study_path}: field 'verdicts.{name}.metric': "
                                    f"'{v['metric']}' is not a column of {csv_path}")
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from report_figures import (FONT_PT, PAGE_IN, bar_style, legend_layout, plt, save_figure,
                             text_width_in)
-from report_inputs import REGIONS
+from results_csv import REGIONS
 
 QUANTITIES = ("signed", "abs", "ref")
 

@@ -8,10 +8,7 @@ import report_classes
 import report_findings
 import report_floors
 import report_regions
-from report_inputs import NUMBER_COLUMNS
-
-# The metric columns themselves (not their all-pixel twins, not measured_fraction).
-METRIC_COLUMNS = [c for c in NUMBER_COLUMNS if not c.endswith("_all") and c != "measured_fraction"]
+from results_csv import METRIC_COLUMNS
 
 
 class Answers:

@@ -9,12 +9,10 @@ Per metric of the judging set, per loss: the geometric mean over every (material
 fit's error over the test lightings divided by the first loss's (the study's first; < 1: the loss
 carries over better), and on how many (material, model) the loss has the lowest error of all
 losses. The criterion: the loss with the lowest mean log ratio over the judging set. Reads
-study.json and results.csv only; the judging set and the error orientation are the report's
+study.json and results.csv only, with the report's readers; the judging set and the error orientation are the report's
 (report/judging.py, report/report_compare.py)."""
 
 import argparse
-import csv
-import json
 import math
 import os
 import sys
@@ -22,6 +20,7 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "report"))
 import judging  # noqa: E402
 from report_compare import metric_error  # noqa: E402
+from report_inputs import ReportInputError, check_study, load_json, read_results  # noqa: E402
 
 
 def held_out_errors(rows, metric):
@@ -65,11 +64,11 @@ def main():
     ap.add_argument("--md", help="also write the table to this Markdown file")
     a = ap.parse_args()
     try:
-        with open(os.path.join(a.study_dir, "study.json")) as f:
-            study = json.load(f)
-        with open(os.path.join(a.study_dir, "results.csv"), newline="") as f:
-            rows = list(csv.DictReader(f))
-    except (OSError, ValueError) as e:
+        study_path = os.path.join(a.study_dir, "study.json")
+        study = load_json(study_path)
+        check_study(study, study_path)
+        rows = read_results(os.path.join(a.study_dir, "results.csv"))
+    except ReportInputError as e:
         sys.exit(f"loss_choice: error: {e}")
     if not rows or "loss" not in rows[0]:
         sys.exit(f"loss_choice: error: {a.study_dir}/results.csv: loss: no such column")

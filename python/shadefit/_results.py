@@ -1,13 +1,31 @@
-"""A study's result tables as records (lists of dicts) that pandas.DataFrame takes directly."""
+"""A study's result tables as records (lists of dicts) that pandas.DataFrame takes directly.
 
-import csv
+The text of results.csv and timings.csv is read by the one reader the report uses too
+(report/results_csv.py, found through the source tree the module was built from); here its cells
+become numbers and booleans."""
 
-from ._shadefit import Error
+import importlib.util
 import os
+
+from . import _shadefit
+from ._shadefit import Error
 
 # Columns of results.csv and timings.csv that hold numbers or booleans (docs/studies.md,
 # "Outputs"); every other column stays text. An empty cell is None.
 _BOOLEAN = {"converged"}
+
+
+def _load_results_csv():
+    """report/results_csv.py of the source tree this module was built from (the module is used
+    from the build tree, never copied: python/CMakeLists.txt)."""
+    path = os.path.join(_shadefit.SOURCE_DIR, "report", "results_csv.py")
+    spec = importlib.util.spec_from_file_location("_shadefit_results_csv", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+results_csv = _load_results_csv()
 
 
 def _convert(column, text):
@@ -31,16 +49,8 @@ def _convert(column, text):
 
 def read_table(path):
     """Rows of a CSV file as dicts, numbers converted; raises shadefit.Error naming the file."""
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        if reader.fieldnames is None:
-            raise Error(f"{path}: header: missing (empty file)")
-        rows = []
-        for line, row in enumerate(reader, start=2):
-            if None in row or any(v is None for v in row.values()):
-                raise Error(f"{path}:{line}: row: {len(reader.fieldnames)} columns expected")
-            rows.append({k: _convert(k, v) for k, v in row.items()})
-        return rows
+    _, rows = results_csv.read_rows(path, Error)
+    return [{k: _convert(k, v) for k, v in row.items()} for row in rows]
 
 
 def study_dir_of(out):
