@@ -7,11 +7,8 @@ Reads only what `shadefit study run` wrote (study.json, results.csv, jobs/*.json
 probes/, provenance.json) and writes <study dir>/report/. Links no renderer. Needs matplotlib and
 numpy (Debian: python3-matplotlib python3-numpy). Format and verdict rules: docs/studies.md.
 
-This file runs the steps in order; each concern has its module: report_inputs (the inputs'
-schema, checked before anything is written), report_verdicts, report_compare (comparative
-answers), report_tables and report_latex (tables and report.tex), report_summary (summary.md),
-report_ngan, data_floor, report_page (index.html), and the figures (report_figures and the
-modules it names).
+This file runs the steps in order: read (report_inputs, results_csv), compute, then write; each
+concern has its module, mapped in docs/architecture.md ("report/").
 """
 
 import json
@@ -20,9 +17,9 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import report_charts  # noqa: E402
-import report_compare  # noqa: E402
 import report_grids  # noqa: E402
 import report_latex  # noqa: E402
 import report_metric_figures  # noqa: E402
@@ -133,7 +130,7 @@ class Inputs:
         self.charts = report_charts.load_charts(study_dir)
         self.ngan = report_ngan.ngan_comparison(self.study, self.fits)
         # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs).
-        self.floor = data_floor.compute_floor(study_dir, self.study, self.fits)
+        self.data_floor = data_floor.compute_floor(study_dir, self.study, self.fits)
 
 
 def study_tables(inp, summary, detail, answers):
@@ -145,7 +142,7 @@ def study_tables(inp, summary, detail, answers):
     for key, (caption, t) in answers.tables().items():
         captions[key] = caption
         tables[key] = t
-    tables.update({"comparisons": report_compare.comparison_table(answers.records, fmt),
+    tables.update({"comparisons": answer_words.comparison_table(answers.records, fmt),
                    "metrics": report_tables.metrics_table(inp.study, inp.rows),
                    "parameters": report_tables.parameters_table(inp.study, inp.fits),
                    "probes": report_tables.probes_table(inp.study, inp.probes),
@@ -153,8 +150,8 @@ def study_tables(inp, summary, detail, answers):
     if inp.ngan is not None:
         tables["ngan2005"] = report_ngan.ngan_table(inp.ngan)
         tables["ngan2005_spearman"] = report_ngan.spearman_table(inp.ngan)
-    if inp.floor is not None:
-        tables["floor"] = data_floor.floor_table(inp.floor)
+    if inp.data_floor is not None:
+        tables["floor"] = data_floor.floor_table(inp.data_floor)
     encoding = report_tables.encoding_table(inp.fits)
     if encoding[1]:
         tables["encoding"] = encoding
@@ -184,8 +181,8 @@ def draw_figures(inp, answers, fig_dir):
     answers.figures([f["label"] for f in inp.study["fits"]], fig_dir, figures)
     for rec in (r for r in answers.records if r["source"] != "metrics"):
         report_metric_figures.paired_errors_figure(
-            rec, inp.study, fig_dir, figures, report_compare.question_title(rec),
-            report_compare.error_label(rec))
+            rec, inp.study, fig_dir, figures, answer_words.question_title(rec),
+            answer_words.error_label(rec))
     figures += per_material_figures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
                                     inp.jobs)
     report_metric_figures.metric_bars(inp.study, inp.rows, fig_dir, figures, to_float)
@@ -212,15 +209,15 @@ def make_report(study_dir):
     if inp.ngan is not None:
         write_json(report_dir, "ngan2005.json", inp.ngan)
     # Right after the comparative answers, each fit's test error next to the floor's.
-    floor_lines = []
-    if inp.floor is not None:
-        write_json(report_dir, "floor.json", inp.floor)
-        floor_lines = data_floor.floor_sentences(inp.floor)
+    data_floor_lines = []
+    if inp.data_floor is not None:
+        write_json(report_dir, "floor.json", inp.data_floor)
+        data_floor_lines = data_floor.floor_sentences(inp.data_floor)
     write_text(os.path.join(report_dir, "summary.md"), report_summary.summary_markdown(
-        inp.study, summary, tables["matrix"], inp.provenance, answers, floor_lines,
+        inp.study, summary, tables["matrix"], inp.provenance, answers, data_floor_lines,
         inp.fits, inp.ngan, figures))
     report_page.write_index(report_dir, inp.study, tables, figures, inp.provenance, summary,
-                            inp.rows, inp.fits, charts, write_text, answers, floor_lines)
+                            inp.rows, inp.fits, charts, write_text, answers, data_floor_lines)
     report_latex.write_latex_document(report_dir, tables, figures + charts)
     return os.path.join(report_dir, "index.html")
 

@@ -6,13 +6,14 @@ study.json's measured[].folder, and read by path), and the finer classes compile
 report/material_classes.tsv (metals, plastics and phenolics, paints, fabrics and diffuse, ...;
 each row with its source). Every image question is answered again over the materials of each
 class that has at least MIN_MATERIALS of the study's materials, by the same rules
-(report_answers.compare_study: the judging set, Holm per pair within the class).
+(answer_rules.compare_study: the judging set, Holm per pair within the class).
 """
 
 import csv
 import os
 
-import report_answers
+import answer_rules
+from answer_words import fmt_range
 
 MIN_MATERIALS = 4
 FINE_TSV = os.path.join(os.path.dirname(os.path.abspath(__file__)), "material_classes.tsv")
@@ -79,7 +80,7 @@ def class_answers(study, rows, summary, to_float, study_dir, fine_path=FINE_TSV)
         for cls, ms in sorted(groups.items()):
             if len(ms) < MIN_MATERIALS:
                 continue
-            records = report_answers.compare_study(study, rows, summary, to_float, materials=ms)
+            records = answer_rules.compare_study(study, rows, summary, to_float, materials=ms)
             out.append({"scheme": scheme, "source": source, "class": cls, "materials": ms,
                         "questions": [class_question(r) for r in records
                                       if r["source"] == "metrics"]})
@@ -89,7 +90,7 @@ def class_answers(study, rows, summary, to_float, study_dir, fine_path=FINE_TSV)
 def class_question(rec):
     return {"name": rec["name"], "question": rec["question"],
             "pairs": [{"fit": p["fit"], "baseline": p["baseline"], "verdict": p["verdict"],
-                       "ratio_range": report_answers.ratio_range(p["per_metric"])}
+                       "ratio_range": answer_rules.ratio_range(p["per_metric"])}
                       for p in rec["comparisons"]]}
 
 
@@ -104,7 +105,7 @@ def class_lines(answers):
             lines.append(f"  - {q['question']}")
             for p in q["pairs"]:
                 rng = p["ratio_range"]
-                r = "" if rng is None else f", {report_answers.fmt_range(rng)}"
+                r = "" if rng is None else f", {fmt_range(rng)}"
                 lines.append(f"    - {p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}")
     lines += [f"- Left out: {s}." for s in answers["skipped"]]
     return lines

@@ -7,7 +7,8 @@ marker per metric), which summary.md, index.html and report.tex open with (docs/
 import math
 
 import judging
-import report_answers
+import answer_rules
+from answer_words import fmt_range
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
 from report_figures import (FONT_PT, OKABE_ITO, PAGE_IN, legend_layout, plt, save_figure,
@@ -40,16 +41,17 @@ def cell(pair):
     probe question's single comparison: '2.3x smaller; sig.'."""
     if "verdict" in pair:
         v = pair["verdict"]
-        rng = report_answers.ratio_range(pair["per_metric"])
-        r = "" if rng is None else f"; {report_answers.fmt_range(rng, 2)}"
+        rng = answer_rules.ratio_range(pair["per_metric"])
+        r = "" if rng is None else f"; {fmt_range(rng, 2)}"
         if v["kind"] in ("smaller", "larger"):
             sig = len(v[f"significant_{v['kind']}"])
             return f"{v['word']}{r}; {sig}/{v['n']} sig."
         a, b = len(v["significant_smaller"]), len(v["significant_larger"])
         return f"{v['word']}{r}; " + (f"sig.: {a} smaller, {b} larger" if a or b else "none sig.")
-    sig = "; sig." if pair.get("p_holm", 1) < report_answers.ALPHA else ""
+    sig = "; sig." if pair.get("p_holm", 1) < answer_rules.ALPHA else ""
     if pair["mode"] == "ratio":
-        r = 1 / pair["effect"] if pair["effect"] > 0 else math.inf
+        r = answer_rules.error_ratio(pair)
+        r = math.inf if r is None else r
         if r == 1:
             return "equal"
         return f"{'smaller' if r < 1 else 'larger'}; {r:.2g}x{sig}"
@@ -132,11 +134,9 @@ def forest_rows(records):
             label = f"{p['fit']} vs {p['baseline']}"
             pts = []
             for c in p["per_metric"]:
-                r = report_answers.error_ratio(c)
-                lo, hi = c["ci"]
+                r = answer_rules.error_ratio(c)
                 if r is not None:
-                    pts.append((c["metric"], r, None if hi is None else 1 / hi,
-                                None if lo is None else 1 / lo))
+                    pts.append((c["metric"], r, *answer_rules.error_ratio_ci(c)))
             rows.setdefault(label, {})[rec["name"]] = pts
     return list(rows.items())
 

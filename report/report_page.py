@@ -13,8 +13,7 @@ import os
 import re
 
 import judging
-import report_answers
-import report_compare
+import answer_words
 import report_findings
 import report_summary
 
@@ -222,18 +221,18 @@ def folded(summary, inner):
     return [f"<details><summary>{esc(summary)}</summary>"] + inner + ["</details>"]
 
 
-def answers_html(answers, figures, floor_lines=()):
+def answers_html(answers, figures, data_floor_lines=()):
     """The comparative answers after the findings: how they are computed, then per question its
     sentences (folded) and its figure; the floors, regions and classes (folded); then the data
     floor's sentences (report/data_floor.py), if any."""
     comparisons = answers.records
     out = ["<section id='answers'><h2>Answers</h2>",
-           f"<p class='method'>{esc(report_answers.method_text(comparisons))}</p>"]
+           f"<p class='method'>{esc(answer_words.method_text(comparisons))}</p>"]
     by_question = {f.get("question"): f for f in figures
                    if f.get("kind") in ("comparison", "regions")}
     for rec in comparisons:
-        lines = report_answers.answer_lines([rec])
-        title = report_compare.question_title(rec)
+        lines = answer_words.answer_lines([rec])
+        title = answer_words.question_title(rec)
         out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
                    + (" <span class='default'>(default question)</span>" if rec["default"] else "")
                    + "</h3>")
@@ -246,9 +245,9 @@ def answers_html(answers, figures, floor_lines=()):
         out.append(f"<h3 id='{anchor('a', key)}'>{esc(title)}</h3>")
         out += folded(f"{len(lines)} lines", ["<ul class='answers'>"]
                       + [f"<li>{esc(line.strip()[2:])}</li>" for line in lines] + ["</ul>"])
-    if floor_lines:
+    if data_floor_lines:
         out.append("<h3 id='data-floor'>Data floor</h3><ul class='answers'>")
-        out += [f"<li>{esc(line)}</li>" for line in floor_lines]
+        out += [f"<li>{esc(line)}</li>" for line in data_floor_lines]
         out.append("</ul>")
     out.append("</section>")
     return "\n".join(out)
@@ -492,7 +491,7 @@ def provenance_html(provenance):
 
 
 def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
-                write_text, answers, floor_lines=()):
+                write_text, answers, data_floor_lines=()):
     labels = [f["label"] for f in study["fits"]]
     materials = [g["material"] for g in study["groups"]]
     families = question_families(study["verdicts"])  # Reading order: the FAMILIES order.
@@ -503,7 +502,7 @@ def write_index(report_dir, study, tables, figures, provenance, summary, rows, f
              "</head><body>",
              f"<h1>{esc(study['name'])}</h1><p>{esc(study['description'])}</p>",
              nav_html(families, titles, charts, materials),
-             findings_html(answers, figures), answers_html(answers, figures, floor_lines)]
+             findings_html(answers, figures), answers_html(answers, figures, data_floor_lines)]
     parts += within_tolerance_html(study, summary, labels, answers.records)
     parts += encoding_html(tables)
     parts += pin_html(fits)

@@ -4,7 +4,7 @@ verdict matrix, the encoding search and the comparison with Ngan et al. 2005."""
 import datetime
 
 import judging
-import report_answers
+import answer_words
 import report_findings
 from report_util import labels_of, materials_of, md_escape
 
@@ -17,10 +17,10 @@ def not_valid_reasons(summary, name):
     return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
 
 
-def summary_markdown(study, summary, matrix, provenance, answers, floor_lines, fits, ngan,
+def summary_markdown(study, summary, matrix, provenance, answers, data_floor_lines, fits, ngan,
                      figures=()):
     """summary.md's text: the findings first (a table per training set, the forest plot),
-    then the sentences. `answers`: report_sections.Answers; `floor_lines`: the data floor's
+    then the sentences. `answers`: report_sections.Answers; `data_floor_lines`: the data floor's
     sentences (none without photographs); `ngan`: report_ngan.ngan_comparison's record, or
     None; `figures`: figures.json's records (the forest plot's is linked)."""
     labels = labels_of(study)
@@ -31,8 +31,8 @@ def summary_markdown(study, summary, matrix, provenance, answers, floor_lines, f
              "## Findings", ""]
     lines += report_findings.findings_markdown(answers.findings)
     lines += [f"![{f['caption']}]({f['png']})" for f in figures if f.get("kind") == "forest"]
-    lines += ["", "## Answers", "", report_answers.method_text(comparisons), ""]
-    lines += report_answers.answer_lines(comparisons)
+    lines += ["", "## Answers", "", answer_words.method_text(comparisons), ""]
+    lines += answer_words.answer_lines(comparisons)
     for _, title, section in answers.sections():
         lines += ["", f"### {title}", ""] + section
     hcols, hrows = judging.human_agreement_table(judged_metrics(comparisons))
@@ -41,8 +41,8 @@ def summary_markdown(study, summary, matrix, provenance, answers, floor_lines, f
               f"{judging.HUMAN_AGREEMENT_SOURCE}. {judging.RULE_TEXT}.", "",
               "| " + " | ".join(hcols) + " |", "|---|---:|---:|---|"]
     lines += ["| " + " | ".join(r) + " |" for r in hrows]
-    if floor_lines:
-        lines += ["", "### Data floor", ""] + [f"- {l}" for l in floor_lines]
+    if data_floor_lines:
+        lines += ["", "### Data floor", ""] + [f"- {l}" for l in data_floor_lines]
     lines += ["", "## Within tolerance (secondary)", "",
               "Materials whose numbers are within the study's fixed tolerance, out of those "
               "judged.", ""]

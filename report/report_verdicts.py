@@ -5,7 +5,7 @@ import fnmatch
 
 import numpy as np
 
-import report_compare
+import answer_rules
 from report_tables import probe_numbers
 from report_util import flatten, fmt, labels_of, materials_of, to_float
 
@@ -32,7 +32,7 @@ def compute_verdicts(study, rows, probes):
     for name, v in study["verdicts"].items():
         tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
         for m in materials_of(study):
-            why = report_compare.not_valid_reason(study, source, m)
+            why = answer_rules.not_valid_reason(study, source, m)
             for label in labels:
                 checks = []  # (quantity, reference, value, error, passed)
                 if why:

@@ -10,7 +10,7 @@ fit's error over the test lightings divided by the first loss's (the study's fir
 carries over better), and on how many (material, model) the loss has the lowest error of all
 losses. The criterion: the loss with the lowest mean log ratio over the judging set. Reads
 study.json and results.csv only, with the report's readers; the judging set and the error orientation are the report's
-(report/judging.py, report/report_compare.py)."""
+(report/judging.py, report/answer_rules.py)."""
 
 import argparse
 import math
@@ -19,7 +19,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "report"))
 import judging  # noqa: E402
-from report_compare import metric_error  # noqa: E402
+from answer_rules import metric_error  # noqa: E402
 from report_inputs import ReportInputError, check_study, load_json, read_results  # noqa: E402
 
 

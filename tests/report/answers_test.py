@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Answers that hold (issue 40; report/judging.py, report_answers.py, report_floors.py,
+"""Answers that hold (issue 40; report/judging.py, answer_rules.py, model_floor.py,
 report_regions.py, report_classes.py, report_findings.py) on tiny synthetic studies written here:
 
 - two metrics of the judging set say the fit's error is larger, six say smaller, each

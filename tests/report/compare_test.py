@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Comparative answers (report/report_compare.py, docs/studies.md "Comparative answers") on
-result files with known answers, written here:
+"""Comparative answers (report/answer_rules.py and answer_stats.py, docs/studies.md "Comparative
+answers") on result files with known answers, written here:
 
 - a fit better by exactly 2x on every one of 20 materials under every metric of the judging set:
   ratio 2, a 95% CI containing 2, closer on 20 of 20, p < 0.001, "smaller under all 8 metrics";

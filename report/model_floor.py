@@ -10,7 +10,7 @@ image question and per metric of the judging set:
   floor lightings of the question (the training question: the floor lightings T trains on; the
   new-lighting question: those T does not train on), as every question's material error is;
   then the geometric mean over materials with a bootstrap 95% CI (the same bootstrap as every
-  comparison, report_compare);
+  comparison, answer_stats);
 - the BRDF-space fit (role "brdf") likewise against each floor fit of its model, on the
   new-lighting question (it trains on no image);
 - where the floors' verdict on a model pair differs from the verdict of the same pair trained on
@@ -22,8 +22,9 @@ import math
 import numpy as np
 
 import judging
-from report_answers import fmt_range
-from report_compare import bootstrap_ci, metric_error
+from answer_rules import metric_error
+from answer_stats import bootstrap_ci
+from answer_words import fmt_range
 
 
 def lighting_errors(rows, metrics, to_float):
@@ -49,7 +50,7 @@ def floor_lightings(fit, floor, split):
 
 def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
     """Per material, error(label) / error(floor), each the mean of the metric over
-    `lightings` (as every question's material error is: report_compare.material_errors); then
+    `lightings` (as every question's material error is: answer_rules.material_errors); then
     the geometric mean over materials and its bootstrap 95% CI. None without a material."""
     logs, used = [], []
     for mat in materials:
@@ -77,7 +78,7 @@ def floor_fits_of(study, fit):
     return [f for f in floors if f["loss"] == fit["loss"]]
 
 
-def floor_study(study, rows, records, to_float):
+def model_floors(study, rows, records, to_float):
     """{question name: [entry per (fit, floor fit)]}: each entry's lightings and, per metric,
     the ratio over the floor with its CI. Empty without floor fits."""
     if not study.get("floor") or not any(f["role"] == "floor" for f in study["fits"]):
@@ -140,7 +141,7 @@ def ordering_sentences(records):
     return out
 
 
-def floor_lines(floors, records):
+def model_floor_lines(floors, records):
     """Markdown lines per question: the ratios over the floor, then the ordering sentences."""
     if not floors:
         return []
@@ -156,7 +157,7 @@ def floor_lines(floors, records):
     return lines
 
 
-def floor_table(floors):
+def model_floor_table(floors):
     cols = ["question", "fit", "floor", "lightings", "metric", "materials",
             "error ratio fit/floor", "95% CI"]
     out = []

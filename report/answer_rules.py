@@ -1,0 +1,368 @@
+"""The rules that decide the study's comparative answers (docs/studies.md, "Comparative answers"
+and "Answers under a set of metrics"): its questions (one image question per split, answered under
+every metric of the judging set; then every probe verdict), each unit's continuous error per fit,
+the pairs compared, the one ratio convention (error_ratio: fit error / baseline error, < 1: the fit
+is closer), and a pair's verdict over the metrics:
+
+- "smaller under all N metrics" / "larger under all N metrics": every metric's ratio points the
+  same way (how many of them are Holm-significant is said beside it);
+- "metric-dependent": the signs disagree and at least one metric is Holm-significant (p < ALPHA)
+  on each side;
+- "mixed": the signs disagree (or some metric is tied) without significance on both sides.
+
+The p-values are Holm-corrected per compared pair over the study's questions and, for an image
+question, its metrics together: one family per pair (answer_stats.holm_by_pair). The statistics
+themselves are answer_stats'; the words, tables and JSON answer_words'. Nothing here reads a file
+or writes a word: it is handed the rows make_report.py read.
+"""
+
+import math
+
+import numpy as np
+
+import judging
+from answer_stats import compare_pair, holm_by_pair
+from report_util import materials_of
+
+ALPHA = 0.05  # Holm-adjusted p below this: significant.
+
+
+WORDS = {"smaller": "smaller under all {n} metrics", "larger": "larger under all {n} metrics",
+         "metric-dependent": "metric-dependent", "mixed": "mixed"}
+
+# Image metrics whose larger value is better: their error is 1 - value (SSIM family) or the
+# difference is taken the other way round (PSNR, in dB).
+SIMILARITY_METRICS = {"ssim", "ms_ssim"}
+
+
+HIGHER_IS_BETTER_DB = {"psnr"}
+
+# The image questions' splits: one question per split, answered under every metric of the judging
+# set (compare_study).
+IMAGE_SPLITS = ("train", "test")
+
+
+# Probes that do not measure what they claim on some kinds of reference: (source, kind) -> why.
+# A verdict or comparison of that probe on such a reference reads "n/a" with the reason.
+NOT_VALID = {
+    ("fresnel", "measured"):
+        "the image-space Fresnel probe splits a measured reference into diffuse and specular by "
+        "a fit, which gives negative rim/centre ratios on measured BRDFs; see the BRDF-space "
+        "Fresnel probe (brdf_fresnel)",
+    ("highlight", "measured"):
+        "the image-space lobe probe reads the highlight off the same fitted split, not valid on "
+        "measured references; see the BRDF-space highlight probe (brdf_highlight)",
+}
+
+
+def reference_kind(study, material):
+    """"measured" for a [[measured]] material (rendered from a measured BRDF), else "image"."""
+    for src in study["measured"]:
+        if material in src["materials"]:
+            return "measured"
+    return "image"
+
+
+def not_valid_reason(study, source, material):
+    return NOT_VALID.get((source, reference_kind(study, material)))
+
+
+# ------------------------------------------------------------------------------------------------
+# Questions and each unit's continuous error
+
+
+def questions_of(study, rows):
+    """The study's questions: one image question per split of IMAGE_SPLITS the results have
+    (named by the study's first metric verdict on that split, else "image" and "transfer"; worded
+    without a metric), answered under the judging set; then every probe verdict. Each is a dict
+    with the verdict's fields plus `name` and `default` (True for the added ones)."""
+    out = [dict(v, name=name, default=False) for name, v in study["verdicts"].items()
+           if v["source"] != "metrics"]
+    splits = {r["split"] for r in rows}
+    defaults = {"train": ("image", "How close can the model get to a reference image "
+                                   "(training lighting)?"),
+                "test": ("transfer", "Do fitted parameters carry over to new lighting (image "
+                                     "error under test lightings)?")}
+    image = []
+    for split in IMAGE_SPLITS:
+        named = [n for n, v in study["verdicts"].items()
+                 if v["source"] == "metrics" and v.get("split") == split]
+        if named or split in splits:
+            # The question in words of no metric (a verdict's text may name the metric its
+            # tolerance is on; the answer is under every metric of the judging set).
+            name, text = named[0] if named else defaults[split][0], defaults[split][1]
+            image.append({"name": name, "default": not named, "source": "metrics",
+                          "split": split, "kind": "max", "question": text})
+    # Reading order: image closeness, new lighting, then the phenomena (BRDF space first: on
+    # measured references it is where the lobe and the Fresnel rise are measured).
+    rank = {"brdf": 2, "highlight": 3, "fresnel": 4, "energy": 5}
+    return image + sorted(out, key=lambda q: rank.get(q["source"], 6))
+
+
+def metric_mode(metric):
+    if metric in HIGHER_IS_BETTER_DB:
+        return "difference"
+    return "ratio"
+
+
+def metric_error(metric, values):
+    """A fit's error on one material: the mean of `metric` over its lightings of the split,
+    oriented so that smaller is better."""
+    mean = float(np.mean(values))
+    if metric in SIMILARITY_METRICS:
+        return 1.0 - mean
+    if metric in HIGHER_IS_BETTER_DB:
+        return -mean
+    return mean
+
+
+def material_errors(study, rows, summary, question, to_float, column=None, metric=None):
+    """{(material, label): error or None} and {(material, label): why n/a} for one question.
+    Metrics: the mean of the metric over the fit's lightings of the split (`column` overrides
+    the results.csv column, e.g. the all-pixel one). Probes: the verdict's worst-quantity error
+    (what the tolerance bounds); a `max` verdict of a probe (energy) becomes the excess over its
+    bound, 0 when within. `metric`: the image metric of a metrics question."""
+    errors, why = {}, {}
+    labels = [f["label"] for f in study["fits"]]
+    materials = [g["material"] for g in study["groups"]]
+    source = question["source"]
+    # One pass over the rows (or the summary) per question: a scan per (material, fit) is
+    # quadratic, minutes on the measured study's 35 fits.
+    if source == "metrics":
+        col, values = column or metric, {}
+        for r in rows:
+            if r["split"] == question["split"]:
+                x = to_float(r.get(col))
+                if x is not None:
+                    values.setdefault((r["material"], r["label"]), []).append(x)
+    else:
+        judged = {(s["material"], s["fit"]): s for s in summary
+                  if s["phenomenon"] == question["name"]}
+    for m in materials:
+        reason = not_valid_reason(study, source, m)
+        for label in labels:
+            if reason:
+                errors[(m, label)], why[(m, label)] = None, reason
+            elif source == "metrics":
+                vals = values.get((m, label))
+                errors[(m, label)] = metric_error(metric, vals) if vals else None
+            else:
+                errors[(m, label)] = probe_error(judged.get((m, label)), question)
+    return errors, why
+
+
+def probe_error(s, question):
+    """A probe verdict's error on one material: the worst quantity's; for a `max` verdict the
+    excess over its bound, 0 when within; None without a number."""
+    if s is None or s["error"] is None:
+        return None
+    if question["kind"] == "max":
+        return max(0.0, s["error"] - float(question["tolerance"]))
+    return s["error"]
+
+
+def question_mode(question):
+    if question["source"] == "metrics":
+        return "per metric"
+    return "difference" if question["kind"] == "max" else "ratio"
+
+
+# ------------------------------------------------------------------------------------------------
+# Pairs and verdicts
+
+
+def comparison_pairs(study):
+    """(label, baseline label) pairs within each (training set, loss): every fit against the
+    baseline model's fit, then the study's `compare` pairs. A floor set and the BRDF fit are
+    training sets of their own, so their fits pair with each other (floor vs floor)."""
+    fits = study["fits"]
+    baseline = study["baseline"] or (fits[0]["model"] if fits else None)
+    by_train = {}
+    for f in fits:
+        by_train.setdefault((tuple(f["train"]), f["loss"]), {})[f["model"]] = f["label"]
+    pairs = []
+    for models in by_train.values():
+        base = models.get(baseline)
+        if base is None:
+            continue
+        pairs += [(label, base) for model, label in models.items() if model != baseline]
+    for a, b in study["compare"]:
+        for models in by_train.values():
+            if a in models and b in models and (models[a], models[b]) not in pairs:
+                pairs.append((models[a], models[b]))
+    return pairs
+
+
+def answer_pair(errors_by_metric, materials, label, base, metrics):
+    """The comparison of `label` with `base` under each metric (those where both have errors),
+    or None where no metric has one."""
+    per = []
+    for m in metrics:
+        c = compare_pair(errors_by_metric[m], materials, label, base, metric_mode(m))
+        if c is not None:
+            c["metric"] = m
+            per.append(c)
+    return {"fit": label, "baseline": base, "per_metric": per} if per else None
+
+
+def direction(c):
+    """+1: the fit's error is smaller; -1: larger; 0: tied."""
+    neutral = 1.0 if c["mode"] == "ratio" else 0.0
+    return (c["effect"] > neutral) - (c["effect"] < neutral)
+
+
+def verdict(per_metric, alpha=ALPHA):
+    """The pair's verdict over the metrics (each with its Holm-adjusted p_holm)."""
+    n = len(per_metric)
+    sides = {d: [c["metric"] for c in per_metric if direction(c) == d] for d in (1, -1, 0)}
+    sig = {d: [c["metric"] for c in per_metric if direction(c) == d and c["p_holm"] < alpha]
+           for d in (1, -1)}
+    if len(sides[1]) == n:
+        kind = "smaller"
+    elif len(sides[-1]) == n:
+        kind = "larger"
+    elif sig[1] and sig[-1]:
+        kind = "metric-dependent"
+    else:
+        kind = "mixed"
+    return {"kind": kind, "word": WORDS[kind].format(n=n), "n": n, "smaller": sides[1],
+            "larger": sides[-1], "equal": sides[0], "significant_smaller": sig[1],
+            "significant_larger": sig[-1]}
+
+
+def error_ratio(c):
+    """The one ratio convention of the report: fit error / baseline error (< 1: the fit is
+    closer), from a comparison whose statistic is baseline / fit (answer_stats.compare_pair's
+    `effect`, as comparisons.json records it); None for a difference."""
+    return 1.0 / c["effect"] if c["mode"] == "ratio" and c["effect"] > 0 else None
+
+
+def error_ratio_ci(c):
+    """The 95% CI of error_ratio (the effect's interval inverted), (None, None) where there is
+    none or the comparison is a difference."""
+    lo, hi = c["ci"]
+    if c["mode"] != "ratio" or lo is None:
+        return None, None
+    return 1 / hi, 1 / lo
+
+
+def ratio_range(per_metric):
+    """(lowest, highest) fit/baseline error ratio over the metrics, or None."""
+    r = [error_ratio(c) for c in per_metric]
+    r = [x for x in r if x is not None]
+    return (min(r), max(r)) if r else None
+
+
+def across_losses(pairs, fit_of):
+    """Per (training set, role, model, baseline model): the verdict word under each loss and
+    whether it holds (the same all-metric verdict under every loss). Only pairs seen under
+    more than one loss."""
+    groups = {}
+    for p in pairs:
+        f, b = fit_of[p["fit"]], fit_of[p["baseline"]]
+        key = ("+".join(f["train"]), f["role"], f["model"], b["model"])
+        groups.setdefault(key, {})[f["loss"]] = p["verdict"]["kind"]
+    out = []
+    for (train, role, model, base), by_loss in groups.items():
+        if len(by_loss) < 2:
+            continue
+        kinds = set(by_loss.values())
+        holds = len(kinds) == 1 and kinds <= {"smaller", "larger"}
+        out.append({"train": train, "role": role, "model": model, "baseline": base,
+                    "verdicts": by_loss, "holds": holds})
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# The study's questions
+
+
+def compare_study(study, rows, summary, to_float, materials=None):
+    """Every question's comparisons over `materials` (default: all the study's), Holm-corrected
+    per pair over the questions and metrics. Returns a list of question records; an image
+    question's record has `metrics` (the judging set), `judging` (why that set) and per pair
+    `per_metric`, `verdict`; `across_losses` where the study has several losses."""
+    materials = materials_of(study) if materials is None else materials
+    metrics, why = judging.judging_set(study, set(rows[0]) if rows else set())
+    pairs = comparison_pairs(study)
+    records, tests = [], []
+    for q in questions_of(study, rows):
+        if q["source"] == "metrics":
+            rec = image_record(study, rows, summary, q, to_float, materials, metrics, pairs)
+            rec["judging"] = why
+            tests += [c for p in rec["comparisons"] for c in p["per_metric"]]
+        else:
+            rec = probe_record(study, rows, summary, q, to_float, materials, pairs)
+            tests += rec["comparisons"]
+        records.append(rec)
+    holm_by_pair(tests)
+    fit_of = {f["label"]: f for f in study["fits"]}
+    for rec in records:
+        if rec["source"] != "metrics":
+            continue
+        for p in rec["comparisons"]:
+            p["verdict"] = verdict(p["per_metric"])
+            f, b = fit_of[p["fit"]], fit_of[p["baseline"]]
+            p.update(train=f["train"], loss=f["loss"], role=f["role"], model=f["model"],
+                     baseline_model=b["model"])
+        rec["across_losses"] = across_losses(rec["comparisons"], fit_of)
+    return records
+
+
+def record_head(q, mode):
+    return {"name": q["name"], "question": q.get("question", q["name"]), "default": q["default"],
+            "source": q["source"], "split": q.get("split"), "mode": mode}
+
+
+def image_record(study, rows, summary, q, to_float, materials, metrics, pairs):
+    """One image question under every metric of the judging set; where the results have
+    all-pixel columns (measured references), the same pairs over every pixel beside."""
+    rec = dict(record_head(q, "per metric"), metrics=metrics, n_a=[], errors=[])
+    errs, all_errs = {}, {}
+    for m in metrics:
+        errs[m], _ = material_errors(study, rows, summary, q, to_float, metric=m)
+        rec["errors"] += [{"material": mat, "fit": l, "metric": m, "error": e}
+                          for (mat, l), e in errs[m].items()]
+        col = f"{m}_all"
+        if rows and col in rows[0]:
+            all_errs[m], _ = material_errors(study, rows, summary, q, to_float, column=col,
+                                             metric=m)
+    rec["comparisons"] = [p for p in (answer_pair(errs, materials, l, b, metrics)
+                                      for l, b in pairs) if p is not None]
+    if all_errs and any(all_errs[m] != errs[m] for m in all_errs):
+        rec["all_pixels"] = [p for p in (answer_pair(all_errs, materials, l, b, list(all_errs))
+                                         for l, b in pairs) if p is not None]
+    return rec
+
+
+def probe_record(study, rows, summary, q, to_float, materials, pairs):
+    errors, why = material_errors(study, rows, summary, q, to_float)
+    mode = question_mode(q)
+    comparisons = [c for c in (compare_pair(errors, materials, l, b, mode) for l, b in pairs)
+                   if c is not None]
+    what = "error"
+    if q["kind"] == "max":
+        what = f"excess over the bound {float(q['tolerance']):g}"
+    for c in comparisons:
+        c["what"] = what
+    return dict(record_head(q, mode), n_a=sorted(set(why.values())), comparisons=comparisons,
+                errors=[{"material": m, "fit": l, "error": e} for (m, l), e in errors.items()])
+
+
+def describe_pair(errors, units, label, base, metric):
+    """(value, kind, closer, n) of one pair under one metric, descriptive (no test): kind
+    "ratio": the geometric mean over the units of fit error / baseline error; "difference": the
+    mean of fit error - baseline error (PSNR, or an error of 0); None where no unit has both."""
+    a, b = [], []
+    for m in units:
+        ea, eb = errors.get((m, label)), errors.get((m, base))
+        if ea is not None and eb is not None:
+            a.append(ea)
+            b.append(eb)
+    if not a:
+        return None
+    closer = sum(x < y for x, y in zip(a, b))
+    if metric_mode(metric) == "ratio" and min(a) > 0 and min(b) > 0:
+        return (math.exp(sum(math.log(x / y) for x, y in zip(a, b)) / len(a)), "ratio", closer,
+                len(a))
+    return sum(x - y for x, y in zip(a, b)) / len(a), "difference", closer, len(a)
