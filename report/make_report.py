@@ -20,6 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import report_charts  # noqa: E402
+import report_classes  # noqa: E402
 import report_grids  # noqa: E402
 import report_latex  # noqa: E402
 import report_metric_figures  # noqa: E402
@@ -131,6 +132,8 @@ class Inputs:
         self.ngan = report_ngan.ngan_comparison(self.study, self.fits)
         # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs).
         self.data_floor = data_floor.compute_floor(study_dir, self.study, self.fits)
+        # The material classes' tables (report_classes: beside the measured folder, and ours).
+        self.classified = report_classes.classifications(self.study, study_dir)
 
 
 def study_tables(inp, summary, detail, answers):
@@ -198,7 +201,8 @@ def make_report(study_dir):
     os.makedirs(fig_dir, exist_ok=True)
 
     summary, detail = report_verdicts.compute_verdicts(inp.study, inp.rows, inp.probes)
-    answers = report_sections.Answers(inp.study, inp.rows, summary, to_float, study_dir)
+    answers = report_sections.Answers(inp.study, inp.rows, summary, to_float,
+                                      inp.classified)
     tables, captions = study_tables(inp, summary, detail, answers)
     write_tables(os.path.join(report_dir, "tables"), tables, captions)
     # The verdicts also as JSON for tools and tests.

@@ -60,10 +60,11 @@ def classifications(study, study_dir, fine_path=FINE_TSV):
     return out, skipped
 
 
-def class_answers(study, rows, summary, to_float, study_dir, fine_path=FINE_TSV):
+def class_answers(study, rows, summary, to_float, classified):
     """{"classes": [{scheme, source, class, materials, questions: [{name, pairs}]}],
-    "skipped": [why]}: the image questions' verdicts per class of >= MIN_MATERIALS."""
-    schemes, skipped = classifications(study, study_dir, fine_path)
+    "skipped": [why]}: the image questions' verdicts per class of >= MIN_MATERIALS.
+    `classified`: classifications(), read with the report's other inputs."""
+    schemes, skipped = classified[0], list(classified[1])
     materials = [g["material"] for g in study["groups"]]
     out = []
     for scheme, source, of in schemes:

@@ -13,12 +13,12 @@ from results_csv import METRIC_COLUMNS
 
 
 class Answers:
-    def __init__(self, study, rows, summary, to_float, study_dir):
+    def __init__(self, study, rows, summary, to_float, classified):
         self.study = study
         self.records = answer_rules.compare_study(study, rows, summary, to_float)
         self.model_floors = model_floor.model_floors(study, rows, self.records, to_float)
         self.regions = report_regions.region_means(rows, to_float)
-        self.classes = report_classes.class_answers(study, rows, summary, to_float, study_dir)
+        self.classes = report_classes.class_answers(study, rows, summary, to_float, classified)
         self.findings = report_findings.findings_tables(study, self.records)
         self.every_metric = answer_words.every_metric_table(study, rows, summary, self.records,
                                                               to_float, METRIC_COLUMNS)
