@@ -17,12 +17,19 @@ or writes a word: it is handed the rows make_report.py read.
 """
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
 import judging
 from answer_stats import compare_pair, holm_by_pair
 from report_util import materials_of
+
+# An image question over fewer materials (material-object pairs) than this is answered over its
+# lightings instead: a paired test over 1-5 materials cannot reach significance (the exact sign
+# test's least p over 5 pairs is 0.0625), while a study of one object under 96 lights has 88
+# held-out comparisons. The answer is then about these objects under these lights.
+MIN_MATERIALS_FOR_PAIRED_TEST = 6
 
 ALPHA = 0.05  # Holm-adjusted p below this: significant.
 
@@ -116,39 +123,69 @@ def metric_error(metric, values):
     return mean
 
 
-def material_errors(study, rows, summary, question, to_float, column=None, metric=None):
-    """{(material, label): error or None} and {(material, label): why n/a} for one question.
-    Metrics: the mean of the metric over the fit's lightings of the split (`column` overrides
-    the results.csv column, e.g. the all-pixel one). Probes: the verdict's worst-quantity error
-    (what the tolerance bounds); a `max` verdict of a probe (energy) becomes the excess over its
-    bound, 0 when within. `metric`: the image metric of a metrics question."""
+def probe_errors(study, summary, question, materials):
+    """{(material, label): error or None} and {(material, label): why n/a} for one probe
+    question: the verdict's worst-quantity error (what the tolerance bounds); a `max` verdict of
+    a probe (energy) becomes the excess over its bound, 0 when within."""
     errors, why = {}, {}
     labels = [f["label"] for f in study["fits"]]
-    materials = [g["material"] for g in study["groups"]]
-    source = question["source"]
-    # One pass over the rows (or the summary) per question: a scan per (material, fit) is
-    # quadratic, minutes on the measured study's 35 fits.
-    if source == "metrics":
-        col, values = column or metric, {}
-        for r in rows:
-            if r["split"] == question["split"]:
-                x = to_float(r.get(col))
-                if x is not None:
-                    values.setdefault((r["material"], r["label"]), []).append(x)
-    else:
-        judged = {(s["material"], s["fit"]): s for s in summary
-                  if s["phenomenon"] == question["name"]}
+    judged = {(s["material"], s["fit"]): s for s in summary
+              if s["phenomenon"] == question["name"]}
     for m in materials:
-        reason = not_valid_reason(study, source, m)
+        reason = not_valid_reason(study, question["source"], m)
         for label in labels:
             if reason:
                 errors[(m, label)], why[(m, label)] = None, reason
-            elif source == "metrics":
-                vals = values.get((m, label))
-                errors[(m, label)] = metric_error(metric, vals) if vals else None
             else:
                 errors[(m, label)] = probe_error(judged.get((m, label)), question)
     return errors, why
+
+
+def unit_name(material, obj, lighting=None):
+    """How a unit is named in the records: 'red-plastic', 'red-plastic on teapot', and with a
+    lighting 'red-plastic on teapot, L07'. An empty object is the analytic sphere or plane."""
+    name = f"{material} on {obj}" if obj else material
+    return name if lighting is None else f"{name}, {lighting}"
+
+
+def image_units(rows, split, materials, lighting_units=True):
+    """('material', [(material, object)]) or ('lighting', [(material, object, lighting)]): the
+    units an image question on `split` compares fits over. A unit is a material on an object
+    (every material of `materials`, in that order, even one without rows); below
+    MIN_MATERIALS_FOR_PAIRED_TEST of them with rows (and `lighting_units`), each lighting of the
+    split of each of them, in the rows' order."""
+    chosen = set(materials)
+    seen = [(r["material"], r.get("object", ""), r["lighting"]) for r in rows
+            if r["split"] == split and r["material"] in chosen]
+    pairs = list(dict.fromkeys((m, o) for m, o, _ in seen))
+    if lighting_units and pairs and len(pairs) < MIN_MATERIALS_FOR_PAIRED_TEST:
+        return "lighting", list(dict.fromkeys(seen))
+    objects = {}
+    for m, o in pairs:
+        objects.setdefault(m, []).append(o)
+    return "material", [(m, o) for m in materials for o in objects.get(m, [""])]
+
+
+def image_errors(rows, question, to_float, unit, units, labels, metric, column=None):
+    """{(unit name, label): error or None} for one image question and metric over `units` of
+    kind `unit` (image_units): the metric's mean over the unit's lightings of the split (one
+    lighting for a lighting unit), oriented so that smaller is better; `column` overrides the
+    results.csv column (the all-pixel one)."""
+    col, values = column or metric, {}
+    by_lighting = unit == "lighting"
+    for r in rows:
+        if r["split"] == question["split"]:
+            x = to_float(r.get(col))
+            if x is not None:
+                key = (r["material"], r.get("object", ""))
+                key = key + (r["lighting"],) if by_lighting else key
+                values.setdefault((key, r["label"]), []).append(x)
+    errors = {}
+    for u in units:
+        for label in labels:
+            vals = values.get((u, label))
+            errors[(unit_name(*u), label)] = metric_error(metric, vals) if vals else None
+    return errors
 
 
 def probe_error(s, question):
@@ -277,19 +314,31 @@ def across_losses(pairs, fit_of):
 # The study's questions
 
 
-def compare_study(study, rows, summary, to_float, materials=None):
+def compare_study(study, rows, summary, to_float, materials=None, lighting_units=True,
+                  image_only=False):
     """Every question's comparisons over `materials` (default: all the study's), Holm-corrected
     per pair over the questions and metrics. Returns a list of question records; an image
     question's record has `metrics` (the judging set), `judging` (why that set) and per pair
-    `per_metric`, `verdict`; `across_losses` where the study has several losses."""
+    `per_metric`, `verdict`; `across_losses` where the study has several losses.
+    `lighting_units`: an image question of few materials is answered over its lightings
+    (image_units); False keeps the materials as the units (the classes' answers).
+    `image_only`: the image questions only (an object's answers: probes are per material).
+    Where the rows show several objects, each image record says how many it pools
+    (`pooled_objects`)."""
     materials = materials_of(study) if materials is None else materials
     metrics, why = judging.judging_set(study, set(rows[0]) if rows else set())
     pairs = comparison_pairs(study)
     records, tests = [], []
+    objects = objects_of(rows)
     for q in questions_of(study, rows):
+        if image_only and q["source"] != "metrics":
+            continue
         if q["source"] == "metrics":
-            rec = image_record(study, rows, summary, q, to_float, materials, metrics, pairs)
+            rec = image_record(study, rows, q, to_float, materials, metrics, pairs,
+                               lighting_units)
             rec["judging"] = why
+            if len(objects) > 1:
+                rec["pooled_objects"] = len(objects)
             tests += [c for p in rec["comparisons"] for c in p["per_metric"]]
         else:
             rec = probe_record(study, rows, summary, q, to_float, materials, pairs)
@@ -314,29 +363,48 @@ def record_head(q, mode):
             "source": q["source"], "split": q.get("split"), "mode": mode}
 
 
-def image_record(study, rows, summary, q, to_float, materials, metrics, pairs):
-    """One image question under every metric of the judging set; where the results have
-    all-pixel columns (measured references), the same pairs over every pixel beside."""
+def image_record(study, rows, q, to_float, materials, metrics, pairs, lighting_units=True):
+    """One image question under every metric of the judging set, over its units (image_units:
+    the materials, or below MIN_MATERIALS_FOR_PAIRED_TEST of them their lightings, then `unit`
+    is "lighting" in the record); where the results have all-pixel columns (measured
+    references), the same pairs over every pixel beside."""
     rec = dict(record_head(q, "per metric"), metrics=metrics, n_a=[], errors=[])
+    unit, units = image_units(rows, q["split"], materials, lighting_units)
+    names = [unit_name(*u) for u in units]
+    if unit == "lighting":
+        rec["unit"] = unit
+        rec["unit_materials"] = len({u[:2] for u in units})
+    labels = [f["label"] for f in study["fits"]]
     errs, all_errs = {}, {}
     for m in metrics:
-        errs[m], _ = material_errors(study, rows, summary, q, to_float, metric=m)
-        rec["errors"] += [{"material": mat, "fit": l, "metric": m, "error": e}
-                          for (mat, l), e in errs[m].items()]
+        errs[m] = image_errors(rows, q, to_float, unit, units, labels, m)
+        rec["errors"] += [error_entry(u, l, m, errs[m][(unit_name(*u), l)])
+                          for u in units for l in labels]
         col = f"{m}_all"
         if rows and col in rows[0]:
-            all_errs[m], _ = material_errors(study, rows, summary, q, to_float, column=col,
-                                             metric=m)
-    rec["comparisons"] = [p for p in (answer_pair(errs, materials, l, b, metrics)
+            all_errs[m] = image_errors(rows, q, to_float, unit, units, labels, m, column=col)
+    rec["comparisons"] = [p for p in (answer_pair(errs, names, l, b, metrics)
                                       for l, b in pairs) if p is not None]
     if all_errs and any(all_errs[m] != errs[m] for m in all_errs):
-        rec["all_pixels"] = [p for p in (answer_pair(all_errs, materials, l, b, list(all_errs))
+        rec["all_pixels"] = [p for p in (answer_pair(all_errs, names, l, b, list(all_errs))
                                          for l, b in pairs) if p is not None]
     return rec
 
 
+def error_entry(u, label, metric, error):
+    """One unit's error as comparisons.json records it: the material, then its object and
+    lighting where the unit has them."""
+    out = {"material": u[0]}
+    if u[1]:
+        out["object"] = u[1]
+    if len(u) > 2:
+        out["lighting"] = u[2]
+    out.update(fit=label, metric=metric, error=error)
+    return out
+
+
 def probe_record(study, rows, summary, q, to_float, materials, pairs):
-    errors, why = material_errors(study, rows, summary, q, to_float)
+    errors, why = probe_errors(study, summary, q, materials_of(study))
     mode = question_mode(q)
     comparisons = [c for c in (compare_pair(errors, materials, l, b, mode) for l, b in pairs)
                    if c is not None]
@@ -366,3 +434,92 @@ def describe_pair(errors, units, label, base, metric):
         return (math.exp(sum(math.log(x / y) for x, y in zip(a, b)) / len(a)), "ratio", closer,
                 len(a))
     return sum(x - y for x, y in zip(a, b)) / len(a), "difference", closer, len(a)
+
+
+def every_metric_cells(study, rows, records, to_float, columns):
+    """({(fit, baseline, metric, question name): describe_pair's tuple or None}, metrics) for
+    every metric column results.csv has (`columns`, in that order), over each image question's
+    own units; (None, []) without an answered image question."""
+    image = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    if not image or not rows:
+        return None, []
+    materials = materials_of(study)
+    labels = [f["label"] for f in study["fits"]]
+    metrics = [m for m in columns if m in rows[0]]
+    cells = {}
+    for rec in image:
+        unit, units = image_units(rows, rec["split"], materials)
+        names = [unit_name(*u) for u in units]
+        for m in metrics:
+            errs = image_errors(rows, rec, to_float, unit, units, labels, m)
+            for p in rec["comparisons"]:
+                cells[(p["fit"], p["baseline"], m, rec["name"])] = describe_pair(
+                    errs, names, p["fit"], p["baseline"], m)
+    return cells, metrics
+
+
+# ------------------------------------------------------------------------------------------------
+# Objects: a study whose references show several objects (results.csv's `object`) is answered
+# pooled over them (compare_study on every row: a unit is a material on an object) and per object.
+
+
+def objects_of(rows):
+    """The objects the rows show, in their order; [""] (one object, named after nothing: the
+    analytic sphere or plane, or a results.csv from before the column) when none is named."""
+    return list(dict.fromkeys(r.get("object", "") for r in rows)) or [""]
+
+
+@dataclass
+class PairAnswer:
+    """One compared pair's verdict on one question: the verdict record (verdict()) and the
+    lowest and highest error ratio (fit / baseline) over the metrics."""
+    fit: str
+    baseline: str
+    verdict: dict
+    ratio_range: tuple = None
+
+
+@dataclass
+class QuestionAnswer:
+    """One image question over one object's units: `unit` "material" or "lighting", `units`
+    how many."""
+    name: str
+    question: str
+    split: str
+    unit: str
+    units: int
+    pairs: list = field(default_factory=list)
+
+
+@dataclass
+class ObjectAnswer:
+    """One object's answers: its materials (in the study's order) and its image questions."""
+    object: str
+    materials: list
+    questions: list = field(default_factory=list)
+
+
+def object_answers(study, rows, summary, to_float):
+    """[ObjectAnswer] per object, where the rows show more than one; [] otherwise. Each object
+    is answered by the same rules over its own rows (fewer than MIN_MATERIALS_FOR_PAIRED_TEST
+    materials on it: over its lightings), Holm per pair over its own image questions."""
+    objects = objects_of(rows)
+    if len(objects) < 2:
+        return []
+    out = []
+    for obj in objects:
+        mine = [r for r in rows if r.get("object", "") == obj]
+        present = {r["material"] for r in mine}
+        materials = [m for m in materials_of(study) if m in present]
+        records = compare_study(study, mine, summary, to_float, materials=materials,
+                                image_only=True)
+        questions = []
+        for rec in records:
+            n = len({e["material"] + "\0" + e.get("lighting", "") for e in rec["errors"]
+                     if e["error"] is not None})
+            questions.append(QuestionAnswer(
+                rec["name"], rec["question"], rec["split"], rec.get("unit", "material"), n,
+                [PairAnswer(p["fit"], p["baseline"], p["verdict"], ratio_range(p["per_metric"]))
+                 for p in rec["comparisons"]]))
+        out.append(ObjectAnswer(obj, materials, questions))
+    return out

@@ -3,10 +3,9 @@ comparisons table, the method paragraph, comparisons.json's record, and the ever
 Formats what answer_rules computed; computes no statistic and decides no answer."""
 
 import judging
-from answer_rules import (ALPHA, describe_pair, direction, error_ratio, error_ratio_ci,
-                          material_errors, ratio_range)
+from answer_rules import (ALPHA, MIN_MATERIALS_FOR_PAIRED_TEST, direction, error_ratio, error_ratio_ci,
+                          ratio_range)
 from answer_stats import BOOTSTRAP_RESAMPLES, BOOTSTRAP_SEED, SIGN_TEST_BELOW
-from report_util import materials_of
 
 # Names of the metrics and their agreement with people: report/judging.py, the one place.
 METRIC_NAMES = judging.METRIC_NAMES
@@ -120,9 +119,10 @@ def names(metrics):
     return ", ".join(judging.metric_name(m) for m in metrics) or "none"
 
 
-def pair_sentence(pair):
+def pair_sentence(pair, unit="material"):
     """One pair's answer on one question, in words; states a metric-dependent or mixed answer
-    as such, with the metrics of each side, never as one metric's answer."""
+    as such, with the metrics of each side, never as one metric's answer. `unit`: what the
+    question compares over (the record's `unit`: materials, or lightings)."""
     v, per = pair["verdict"], pair["per_metric"]
     fit, base = pair["fit"], pair["baseline"]
     rng = ratio_range(per)
@@ -134,7 +134,7 @@ def pair_sentence(pair):
         sig = v["significant_smaller"] if v["kind"] == "smaller" else v["significant_larger"]
         return (f"{fit} vs {base}: {v['word']}: {fit}'s error is {v['kind']} than {base}'s "
                 f"under every metric of the judging set ({ratios}closer on {closer} of {n_mat} "
-                f"materials; Holm p < {ALPHA:g} under {len(sig)} of {v['n']})")
+                f"{unit}s; Holm p < {ALPHA:g} under {len(sig)} of {v['n']})")
     text = (f"{fit} vs {base}: {v['word']}: {fit}'s error is smaller under "
             f"{names(v['smaller'])} and larger under {names(v['larger'])}")
     if v["equal"]:
@@ -177,7 +177,13 @@ def answer_lines(records):
                      + (" (default question)" if rec["default"] else ""))
         if rec["source"] == "metrics":
             lines.append("  - Judged under " + names(rec["metrics"]) + ". " + rec["judging"])
-            lines += [f"  - {pair_sentence(p)}.{all_pixels_text(rec, p)}"
+            if rec.get("pooled_objects"):
+                lines.append(f"  - Pooled over the {rec['pooled_objects']} objects (each material "
+                             "on each object a unit); each object alone: \"Per object\" below")
+            if rec.get("unit") == "lighting":
+                lines.append(f"  - {lighting_units_text(rec)}")
+            lines += [f"  - {pair_sentence(p, rec.get('unit', 'material'))}."
+                      f"{all_pixels_text(rec, p)}"
                       for p in rec["comparisons"]]
             lines += [f"  - {loss_sentence(a)}." for a in rec.get("across_losses", [])]
         else:
@@ -192,9 +198,26 @@ def answer_lines(records):
     return lines
 
 
+def lighting_units_text(rec):
+    """What an image question answered over its lightings is about, said plainly."""
+    n = rec["unit_materials"]
+    units = len({e["material"] + "\0" + e.get("object", "") + "\0" + e["lighting"]
+                 for e in rec["errors"]})
+    which = "test" if rec["split"] == "test" else "training"
+    about = ("this object under other lights" if rec["split"] == "test"
+             else "this object under the lights it was fitted to")
+    if n > 1:
+        about = about.replace("this object", f"these {n} materials and objects")
+    return (f"Units: the {units} {which} lightings. With {n} material{'s' if n > 1 else ''} "
+            f"(fewer than {MIN_MATERIALS_FOR_PAIRED_TEST}, too few for a paired test over "
+            f"materials) each (material, {which} lighting) is a unit of the paired test: the "
+            f"answer is about {about}, not about other materials")
+
+
 def method_text(records):
     """How the answers are computed, in one paragraph (summary.md and index.html)."""
     tests = sum(len(p.get("per_metric", [p])) for r in records for p in r["comparisons"])
+    few = any(r.get("unit") == "lighting" for r in records)
     return ("Every fit is compared with the baseline fit of its training set and loss over the "
             "materials, from each material's continuous error (an image metric's mean over the "
             "lightings of the split; a probe's largest error over the question's quantities). "
@@ -207,7 +230,10 @@ def method_text(records):
             "under all N metrics' when every metric points the same way, 'metric-dependent' when "
             "they disagree with a Holm-significant metric (p < 0.05) on each side, else "
             "'mixed'. The pass counts at fixed tolerances follow as a secondary table. Rules: "
-            "docs/studies.md, \"Answers under a set of metrics\".")
+            "docs/studies.md, \"Answers under a set of metrics\"."
+            + (f" An image question of fewer than {MIN_MATERIALS_FOR_PAIRED_TEST} materials is "
+               "answered over its lightings instead (each material and lighting of the split a "
+               "unit): an answer about these objects under these lights." if few else ""))
 
 
 def to_json(records, extra=None):
@@ -238,36 +264,49 @@ def to_json(records, extra=None):
 # Every metric measured, judged or not (descriptive: the numbers behind issue 40's table)
 
 
-def every_metric_table(study, rows, summary, records, to_float, columns):
-    """(columns, rows): per compared pair and every metric column results.csv has (`columns`,
-    in that order), the error ratio fit / baseline (geometric mean over materials; a mean
-    difference for PSNR) and on how many materials the fit is closer, per image question. No
-    test and no verdict: it shows how far the judging set's agreement reaches."""
+def every_metric_table(records, cells, metrics):
+    """(columns, rows) or None: per compared pair and every metric column results.csv has
+    (`metrics`, in that order), the error ratio fit / baseline (geometric mean over the units; a
+    mean difference for PSNR) and on how many units the fit is closer, per image question
+    (`cells`: answer_rules.every_metric_cells). No test and no verdict: it shows how far the
+    judging set's agreement reaches."""
     image = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
-    if not image or not rows:
+    if cells is None:
         return None
-    materials = materials_of(study)
-    metrics = [m for m in columns if m in rows[0]]
     judged = set(image[0]["metrics"])
-    cells = {}
-    for rec in image:
-        for m in metrics:
-            errs, _ = material_errors(study, rows, summary, rec, to_float, metric=m)
-            for p in rec["comparisons"]:
-                cells[(p["fit"], p["baseline"], m, rec["name"])] = describe(
-                    errs, materials, p["fit"], p["baseline"], m)
     pairs = list(dict.fromkeys((p["fit"], p["baseline"]) for r in image for p in r["comparisons"]))
     head = ["fit", "baseline", "metric", "in the judging set"] + [
         f"{r['name']}: ratio, closer" for r in image]
     out = [[f, b, judging.metric_name(m), "yes" if m in judged else ""]
-           + [cells.get((f, b, m, r["name"]), "") for r in image]
+           + [describe(cells.get((f, b, m, r["name"]))) for r in image]
            for f, b in pairs for m in metrics]
     return head, out
 
 
-def describe(errors, materials, label, base, metric):
-    d = describe_pair(errors, materials, label, base, metric)
+def describe(d):
     if d is None:
         return ""
     value, kind, closer, n = d
     return f"{value:.3g}x, {closer}/{n}" if kind == "ratio" else f"{value:+.3g}, {closer}/{n}"
+
+
+def object_lines(objects):
+    """Markdown lines of answer_rules.object_answers: per object its materials, then per image
+    question what it is answered over and each pair's verdict with its ratio range."""
+    lines = []
+    for o in objects:
+        name = o.object or "(no object named)"
+        lines.append(f"- **{name}** ({len(o.materials)} material"
+                     f"{'s' if len(o.materials) != 1 else ''}: {', '.join(o.materials)})")
+        for q in o.questions:
+            over = (f"over its {q.units} {'test' if q.split == 'test' else 'training'} "
+                    "lightings: about this object under "
+                    + ("other lights" if q.split == "test" else "the lights it was fitted to")
+                    if q.unit == "lighting" else f"over its {q.units} materials")
+            lines.append(f"  - {q.question} ({over})")
+            for p in q.pairs:
+                r = "" if p.ratio_range is None else f", error ratio {fmt_range(p.ratio_range)}"
+                lines.append(f"    - {p.fit} vs {p.baseline}: {p.verdict['word']}{r}")
+            if not q.pairs:
+                lines.append("    - no fit pair has numbers on this question")
+    return lines

@@ -265,10 +265,11 @@ def compute_floor(study_dir, study, fits):
         if "skipped" in e:
             skipped.append({"reference": e["reference"], "why": e["skipped"]})
             continue
-        by_material.setdefault(e["material"], []).append(e)
+        # Per material and object: a data set of several objects has a floor per object.
+        by_material.setdefault((e["material"], e.get("object", "")), []).append(e)
     out["skipped"] = skipped
-    for material in sorted(by_material):
-        entries = by_material[material]
+    for material, obj in sorted(by_material):
+        entries = by_material[(material, obj)]
 
         for train in study["training_sets"]:
             decoding = chosen_decoding(study, fits, material, train)
@@ -288,7 +289,8 @@ def compute_floor(study_dir, study, fits):
             for e in entries:
                 if e["lighting"] not in per:
                     per[e["lighting"]] = load(e).relative_rmse(tables)
-            rec = {"material": material, "train": list(train), "lambda": lam,
+            rec = {"material": material, **({"object": obj} if obj else {}),
+                   "train": list(train), "lambda": lam,
                    "decoding": decoding,
                    "loo_sse": {f"{k:g}": v for k, v in scores.items()},
                    "train_relative_rmse": mean([per[r.lighting] for r in train_refs]),
@@ -317,7 +319,8 @@ def floor_sentences(floor):
     error against the floor's."""
     lines = []
     for rec in floor["materials"]:
-        head = (f"{rec['material']} (trained on {'+'.join(rec['train'])}): the best isotropic "
+        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
+        head = (f"{name} (trained on {'+'.join(rec['train'])}): the best isotropic "
                 f"BRDF these photographs support (tabulated f(theta_h, theta_d), no model) has "
                 f"a test relative RMSE of {pct(rec['test_relative_rmse'])} "
                 f"(training {pct(rec['train_relative_rmse'])})")
@@ -352,10 +355,11 @@ def floor_table(floor):
     rows = []
     for rec in floor["materials"]:
         train = "+".join(rec["train"])
-        rows.append([rec["material"], train, "floor (tabulated, no model)",
+        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
+        rows.append([name, train, "floor (tabulated, no model)",
                      pct(rec["test_relative_rmse"]), pct(rec["test_relative_rmse"]), "0.00"])
         for f in rec["fits"]:
             d = f["points_above_floor"]
-            rows.append([rec["material"], train, f["label"], pct(f["test_relative_rmse"]),
+            rows.append([name, train, f["label"], pct(f["test_relative_rmse"]),
                          pct(rec["test_relative_rmse"]), "n/a" if d is None else f"{d:.2f}"])
     return cols, rows

@@ -155,10 +155,10 @@ def study_tables(inp, summary, detail, answers):
         tables["ngan2005_spearman"] = report_ngan.spearman_table(inp.ngan)
     if inp.data_floor is not None:
         tables["floor"] = data_floor.floor_table(inp.data_floor)
-    encoding = report_tables.encoding_table(inp.fits)
-    if encoding[1]:
-        tables["encoding"] = encoding
-    return tables, captions
+    tables["encoding"] = report_tables.encoding_table(inp.fits)
+    # No empty table anywhere: one without rows (no verdicts, no encoding search) is left out of
+    # tables/, summary.md, index.html and report.tex.
+    return {k: t for k, t in tables.items() if t[1]}, captions
 
 
 def write_tables(table_dir, tables, captions):
@@ -218,7 +218,7 @@ def make_report(study_dir):
         write_json(report_dir, "floor.json", inp.data_floor)
         data_floor_lines = data_floor.floor_sentences(inp.data_floor)
     write_text(os.path.join(report_dir, "summary.md"), report_summary.summary_markdown(
-        inp.study, summary, tables["matrix"], inp.provenance, answers, data_floor_lines,
+        inp.study, summary, tables.get("matrix"), inp.provenance, answers, data_floor_lines,
         inp.fits, inp.ngan, figures))
     report_page.write_index(report_dir, inp.study, tables, figures, inp.provenance, summary,
                             inp.rows, inp.fits, charts, write_text, answers, data_floor_lines)

@@ -171,7 +171,10 @@ def matrix_groups(study, labels):
 
 def matrix_html(study, summary, labels):
     """The verdict matrix; each cell links to the question's section, where its evidence is. An
-    "n/a" cell says why in its title (a probe not valid on the material's kind of reference)."""
+    "n/a" cell says why in its title (a probe not valid on the material's kind of reference).
+    Nothing without a verdict: no empty table."""
+    if not study["verdicts"]:
+        return "<p>No fixed-tolerance verdicts in this study.</p>"
     order = [k for k, _, _ in FAMILIES]
     verdicts = sorted(study["verdicts"].items(),  # Questions in reading order.
                       key=lambda kv: order.index(family_of(kv[1])) if family_of(kv[1]) else len(order))

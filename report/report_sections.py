@@ -1,7 +1,10 @@
 """The study's answers, computed once and handed to every page: the image and probe questions
-(answer_rules), the findings tables and forest plot (report_findings), the model's floor
-(model_floor: the joint fit to every floor lighting), the regions (report_regions) and the material classes (report_classes).
-summary.md, index.html and report.tex print the same sections from here."""
+(answer_rules), per object where the references show several, the findings tables and forest
+plot (report_findings), the model's floor (model_floor: the joint fit to every floor lighting),
+the regions (report_regions) and the material classes (report_classes). summary.md, index.html
+and report.tex print the same sections from here."""
+
+import dataclasses
 
 import answer_rules
 import answer_words
@@ -18,10 +21,12 @@ class Answers:
         self.records = answer_rules.compare_study(study, rows, summary, to_float)
         self.model_floors = model_floor.model_floors(study, rows, self.records, to_float)
         self.regions = report_regions.region_means(rows, to_float)
+        self.objects = answer_rules.object_answers(study, rows, summary, to_float)
         self.classes = report_classes.class_answers(study, rows, summary, to_float, classified)
         self.findings = report_findings.findings_tables(study, self.records)
-        self.every_metric = answer_words.every_metric_table(study, rows, summary, self.records,
-                                                              to_float, METRIC_COLUMNS)
+        self.every_metric = answer_words.every_metric_table(
+            self.records, *answer_rules.every_metric_cells(study, rows, self.records, to_float,
+                                                           METRIC_COLUMNS))
 
     def sections(self):
         """[(anchor, title, markdown lines)] after the per-question sentences: floors, regions
@@ -33,6 +38,8 @@ class Answers:
         regions = report_regions.region_lines(self.regions, self.records)
         if regions:
             out.append(("regions", "Where the difference lies", regions))
+        if self.objects:
+            out.append(("objects", "Per object", answer_words.object_lines(self.objects)))
         out.append(("classes", "Per material class",
                     report_classes.class_lines(self.classes)))
         return out
@@ -74,4 +81,7 @@ class Answers:
                 for k, v in sorted(self.regions.items())],
             "classes": self.classes,
             "every_metric": None if not self.every_metric else {
-                "columns": self.every_metric[0], "rows": self.every_metric[1]}})
+                "columns": self.every_metric[0], "rows": self.every_metric[1]},
+            # Only where the rows show several objects: older readers see the same record.
+            **({"objects": [dataclasses.asdict(o) for o in self.objects]} if self.objects
+               else {})})

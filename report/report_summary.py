@@ -46,10 +46,11 @@ def summary_markdown(study, summary, matrix, provenance, answers, data_floor_lin
     lines += ["", "## Within tolerance (secondary)", "",
               "Materials whose numbers are within the study's fixed tolerance, out of those "
               "judged.", ""]
-    lines += within_tolerance_lines(study, summary)
-    lines += ["", "## Verdict matrix", "", "| " + " | ".join(matrix[0]) + " |",
-              "|" + "|".join("---" for _ in matrix[0]) + "|"]
-    lines += ["| " + " | ".join(md_escape(c) for c in r) + " |" for r in matrix[1]]
+    lines += within_tolerance_lines(study, summary) or ["No fixed-tolerance verdicts in this study."]
+    if matrix is not None:  # None: no verdict, no row (make_report prints no empty table)
+        lines += ["", "## Verdict matrix", "", "| " + " | ".join(matrix[0]) + " |",
+                  "|" + "|".join("---" for _ in matrix[0]) + "|"]
+        lines += ["| " + " | ".join(md_escape(c) for c in r) + " |" for r in matrix[1]]
     sf = provenance.get("shadefit", {})
     lines += ["", f"shadefit {sf.get('version', '?')}, GL: {provenance.get('gl_renderer', '?')}, "
               f"generated {datetime.date.today().isoformat()}.", ""]

@@ -166,7 +166,7 @@ def main(argv):
           "2x: summary.md's Answers do not say 'ggx vs blinn-phong: smaller under all 8 metrics'")
     check("error ratio 0.5x over the metrics" in answers and "closer on 20 of 20 materials" in answers,
           "2x: summary.md: no ratio range 0.5-0.5x, closer on 20 of 20")
-    check(md.index("## Answers") < md.index("## Verdict matrix"), "2x: Answers not first")
+    check(md.index("## Answers") < md.index("## Within tolerance (secondary)"), "2x: Answers not first")
     check("id='answers'" in page and page.index("id='answers'") < page.index("id='verdicts'"),
           "2x: index.html does not open with the answers")
     check("smaller under all 8 metrics" in page, "2x: index.html: no sentence")
