@@ -19,6 +19,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import answer_words  # noqa: E402
 import data_floor  # noqa: E402
+import figure_cache  # noqa: E402
 import report_charts  # noqa: E402
 import report_classes  # noqa: E402
 import report_grids  # noqa: E402
@@ -67,14 +68,27 @@ def material_figures(material):
     return grids, probe_figs
 
 
-def per_material_figures(study_dir, study, fits, probes, fig_dir, jobs):
+def per_material_figures(study_dir, study, fits, probes, fig_dir, jobs, progress=None):
     """Every material's grids (in the study's order), then every probe figure (by material
-    name): the same records, in the same order, with one process or several."""
+    name): the same records, in the same order, with one process or several. A material whose
+    figure inputs hash as at the last report (figure_cache) is not drawn again. `progress`: a
+    callable told each material as it is done."""
     global _FIGURE_INPUTS
     _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
     grid_order = list(materials_of(study))
     materials = grid_order + sorted(m for m in probes if m not in grid_order)
-    jobs = min(jobs, len(materials))
+    code = figure_cache.code_fingerprint()
+    keys = {m: figure_cache.material_key(study_dir, study, fits, probes, m, code)
+            for m in materials}
+    done = {}
+    for m in materials:
+        cached = figure_cache.load(fig_dir, m, keys[m])
+        if cached is not None:
+            done[m] = cached
+            if progress:
+                progress(m)
+    todo = [m for m in materials if m not in done]
+    jobs = min(jobs, len(todo))
     pool = None
     if jobs > 1:
         try:
@@ -82,11 +96,18 @@ def per_material_figures(study_dir, study, fits, probes, fig_dir, jobs):
             pool = multiprocessing.get_context("fork").Pool(jobs)
         except OSError:
             pool = None  # No POSIX semaphores here (a container without /dev/shm): one process.
-    if pool is not None:
-        with pool:
-            done = dict(zip(materials, pool.map(material_figures, materials, chunksize=1)))
-    else:
-        done = {m: material_figures(m) for m in materials}
+    drawn = (pool.imap(material_figures, todo, chunksize=1) if pool is not None
+             else map(material_figures, todo))
+    try:
+        for m, records in zip(todo, drawn):
+            done[m] = records
+            figure_cache.store(fig_dir, m, keys[m], records, write_text)
+            if progress:
+                progress(m)
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
     _FIGURE_INPUTS = None
     return ([r for m in grid_order for r in done[m][0]] +
             [r for m in sorted(probes) for r in done[m][1]])

@@ -1,0 +1,88 @@
+#!/usr/bin/python3
+"""Figures drawn again only when their inputs changed (report/figure_cache.py; issue 46 item 2)
+on the synthetic four-fit study of many_fits_test.py (2 materials, images and probes):
+
+- a second report with nothing changed draws no per-material figure (every grid and probe
+  figure file keeps its modification time) and writes the same figures.json, summary.md and
+  index.html bytes;
+- one preview image of one material rewritten with other pixels: that material's grids are
+  drawn again, the other material's are not;
+- a figure file deleted: it is drawn again.
+
+    figure_cache_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
+"""
+
+import glob
+import os
+import shutil
+import sys
+
+FAILURES = []
+
+
+def check(ok, what):
+    if not ok:
+        FAILURES.append(what)
+
+
+def stamps(d, pattern):
+    return {p: os.stat(p).st_mtime_ns for p in glob.glob(os.path.join(d, "report", "figures",
+                                                                      pattern))}
+
+
+def read(d, name):
+    with open(os.path.join(d, "report", name), "rb") as f:
+        return f.read()
+
+
+def main(argv):
+    report_src, out = argv[1], os.path.abspath(argv[2])
+    here = os.path.dirname(os.path.abspath(__file__))
+    sys.path.insert(0, report_src)
+    sys.path.insert(0, here)
+    import make_report  # noqa: E402
+    import many_fits_test as mf  # noqa: E402
+
+    shutil.rmtree(out, ignore_errors=True)
+    d = os.path.join(out, mf.FOUR.name)
+    mf.write_study(d, mf.FOUR)
+    red, gold = mf.FOUR.materials
+    make_report.make_report(d)
+    first = {n: read(d, n) for n in ("figures.json", "summary.md", "index.html")}
+    before = stamps(d, "*")
+    grids = {m: stamps(d, f"grid-{m}*") for m in (red, gold)}
+    check(all(grids.values()), f"no grid files found: {sorted(before)[:4]}")
+
+    make_report.make_report(d)
+    after = stamps(d, "*")
+    material_files = [p for m in (red, gold) for p in grids[m]]
+    redrawn = [os.path.basename(p) for p in material_files if after.get(p) != before[p]]
+    check(not redrawn, f"unchanged inputs, yet drawn again: {redrawn}")
+    for n, text in first.items():
+        check(read(d, n) == text, f"unchanged inputs, yet {n} differs")
+
+    # One preview of the second material, new pixels.
+    image = sorted(glob.glob(os.path.join(d, "images", f"{gold}-*.png")))[0]
+    mf.write_png(image, 0.123)
+    make_report.make_report(d)
+    after2 = stamps(d, "*")
+    check(all(after2[p] != after[p] for p in grids[gold]),
+          f"{os.path.basename(image)} changed, yet {gold}'s grids were not drawn again")
+    check(all(after2[p] == after[p] for p in grids[red]),
+          f"only {gold} changed, yet {red}'s grids were drawn again")
+
+    victim = sorted(grids[red])[0]
+    os.remove(victim)
+    make_report.make_report(d)
+    check(os.path.exists(victim), f"{os.path.basename(victim)} deleted and not drawn again")
+
+    for f in FAILURES:
+        print("FAILED: " + f)
+    if not FAILURES:
+        print("PASS: unchanged figures kept, a changed material's drawn again, a deleted one "
+              "redrawn")
+    return 1 if FAILURES else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
