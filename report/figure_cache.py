@@ -84,3 +84,27 @@ def load(fig_dir, material, key):
 def store(fig_dir, material, key, records, write_text):
     write_text(_path(fig_dir, material), json.dumps({"material": material, "key": key,
                                                      "records": list(records)}))
+
+
+def group_key(code, inputs, files=()):
+    """The hash of a study-level figure group's inputs: `inputs` (JSON-able; tuple keys are
+    written as lists) and the bytes of `files`."""
+    h = hashlib.sha256(code.encode())
+    h.update(json.dumps(inputs, sort_keys=True, default=repr).encode())
+    for path in sorted(files):
+        h.update(path.encode() + b"\0")
+        if os.path.exists(path):
+            _sha256_file(path, h)
+    return h.hexdigest()
+
+
+def cached_group(fig_dir, name, key, draw, write_text):
+    """The records of figure group `name`: the stored ones when `key` matches and their files
+    exist, else draw(manifest) is called and its records stored."""
+    stored = load(fig_dir, f"group:{name}", key)
+    if stored is not None:
+        return stored[0]
+    manifest = []
+    draw(manifest)
+    store(fig_dir, f"group:{name}", key, (manifest, []), write_text)
+    return manifest

@@ -11,6 +11,7 @@ This file runs the steps in order: read (report_inputs, results_csv), compute, t
 concern has its module, mapped in docs/architecture.md ("report/").
 """
 
+import glob
 import json
 import multiprocessing
 import os
@@ -198,20 +199,40 @@ def write_json(report_dir, name, value):
     write_text(os.path.join(report_dir, name), json.dumps(value, indent=1))
 
 
-def draw_figures(inp, answers, fig_dir):
+def draw_figures(inp, answers, fig_dir, progress=None):
     """(figures, charts): the records of figures.json, in the page's order: the findings'
-    forest plot first."""
-    figures = []
-    answers.figures([f["label"] for f in inp.study["fits"]], fig_dir, figures)
-    for rec in (r for r in answers.records if r["source"] != "metrics"):
-        report_metric_figures.paired_errors_figure(
-            rec, inp.study, fig_dir, figures, answer_words.question_title(rec),
-            answer_words.error_label(rec))
+    forest plot first. Each group of figures is drawn only where a hash of its inputs differs
+    from the last report's (figure_cache)."""
+    code = figure_cache.code_fingerprint()
+    labels = [f["label"] for f in inp.study["fits"]]
+    answers_json = answers.json()
+
+    def group(name, inputs, draw, files=()):
+        key = figure_cache.group_key(code, {"study": inp.study, "inputs": inputs}, files)
+        records = figure_cache.cached_group(fig_dir, name, key, draw, write_text)
+        if progress:
+            progress(name)
+        return records
+
+    def answer_figures(manifest):
+        answers.figures(labels, fig_dir, manifest)
+        for rec in (r for r in answers.records if r["source"] != "metrics"):
+            report_metric_figures.paired_errors_figure(
+                rec, inp.study, fig_dir, manifest, answer_words.question_title(rec),
+                answer_words.error_label(rec))
+
+    figures = group("answers", answers_json, answer_figures)
     figures += per_material_figures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
-                                    inp.jobs)
-    report_metric_figures.metric_bars(inp.study, inp.rows, fig_dir, figures, to_float)
-    charts = report_charts.chart_figures(inp.study_dir, inp.study, inp.fits, fig_dir, [],
-                                         inp.charts, inp.probes)
+                                    inp.jobs, progress)
+    figures += group("metric-bars", inp.rows, lambda manifest: report_metric_figures.metric_bars(
+        inp.study, inp.rows, fig_dir, manifest, to_float))
+    # The charts are drawn from the files under charts/ (report_charts.load_charts).
+    chart_files = glob.glob(os.path.join(inp.study_dir, "charts", "**", "*"), recursive=True)
+    charts = group("charts", {"charts": inp.charts, "fits": sorted(inp.fits.items()),
+                              "probes": inp.probes},
+                   lambda manifest: manifest.extend(report_charts.chart_figures(
+                       inp.study_dir, inp.study, inp.fits, fig_dir, [], inp.charts, inp.probes)),
+                   chart_files)
     return figures, charts
 
 

@@ -2,8 +2,8 @@
 """Figures drawn again only when their inputs changed (report/figure_cache.py; issue 46 item 2)
 on the synthetic four-fit study of many_fits_test.py (2 materials, images and probes):
 
-- a second report with nothing changed draws no per-material figure (every grid and probe
-  figure file keeps its modification time) and writes the same figures.json, summary.md and
+- a second report with nothing changed draws no figure (every grid, the forest plot and the
+  charts keep their modification times) and writes the same figures.json, summary.md and
   index.html bytes;
 - one preview image of one material rewritten with other pixels: that material's grids are
   drawn again, the other material's are not;
@@ -55,7 +55,10 @@ def main(argv):
 
     make_report.make_report(d)
     after = stamps(d, "*")
-    material_files = [p for m in (red, gold) for p in grids[m]]
+    # The per-material grids and the study-level groups (forest plot, charts).
+    material_files = [p for m in (red, gold) for p in grids[m]] + sorted(
+        stamps(d, "findings-forest*")) + sorted(stamps(d, "chart-*"))
+    check(len(material_files) > 6, f"too few figure files to check: {material_files}")
     redrawn = [os.path.basename(p) for p in material_files if after.get(p) != before[p]]
     check(not redrawn, f"unchanged inputs, yet drawn again: {redrawn}")
     for n, text in first.items():
