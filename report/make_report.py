@@ -69,49 +69,59 @@ def material_figures(material):
     return grids, probe_figs
 
 
-def per_material_figures(study_dir, study, fits, probes, fig_dir, jobs, progress=None):
+class MaterialFigures:
     """Every material's grids (in the study's order), then every probe figure (by material
     name): the same records, in the same order, with one process or several. A material whose
-    figure inputs hash as at the last report (figure_cache) is not drawn again. `progress`: a
-    callable told each material as it is done."""
-    global _FIGURE_INPUTS
-    _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
-    grid_order = list(materials_of(study))
-    materials = grid_order + sorted(m for m in probes if m not in grid_order)
-    code = figure_cache.code_fingerprint()
-    keys = {m: figure_cache.material_key(study_dir, study, fits, probes, m, code)
-            for m in materials}
-    done = {}
-    for m in materials:
-        cached = figure_cache.load(fig_dir, m, keys[m])
-        if cached is not None:
-            done[m] = cached
-            if progress:
-                progress(m)
-    todo = [m for m in materials if m not in done]
-    jobs = min(jobs, len(todo))
-    pool = None
-    if jobs > 1:
+    figure inputs hash as at the last report (figure_cache) is not drawn again. The workers
+    start at once; finish() collects them, so that the caller draws the study-level figures
+    meanwhile. `progress`: a callable told each material as it is done."""
+
+    def __init__(self, study_dir, study, fits, probes, fig_dir, jobs, progress=None):
+        global _FIGURE_INPUTS
+        _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
+        self.grid_order = list(materials_of(study))
+        self.probed = sorted(probes)
+        materials = self.grid_order + sorted(m for m in probes if m not in self.grid_order)
+        code = figure_cache.code_fingerprint()
+        self.keys = {m: figure_cache.material_key(study_dir, study, fits, probes, m, code)
+                     for m in materials}
+        self.fig_dir, self.progress, self.done = fig_dir, progress, {}
+        for m in materials:
+            cached = figure_cache.load(fig_dir, m, self.keys[m])
+            if cached is not None:
+                self.done[m] = cached
+                if progress:
+                    progress(m)
+        self.todo = [m for m in materials if m not in self.done]
+        jobs = min(jobs, len(self.todo))
+        self.pool = None
+        if jobs > 1:
+            try:
+                # Fork: the workers inherit the inputs and matplotlib's state; no figure is
+                # open yet.
+                self.pool = multiprocessing.get_context("fork").Pool(jobs)
+            except OSError:
+                pass  # No POSIX semaphores here (a container without /dev/shm): one process.
+        self.drawn = (self.pool.imap(material_figures, self.todo, chunksize=1)
+                      if self.pool is not None else None)
+
+    def finish(self):
+        """The records, in figures.json's order, once every material is drawn."""
+        global _FIGURE_INPUTS
+        drawn = self.drawn if self.drawn is not None else map(material_figures, self.todo)
         try:
-            # Fork: the workers inherit the inputs and matplotlib's state; no figure is open yet.
-            pool = multiprocessing.get_context("fork").Pool(jobs)
-        except OSError:
-            pool = None  # No POSIX semaphores here (a container without /dev/shm): one process.
-    drawn = (pool.imap(material_figures, todo, chunksize=1) if pool is not None
-             else map(material_figures, todo))
-    try:
-        for m, records in zip(todo, drawn):
-            done[m] = records
-            figure_cache.store(fig_dir, m, keys[m], records, write_text)
-            if progress:
-                progress(m)
-    finally:
-        if pool is not None:
-            pool.close()
-            pool.join()
-    _FIGURE_INPUTS = None
-    return ([r for m in grid_order for r in done[m][0]] +
-            [r for m in sorted(probes) for r in done[m][1]])
+            for m, records in zip(self.todo, drawn):
+                self.done[m] = records
+                figure_cache.store(self.fig_dir, m, self.keys[m], records, write_text)
+                if self.progress:
+                    self.progress(m)
+        finally:
+            if self.pool is not None:
+                self.pool.close()
+                self.pool.join()
+        _FIGURE_INPUTS = None
+        return ([r for m in self.grid_order for r in self.done[m][0]] +
+                [r for m in self.probed for r in self.done[m][1]])
 
 
 CAPTIONS = {
@@ -221,10 +231,11 @@ def draw_figures(inp, answers, fig_dir, progress=None):
                 rec, inp.study, fig_dir, manifest, answer_words.question_title(rec),
                 answer_words.error_label(rec))
 
+    # The per-material figures in worker processes; the study-level groups here meanwhile.
+    materials = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
+                                inp.jobs, progress)
     figures = group("answers", answers_json, answer_figures)
-    figures += per_material_figures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
-                                    inp.jobs, progress)
-    figures += group("metric-bars", inp.rows, lambda manifest: report_metric_figures.metric_bars(
+    bars = group("metric-bars", inp.rows, lambda manifest: report_metric_figures.metric_bars(
         inp.study, inp.rows, fig_dir, manifest, to_float))
     # The charts are drawn from the files under charts/ (report_charts.load_charts).
     chart_files = glob.glob(os.path.join(inp.study_dir, "charts", "**", "*"), recursive=True)
@@ -233,7 +244,7 @@ def draw_figures(inp, answers, fig_dir, progress=None):
                    lambda manifest: manifest.extend(report_charts.chart_figures(
                        inp.study_dir, inp.study, inp.fits, fig_dir, [], inp.charts, inp.probes)),
                    chart_files)
-    return figures, charts
+    return figures + materials.finish() + bars, charts
 
 
 def make_report(study_dir):
