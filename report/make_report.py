@@ -34,6 +34,7 @@ import report_summary  # noqa: E402
 import report_tables  # noqa: E402
 import report_verdicts  # noqa: E402
 from report_inputs import ReportInputError, load_study  # noqa: E402
+from progress import Progress  # noqa: E402
 from report_util import flatten, fmt, materials_of, to_float, write_text  # noqa: E402
 
 
@@ -247,8 +248,14 @@ def draw_figures(inp, answers, fig_dir, progress=None):
     return figures + materials.finish() + bars, charts
 
 
-def make_report(study_dir):
+def make_report(study_dir, quiet=True):
+    """Writes the report; returns index.html's path. `quiet`: no progress line (progress.py)."""
     inp = Inputs(study_dir)  # Every input is read and checked before the first file is written.
+    materials = set(materials_of(inp.study)) | set(inp.probes)
+    # Steps: the inputs, the answers and tables, each material's figures, the three study-level
+    # figure groups, the pages.
+    progress = Progress(len(materials) + 6, quiet=quiet)
+    progress.step("inputs read")
     report_dir = os.path.join(study_dir, "report")
     fig_dir = os.path.join(report_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
@@ -261,7 +268,8 @@ def make_report(study_dir):
     # The verdicts also as JSON for tools and tests.
     write_json(report_dir, "verdicts.json", {"summary": summary, "detail": detail})
     write_json(report_dir, "comparisons.json", answers.json())
-    figures, charts = draw_figures(inp, answers, fig_dir)
+    progress.step("answers and tables")
+    figures, charts = draw_figures(inp, answers, fig_dir, progress.step)
     write_json(report_dir, "figures.json", figures + charts)
     if inp.ngan is not None:
         write_json(report_dir, "ngan2005.json", inp.ngan)
@@ -276,21 +284,28 @@ def make_report(study_dir):
     report_page.write_index(report_dir, inp.study, tables, figures, inp.provenance, summary,
                             inp.rows, inp.fits, charts, write_text, answers, data_floor_lines)
     report_latex.write_latex_document(report_dir, tables, figures + charts)
+    progress.step("pages")
+    progress.end()
     return os.path.join(report_dir, "index.html")
 
 
 def main(argv):
-    if len(argv) != 2:
-        print("usage: make_report.py OUT/STUDY", file=sys.stderr)
+    """make_report.py [-q] OUT/STUDY: -q (or $SHADEFIT_REPORT_QUIET=1), no progress line."""
+    args = argv[1:]
+    quiet = os.environ.get("SHADEFIT_REPORT_QUIET", "") not in ("", "0")
+    if args and args[0] in ("-q", "--quiet"):
+        quiet, args = True, args[1:]
+    if len(args) != 1:
+        print("usage: make_report.py [-q] OUT/STUDY", file=sys.stderr)
         return 2
-    study_dir = os.path.abspath(argv[1])
+    study_dir = os.path.abspath(args[0])
     for need_file in ["study.json", "results.csv"]:
         if not os.path.exists(os.path.join(study_dir, need_file)):
             print(f"make_report: error: {study_dir}/{need_file}: missing (run the study first)",
                   file=sys.stderr)
             return 1
     try:
-        print(make_report(study_dir))
+        print(make_report(study_dir, quiet=quiet))
     except (ReportInputError, report_charts.ChartInputError, data_floor.FloorInputError) as e:
         print(f"make_report: error: {e}", file=sys.stderr)
         return 1
