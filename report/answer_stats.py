@@ -1,5 +1,5 @@
 """The statistics of the comparative answers, and nothing else: a pair of fits' errors over the
-units they share (materials, or a few objects' test lightings: answer_rules.units_of) reduced to a
+units they share (materials, or a few objects' lightings: answer_rules.image_units) reduced to a
 ratio or difference with a bootstrap 95% CI, closer-on-k-of-n and a paired test; and Holm's
 step-down correction over the p-values of one compared pair (docs/studies.md, "Comparative
 answers").
