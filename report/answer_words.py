@@ -168,34 +168,39 @@ def all_pixels_text(rec, pair):
             f"under {d.count(-1)} of {len(d)} metrics]")
 
 
+def markdown_list(items):
+    """Markdown lines of list items (depth, text): two spaces per level, then "- "."""
+    return ["  " * depth + "- " + text for depth, text in items]
+
+
+def answer_items(rec):
+    """List items (depth, text) of one question: its title, then one sentence per comparison,
+    then whether the verdicts hold across losses."""
+    items = [(0, f"**{question_title(rec)}**" + (" (default question)" if rec["default"] else ""))]
+    if rec["source"] == "metrics":
+        items.append((1, "Judged under " + names(rec["metrics"]) + ". " + rec["judging"]))
+        if rec.get("pooled_objects"):
+            items.append((1, f"Pooled over the {rec['pooled_objects']} objects (each material on "
+                             "each object a unit); each object alone: \"Per object\" below"))
+        if rec.get("unit") == "lighting":
+            items.append((1, lighting_units_text(rec)))
+        items += [(1, f"{pair_sentence(p, rec.get('unit', 'material'))}."
+                      f"{all_pixels_text(rec, p)}") for p in rec["comparisons"]]
+        items += [(1, f"{loss_sentence(a)}.") for a in rec.get("across_losses", [])]
+    else:
+        if rec["n_a"] and not rec["comparisons"]:
+            return items + [(1, f"n/a: {rec['n_a'][0]}")]
+        items += [(1, f"{sentence(rec, c)}.") for c in rec["comparisons"]]
+        if rec["n_a"]:
+            items.append((1, f"n/a on some materials: {'; '.join(rec['n_a'])}"))
+    if not rec["comparisons"]:
+        items.append((1, "no fit pair has numbers on this question"))
+    return items
+
+
 def answer_lines(records):
-    """Markdown: each question, then one sentence per comparison, then whether the verdicts
-    hold across losses."""
-    lines = []
-    for rec in records:
-        lines.append(f"- **{question_title(rec)}**"
-                     + (" (default question)" if rec["default"] else ""))
-        if rec["source"] == "metrics":
-            lines.append("  - Judged under " + names(rec["metrics"]) + ". " + rec["judging"])
-            if rec.get("pooled_objects"):
-                lines.append(f"  - Pooled over the {rec['pooled_objects']} objects (each material "
-                             "on each object a unit); each object alone: \"Per object\" below")
-            if rec.get("unit") == "lighting":
-                lines.append(f"  - {lighting_units_text(rec)}")
-            lines += [f"  - {pair_sentence(p, rec.get('unit', 'material'))}."
-                      f"{all_pixels_text(rec, p)}"
-                      for p in rec["comparisons"]]
-            lines += [f"  - {loss_sentence(a)}." for a in rec.get("across_losses", [])]
-        else:
-            if rec["n_a"] and not rec["comparisons"]:
-                lines.append(f"  - n/a: {rec['n_a'][0]}")
-                continue
-            lines += [f"  - {sentence(rec, c)}." for c in rec["comparisons"]]
-            if rec["n_a"]:
-                lines.append(f"  - n/a on some materials: {'; '.join(rec['n_a'])}")
-        if not rec["comparisons"]:
-            lines.append("  - no fit pair has numbers on this question")
-    return lines
+    """summary.md's answers: every question's items as a Markdown list."""
+    return [line for rec in records for line in markdown_list(answer_items(rec))]
 
 
 def lighting_units_text(rec):
@@ -291,22 +296,22 @@ def describe(d):
 
 
 def object_lines(objects):
-    """Markdown lines of answer_rules.object_answers: per object its materials, then per image
-    question what it is answered over and each pair's verdict with its ratio range."""
+    """List items (depth, text) of answer_rules.object_answers: per object its materials, then
+    per image question what it is answered over and each pair's verdict with its ratio range."""
     lines = []
     for o in objects:
         name = o.object or "(no object named)"
-        lines.append(f"- **{name}** ({len(o.materials)} material"
-                     f"{'s' if len(o.materials) != 1 else ''}: {', '.join(o.materials)})")
+        lines.append((0, f"**{name}** ({len(o.materials)} material"
+                         f"{'s' if len(o.materials) != 1 else ''}: {', '.join(o.materials)})"))
         for q in o.questions:
             over = (f"over its {q.units} {'test' if q.split == 'test' else 'training'} "
                     "lightings: about this object under "
                     + ("other lights" if q.split == "test" else "the lights it was fitted to")
                     if q.unit == "lighting" else f"over its {q.units} materials")
-            lines.append(f"  - {q.question} ({over})")
+            lines.append((1, f"{q.question} ({over})"))
             for p in q.pairs:
                 r = "" if p.ratio_range is None else f", error ratio {fmt_range(p.ratio_range)}"
-                lines.append(f"    - {p.fit} vs {p.baseline}: {p.verdict['word']}{r}")
+                lines.append((2, f"{p.fit} vs {p.baseline}: {p.verdict['word']}{r}"))
             if not q.pairs:
-                lines.append("    - no fit pair has numbers on this question")
+                lines.append((2, "no fit pair has numbers on this question"))
     return lines

@@ -50,7 +50,7 @@ def floor_lightings(fit, floor, split):
 
 def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
     """Per material, error(label) / error(floor), each the mean of the metric over
-    `lightings` (as every question's material error is: answer_rules.material_errors); then
+    `lightings` (as every question's material error is: answer_rules.image_errors); then
     the geometric mean over materials and its bootstrap 95% CI. None without a material."""
     logs, used = [], []
     for mat in materials:
@@ -142,7 +142,8 @@ def ordering_sentences(records):
 
 
 def model_floor_lines(floors, records):
-    """Markdown lines per question: the ratios over the floor, then the ordering sentences."""
+    """List items (depth, text) per question: the ratios over the floor, then the ordering
+    sentences."""
     if not floors:
         return []
     order = ordering_sentences(records)
@@ -151,9 +152,9 @@ def model_floor_lines(floors, records):
         entries = floors.get(rec["name"], [])
         if not entries and not order.get(rec["name"]):
             continue
-        lines.append(f"- **{rec['question']}**")
-        lines += [f"  - {floor_sentence(e)}." for e in entries]
-        lines += [f"  - {s}." for s in order.get(rec["name"], [])]
+        lines.append((0, f"**{rec['question']}**"))
+        lines += [(1, f"{floor_sentence(e)}.") for e in entries]
+        lines += [(1, f"{s}.") for s in order.get(rec["name"], [])]
     return lines
 
 

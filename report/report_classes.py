@@ -96,17 +96,17 @@ def class_question(rec):
 
 
 def class_lines(answers):
-    """Markdown lines: per class, each image question's verdict per pair; then why classes
-    are left out."""
+    """List items (depth, text): per class, each image question's verdict per pair; then why
+    classes are left out."""
     lines = []
     for c in answers["classes"]:
-        lines.append(f"- **{c['class']}** ({c['scheme']}; {len(c['materials'])} materials: "
-                     f"{', '.join(c['materials'])})")
+        lines.append((0, f"**{c['class']}** ({c['scheme']}; {len(c['materials'])} materials: "
+                         f"{', '.join(c['materials'])})"))
         for q in c["questions"]:
-            lines.append(f"  - {q['question']}")
+            lines.append((1, q["question"]))
             for p in q["pairs"]:
                 rng = p["ratio_range"]
                 r = "" if rng is None else f", {fmt_range(rng)}"
-                lines.append(f"    - {p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}")
-    lines += [f"- Left out: {s}." for s in answers["skipped"]]
+                lines.append((2, f"{p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}"))
+    lines += [(0, f"Left out: {s}.") for s in answers["skipped"]]
     return lines

@@ -234,20 +234,20 @@ def answers_html(answers, figures, data_floor_lines=()):
     by_question = {f.get("question"): f for f in figures
                    if f.get("kind") in ("comparison", "regions")}
     for rec in comparisons:
-        lines = answer_words.answer_lines([rec])
+        items = answer_words.answer_items(rec)
         title = answer_words.question_title(rec)
         out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
                    + (" <span class='default'>(default question)</span>" if rec["default"] else "")
                    + "</h3>")
-        out += folded(f"{len(lines) - 1} sentences", ["<ul class='answers'>"]
-                      + [f"<li>{esc(line.strip()[2:])}</li>" for line in lines[1:]] + ["</ul>"])
+        out += folded(f"{len(items) - 1} sentences", ["<ul class='answers'>"]
+                      + [f"<li>{esc(text)}</li>" for _, text in items[1:]] + ["</ul>"])
         f = by_question.get(rec["name"])
         if f is not None:
             out.append(figure_html(f))
-    for key, title, lines in answers.sections():
+    for key, title, items in answers.sections():
         out.append(f"<h3 id='{anchor('a', key)}'>{esc(title)}</h3>")
-        out += folded(f"{len(lines)} lines", ["<ul class='answers'>"]
-                      + [f"<li>{esc(line.strip()[2:])}</li>" for line in lines] + ["</ul>"])
+        out += folded(f"{len(items)} lines", ["<ul class='answers'>"]
+                      + [f"<li>{esc(text)}</li>" for _, text in items] + ["</ul>"])
     if data_floor_lines:
         out.append("<h3 id='data-floor'>Data floor</h3><ul class='answers'>")
         out += [f"<li>{esc(line)}</li>" for line in data_floor_lines]

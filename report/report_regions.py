@@ -70,13 +70,13 @@ def region_sentence(means, split, pair):
 
 
 def region_lines(means, records):
-    """Markdown lines: per image question, a sentence per compared pair."""
+    """List items (depth, text): per image question, a sentence per compared pair."""
     if means is None:
         return []
     lines = []
     for rec in (r for r in records if r["source"] == "metrics" and r["comparisons"]):
-        lines.append(f"- **{rec['question']}**")
-        lines += [f"  - {region_sentence(means, rec['split'], p)}." for p in rec["comparisons"]]
+        lines.append((0, f"**{rec['question']}**"))
+        lines += [(1, f"{region_sentence(means, rec['split'], p)}.") for p in rec["comparisons"]]
     return lines
 
 

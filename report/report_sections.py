@@ -29,8 +29,9 @@ class Answers:
                                                            METRIC_COLUMNS))
 
     def sections(self):
-        """[(anchor, title, markdown lines)] after the per-question sentences: floors, regions
-        and classes, each only where the study has it (classes: always, with why not)."""
+        """[(anchor, title, list items (depth, text))] after the per-question sentences: floors,
+        regions, objects and classes, each only where the study has it (classes: always, with
+        why not)."""
         out = []
         floors = model_floor.model_floor_lines(self.model_floors, self.records)
         if floors:

@@ -34,7 +34,7 @@ def summary_markdown(study, summary, matrix, provenance, answers, data_floor_lin
     lines += ["", "## Answers", "", answer_words.method_text(comparisons), ""]
     lines += answer_words.answer_lines(comparisons)
     for _, title, section in answers.sections():
-        lines += ["", f"### {title}", ""] + section
+        lines += ["", f"### {title}", ""] + answer_words.markdown_list(section)
     hcols, hrows = judging.human_agreement_table(judged_metrics(comparisons))
     lines += ["", "### Image metrics against human judgments", "",
               f"Spearman rho of each metric with the human distance over "
