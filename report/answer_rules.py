@@ -16,6 +16,7 @@ themselves are answer_stats'; the words, tables and JSON answer_words'. Nothing 
 or writes a word: it is handed the rows make_report.py read.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -248,8 +249,28 @@ def direction(c):
     return (c["effect"] > neutral) - (c["effect"] < neutral)
 
 
+@dataclass
+class Verdict:
+    """A compared pair's verdict on an image question over the judging set: `kind` one of
+    WORDS' keys and `word` its words; the metrics on each side (the fit's error smaller, larger,
+    equal) and those of each side that are Holm-significant."""
+    kind: str
+    word: str
+    n: int
+    smaller: list
+    larger: list
+    equal: list
+    significant_smaller: list
+    significant_larger: list
+
+    def significant(self):
+        """The significant metrics on the verdict's own side (smaller or larger), else []."""
+        return {"smaller": self.significant_smaller,
+                "larger": self.significant_larger}.get(self.kind, [])
+
+
 def verdict(per_metric, alpha=ALPHA):
-    """The pair's verdict over the metrics (each with its Holm-adjusted p_holm)."""
+    """The pair's Verdict over the metrics (each with its Holm-adjusted p_holm)."""
     n = len(per_metric)
     sides = {d: [c["metric"] for c in per_metric if direction(c) == d] for d in (1, -1, 0)}
     sig = {d: [c["metric"] for c in per_metric if direction(c) == d and c["p_holm"] < alpha]
@@ -262,9 +283,8 @@ def verdict(per_metric, alpha=ALPHA):
         kind = "metric-dependent"
     else:
         kind = "mixed"
-    return {"kind": kind, "word": WORDS[kind].format(n=n), "n": n, "smaller": sides[1],
-            "larger": sides[-1], "equal": sides[0], "significant_smaller": sig[1],
-            "significant_larger": sig[-1]}
+    return Verdict(kind, WORDS[kind].format(n=n), n, sides[1], sides[-1], sides[0], sig[1],
+                   sig[-1])
 
 
 def error_ratio(c):
@@ -298,7 +318,7 @@ def across_losses(pairs, fit_of):
     for p in pairs:
         f, b = fit_of[p["fit"]], fit_of[p["baseline"]]
         key = ("+".join(f["train"]), f["role"], f["model"], b["model"])
-        groups.setdefault(key, {})[f["loss"]] = p["verdict"]["kind"]
+        groups.setdefault(key, {})[f["loss"]] = p["verdict"].kind
     out = []
     for (train, role, model, base), by_loss in groups.items():
         if len(by_loss) < 2:
@@ -523,3 +543,11 @@ def object_answers(study, rows, summary, to_float):
                  for p in rec["comparisons"]]))
         out.append(ObjectAnswer(obj, materials, questions))
     return out
+
+
+def to_jsonable(value):
+    """json.dumps' `default`: a dataclass record (Verdict, ObjectAnswer, ...) as its fields, in
+    their order."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serializable")

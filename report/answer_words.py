@@ -88,7 +88,7 @@ def comparison_table(records, fmt):
     for rec in records:
         for pair in rec["comparisons"]:
             per = pair.get("per_metric", [pair])
-            word = pair["verdict"]["word"] if "verdict" in pair else ""
+            word = pair["verdict"].word if "verdict" in pair else ""
             out += [comparison_row(rec, c, fmt, word) for c in per]
     return cols, out
 
@@ -130,18 +130,18 @@ def pair_sentence(pair, unit="material"):
     closer = sorted({c["closer"] for c in per})
     closer = f"{closer[0]}" if len(closer) == 1 else f"{closer[0]}-{closer[-1]}"
     n_mat = max(c["n"] for c in per)
-    if v["kind"] in ("smaller", "larger"):
-        sig = v["significant_smaller"] if v["kind"] == "smaller" else v["significant_larger"]
-        return (f"{fit} vs {base}: {v['word']}: {fit}'s error is {v['kind']} than {base}'s "
+    if v.kind in ("smaller", "larger"):
+        sig = v.significant()
+        return (f"{fit} vs {base}: {v.word}: {fit}'s error is {v.kind} than {base}'s "
                 f"under every metric of the judging set ({ratios}closer on {closer} of {n_mat} "
-                f"{unit}s; Holm p < {ALPHA:g} under {len(sig)} of {v['n']})")
-    text = (f"{fit} vs {base}: {v['word']}: {fit}'s error is smaller under "
-            f"{names(v['smaller'])} and larger under {names(v['larger'])}")
-    if v["equal"]:
-        text += f", equal under {names(v['equal'])}"
-    text += (f" (Holm p < {ALPHA:g}: smaller under {names(v['significant_smaller'])}; larger "
-             f"under {names(v['significant_larger'])})")
-    if v["kind"] == "mixed":
+                f"{unit}s; Holm p < {ALPHA:g} under {len(sig)} of {v.n})")
+    text = (f"{fit} vs {base}: {v.word}: {fit}'s error is smaller under "
+            f"{names(v.smaller)} and larger under {names(v.larger)}")
+    if v.equal:
+        text += f", equal under {names(v.equal)}"
+    text += (f" (Holm p < {ALPHA:g}: smaller under {names(v.significant_smaller)}; larger "
+             f"under {names(v.significant_larger)})")
+    if v.kind == "mixed":
         text += "; no side holds with significance against the other"
     return text
 
@@ -311,7 +311,7 @@ def object_lines(objects):
             lines.append((1, f"{q.question} ({over})"))
             for p in q.pairs:
                 r = "" if p.ratio_range is None else f", error ratio {fmt_range(p.ratio_range)}"
-                lines.append((2, f"{p.fit} vs {p.baseline}: {p.verdict['word']}{r}"))
+                lines.append((2, f"{p.fit} vs {p.baseline}: {p.verdict.word}{r}"))
             if not q.pairs:
                 lines.append((2, "no fit pair has numbers on this question"))
     return lines

@@ -9,6 +9,7 @@ Reads files (the images, to hash them; the stored hashes) and writes the stored 
 nothing.
 """
 
+import dataclasses
 import glob
 import hashlib
 import json
@@ -86,11 +87,18 @@ def store(fig_dir, material, key, records, write_text):
                                                      "records": list(records)}))
 
 
+def _jsonable(value):
+    """Records (dataclasses) as their fields; anything else JSON lacks by its repr."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
+    return repr(value)
+
+
 def group_key(code, inputs, files=()):
     """The hash of a study-level figure group's inputs: `inputs` (JSON-able; tuple keys are
     written as lists) and the bytes of `files`."""
     h = hashlib.sha256(code.encode())
-    h.update(json.dumps(inputs, sort_keys=True, default=repr).encode())
+    h.update(json.dumps(inputs, sort_keys=True, default=_jsonable).encode())
     for path in sorted(files):
         h.update(path.encode() + b"\0")
         if os.path.exists(path):

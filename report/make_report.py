@@ -18,6 +18,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import answer_rules  # noqa: E402
 import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import figure_cache  # noqa: E402
@@ -207,7 +208,8 @@ def write_tables(table_dir, tables, captions):
 
 
 def write_json(report_dir, name, value):
-    write_text(os.path.join(report_dir, name), json.dumps(value, indent=1))
+    write_text(os.path.join(report_dir, name),
+               json.dumps(value, indent=1, default=answer_rules.to_jsonable))
 
 
 def draw_figures(inp, answers, fig_dir, progress=None):

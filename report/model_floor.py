@@ -131,12 +131,12 @@ def ordering_sentences(records):
         lines = []
         for p in (p for p in rec["comparisons"] if p["role"] == "train"):
             fp = floors.get((p["model"], p["baseline_model"], p["loss"]))
-            if fp is None or fp["verdict"]["kind"] == p["verdict"]["kind"]:
+            if fp is None or fp["verdict"].kind == p["verdict"].kind:
                 continue
             lines.append(f"The floors order {p['model']} and {p['baseline_model']} otherwise "
                          f"than one training set does: {fp['fit']} vs {fp['baseline']} is "
-                         f"'{fp['verdict']['word']}', {p['fit']} vs {p['baseline']} on this "
-                         f"question is '{p['verdict']['word']}'")
+                         f"'{fp['verdict'].word}', {p['fit']} vs {p['baseline']} on this "
+                         f"question is '{p['verdict'].word}'")
         out[rec["name"]] = lines
     return out
 

@@ -107,6 +107,6 @@ def class_lines(answers):
             for p in q["pairs"]:
                 rng = p["ratio_range"]
                 r = "" if rng is None else f", {fmt_range(rng)}"
-                lines.append((2, f"{p['fit']} vs {p['baseline']}: {p['verdict']['word']}{r}"))
+                lines.append((2, f"{p['fit']} vs {p['baseline']}: {p['verdict'].word}{r}"))
     lines += [(0, f"Left out: {s}.") for s in answers["skipped"]]
     return lines

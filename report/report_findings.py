@@ -43,11 +43,11 @@ def cell(pair):
         v = pair["verdict"]
         rng = answer_rules.ratio_range(pair["per_metric"])
         r = "" if rng is None else f"; {fmt_range(rng, 2)}"
-        if v["kind"] in ("smaller", "larger"):
-            sig = len(v[f"significant_{v['kind']}"])
-            return f"{v['word']}{r}; {sig}/{v['n']} sig."
-        a, b = len(v["significant_smaller"]), len(v["significant_larger"])
-        return f"{v['word']}{r}; " + (f"sig.: {a} smaller, {b} larger" if a or b else "none sig.")
+        if v.kind in ("smaller", "larger"):
+            sig = len(v.significant())
+            return f"{v.word}{r}; {sig}/{v.n} sig."
+        a, b = len(v.significant_smaller), len(v.significant_larger)
+        return f"{v.word}{r}; " + (f"sig.: {a} smaller, {b} larger" if a or b else "none sig.")
     sig = "; sig." if pair.get("p_holm", 1) < answer_rules.ALPHA else ""
     if pair["mode"] == "ratio":
         r = answer_rules.error_ratio(pair)

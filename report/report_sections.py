@@ -4,8 +4,6 @@ plot (report_findings), the model's floor (model_floor: the joint fit to every f
 the regions (report_regions) and the material classes (report_classes). summary.md, index.html
 and report.tex print the same sections from here."""
 
-import dataclasses
-
 import answer_rules
 import answer_words
 import report_classes
@@ -84,5 +82,5 @@ class Answers:
             "every_metric": None if not self.every_metric else {
                 "columns": self.every_metric[0], "rows": self.every_metric[1]},
             # Only where the rows show several objects: older readers see the same record.
-            **({"objects": [dataclasses.asdict(o) for o in self.objects]} if self.objects
+            **({"objects": self.objects} if self.objects
                else {})})
