@@ -1,0 +1,75 @@
+#!/usr/bin/python3
+"""The report reads, computes, then writes (docs/architecture.md, "report/"): the modules that
+decide the answers import no file reader and no writer of words, tables, figures or pages, and
+open no file; every metric the report's own tables and words name is one of results.csv's
+metric columns (report/results_csv.py, the one list).
+
+    layers_test.py REPORT_DIR      exit 0 pass, 1 fail
+"""
+
+import ast
+import os
+import sys
+
+# The compute core: the rules that decide an answer, their statistics, the judging set.
+COMPUTE = ["answer_rules.py", "answer_stats.py", "judging.py"]
+# What a compute module must not import: readers, writers and drawing.
+FORBIDDEN = {"report_inputs", "results_csv", "data_floor", "figure_cache", "report_figures",
+             "report_page", "report_latex", "report_summary", "answer_words", "report_findings",
+             "report_grids", "report_probe_figures", "report_metric_figures", "report_charts",
+             "report_tables", "make_report", "matplotlib", "csv", "glob", "progress"}
+# Calls that read or write files.
+FILE_CALLS = {"open", "write_text", "load_json", "read_checked"}
+
+
+def imports(tree):
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            out.add(node.module.split(".")[0])
+    return out
+
+
+def calls(tree):
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            f = node.func
+            out.add(f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute)
+                    else "")
+    return out
+
+
+def main(argv):
+    report = argv[1]
+    failures = []
+    for name in COMPUTE:
+        tree = ast.parse(open(os.path.join(report, name), encoding="utf-8").read())
+        bad = sorted(imports(tree) & FORBIDDEN)
+        if bad:
+            failures.append(f"report/{name} imports {', '.join(bad)} (a reader or writer)")
+        bad = sorted(calls(tree) & FILE_CALLS)
+        if bad:
+            failures.append(f"report/{name} calls {', '.join(bad)} (reads or writes a file)")
+    sys.path.insert(0, report)
+    import judging
+    import report_tables
+    import results_csv
+    named = ({m for m, _, _ in report_tables.METRIC_COLUMNS} | set(judging.METRIC_NAMES)
+             | set(judging.HUMAN_AGREEMENT))
+    stray = sorted(named - set(results_csv.METRIC_COLUMNS))
+    if stray:
+        failures.append(f"metrics named by report_tables/judging but not results.csv columns: "
+                        f"{stray}")
+    for f in failures:
+        print("FAILED: " + f)
+    if not failures:
+        print(f"PASS: {', '.join(COMPUTE)} import no reader or writer and open no file; every "
+              "metric named is a results.csv column")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
