@@ -25,6 +25,7 @@ import judging
 from answer_rules import metric_error
 from answer_stats import bootstrap_ci
 from answer_words import fmt_range
+from report_util import materials_of
 
 
 def lighting_errors(rows, metrics, to_float):
@@ -86,7 +87,7 @@ def model_floors(study, rows, records, to_float):
     image = [r for r in records if r["source"] == "metrics"]
     metrics = image[0]["metrics"] if image else []
     errs = lighting_errors(rows, metrics, to_float)
-    materials = [g["material"] for g in study["groups"]]
+    materials = materials_of(study)
     out = {}
     for rec in image:
         entries = []

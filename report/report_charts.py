@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import report_figures as rf
+from report_util import materials_of
 
 
 MARKERS = ["o", "s", "^", "D", "v", "P", "X", "h", "<", ">"]
@@ -184,7 +185,7 @@ def chart_figures(study_dir, study, fits, fig_dir, manifest_out, charts, probes)
     manifest, path = charts
     if manifest is None:
         return []
-    materials = [g["material"] for g in study["groups"]]
+    materials = materials_of(study)
     figures = []
     for c in manifest.get("charts", []):
         model = c["model"]

@@ -14,6 +14,7 @@ import os
 
 import answer_rules
 from answer_words import fmt_range
+from report_util import materials_of
 
 MIN_MATERIALS = 4
 FINE_TSV = os.path.join(os.path.dirname(os.path.abspath(__file__)), "material_classes.tsv")
@@ -65,7 +66,7 @@ def class_answers(study, rows, summary, to_float, classified):
     "skipped": [why]}: the image questions' verdicts per class of >= MIN_MATERIALS.
     `classified`: classifications(), read with the report's other inputs."""
     schemes, skipped = classified[0], list(classified[1])
-    materials = [g["material"] for g in study["groups"]]
+    materials = materials_of(study)
     out = []
     for scheme, source, of in schemes:
         groups = {}

@@ -15,7 +15,6 @@ metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance
 
 import glob
 import json
-import math
 import os
 
 import results_csv
@@ -418,11 +417,3 @@ def load_study(study_dir):
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = read_checked(prov_path, PROVENANCE) if os.path.exists(prov_path) else {}
     return study, rows, fits, probes, provenance
-
-
-def to_float(x):
-    """A checked number cell or JSON number as a float; None where empty, null or not finite."""
-    if x is None or x == "":
-        return None
-    v = float(x)
-    return v if math.isfinite(v) else None

@@ -8,6 +8,7 @@ import numpy as np
 
 from report_figures import (COLUMN_IN, FONT_PT, PAGE_IN, bar_style, legend_layout, plt,
                             save_figure, style_of, text_width_in, wrap_to_width)
+from report_util import materials_of
 
 
 
@@ -20,7 +21,7 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
     """Mean metric per material and fit, training lighting and test lightings. Laid out in inches
     from the measured texts: the legend on top with as many rows as its names need, the material
     names (vertical) as deep as the longest."""
-    materials = [g["material"] for g in study["groups"]]
+    materials = materials_of(study)
     labels = [f["label"] for f in study["fits"]]
     stacked = len(labels) * len(materials) > SIDE_BY_SIDE_BARS
     legend_cols, _, legend_in = legend_layout(labels, PAGE_IN - 0.2, handlelength=1.5,

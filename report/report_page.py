@@ -16,6 +16,7 @@ import judging
 import answer_words
 import report_findings
 import report_summary
+from report_util import materials_of
 
 PAGE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "page")
 
@@ -401,7 +402,7 @@ def pin_html(fits):
 
 def question_sections_html(study, families, titles, tables, summary, figures, charts, labels):
     """One section per family of questions, led by the figure that answers it."""
-    verdicts, materials = study["verdicts"], [g["material"] for g in study["groups"]]
+    verdicts, materials = study["verdicts"], materials_of(study)
     parts = []
     for fam, names in families.items():
         parts.append(f"<section id='{anchor('q', fam)}'><h2>{esc(titles.get(fam, names[0]))}</h2>")
@@ -436,7 +437,7 @@ def charts_html(charts):
 def material_sections_html(study, figures, fits, rows, labels):
     """Per material: the image comparison viewer and links to its grid figures."""
     parts = []
-    for m in [g["material"] for g in study["groups"]]:
+    for m in materials_of(study):
         parts.append(f"<section id='{anchor('m', m)}'><h2>{esc(m)}</h2>")
         parts.append(viewer_html(m, study, fits, rows, labels))
         # A study with many fits splits a material's grid into parts (one per training set).
@@ -496,7 +497,7 @@ def provenance_html(provenance):
 def write_index(report_dir, study, tables, figures, provenance, summary, rows, fits, charts,
                 write_text, answers, data_floor_lines=()):
     labels = [f["label"] for f in study["fits"]]
-    materials = [g["material"] for g in study["groups"]]
+    materials = materials_of(study)
     families = question_families(study["verdicts"])  # Reading order: the FAMILIES order.
     titles = {k: t for k, t, _ in FAMILIES}
     parts = ["<!doctype html><html lang='en'><head><meta charset='utf-8'>"
