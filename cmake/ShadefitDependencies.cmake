@@ -14,6 +14,13 @@ find_package(HDF5 REQUIRED COMPONENTS C)
 find_package(OpenSSL 3 REQUIRED COMPONENTS Crypto)  # SHA-256 through EVP (base/src/files.cpp)
 pkg_check_modules(EPOXY REQUIRED IMPORTED_TARGET epoxy)
 pkg_check_modules(EGL REQUIRED IMPORTED_TARGET egl)
+# Surface objects (render/): meshes read by Assimp (OBJ, PLY, glTF and more in one well-kept
+# library; docs/scenes.md says why), ray cast by Embree, normals from .mat files by matio; the
+# depth integration uses Eigen's sparse Cholesky (Eigen also comes with Ceres).
+find_package(assimp REQUIRED)
+find_package(embree 3 REQUIRED)
+find_package(Eigen3 REQUIRED NO_MODULE)
+pkg_check_modules(MATIO REQUIRED IMPORTED_TARGET matio)
 if(BUILD_TESTING)
   find_package(GTest REQUIRED)
 endif()

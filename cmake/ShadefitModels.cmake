@@ -88,7 +88,9 @@ function(shadefit_render_library target)
       ${render_dir}/shaders/scene.glsl
       ${render_dir}/shaders/environment.glsl
       ${render_dir}/shaders/render.frag
-      ${render_dir}/shaders/fullscreen.vert)
+      ${render_dir}/shaders/fullscreen.vert
+      ${render_dir}/shaders/mesh.vert
+      ${render_dir}/shaders/mesh.frag)
   set(shader_cpp ${gen}/shader_sources.cpp)
   string(REPLACE ";" "|" shader_list "${shaders}")  # Survives the command line.
   string(REPLACE ";" "|" model_list "${ARGN}")
@@ -111,6 +113,10 @@ function(shadefit_render_library target)
       ${src}/gbuffer_shading.cpp
       ${src}/environment_quadrature.cpp
       ${src}/albedo.cpp
+      ${src}/mesh.cpp
+      ${src}/ray_caster.cpp
+      ${src}/pixel_surface.cpp
+      ${src}/surface_samples.cpp
       ${shader_cpp})
   target_include_directories(${target} PUBLIC ${render_dir}/include ${gen}/include)
   # OpenImageIO is not linked: image.cpp loads it as a module on first use (render/src/image_oiio.h
@@ -122,7 +128,10 @@ function(shadefit_render_library target)
   target_link_libraries(${target}
       PUBLIC fmt::fmt shadefit::base
       PRIVATE OpenEXR::OpenEXR tomlplusplus::tomlplusplus PkgConfig::EPOXY PkgConfig::EGL
-              Threads::Threads ${CMAKE_DL_LIBS} shadefit::warnings)
+              Threads::Threads ${CMAKE_DL_LIBS} shadefit::warnings
+              # Surface objects: meshes (Assimp), ray casting (Embree), .mat normals (matio),
+              # the depth integration's sparse solve (Eigen).
+              assimp::assimp embree PkgConfig::MATIO Eigen3::Eigen)
 endfunction()
 
 # The OpenImageIO side of image I/O, one module for every render library.

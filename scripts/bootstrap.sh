@@ -14,6 +14,7 @@ packages=(
   libceres-dev libopenimageio-dev openimageio-tools libopenexr-dev libglm-dev libopencv-dev libhdf5-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev libssl-dev
+  libassimp-dev libembree-dev libmatio-dev libeigen3-dev  # meshes, ray casting, .mat normals
   python3 python3-numpy python3-matplotlib python3-skimage python3-scipy python3-statsmodels
   python3-dev pybind11-dev  # the Python module `import shadefit` (docs/python.md)
   blender-data  # CC0 environment maps used by the environment-lit references, read by path

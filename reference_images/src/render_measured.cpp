@@ -312,7 +312,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
                             : options.lobe_alpha >= 0 ? options.lobe_alpha
                                                       : EstimateLobeAlpha(brdf);
   stats.lobe_alpha = lobe_alpha;
-  const bool occlusion = scene.objects.size() > 1;
+  const bool occlusion = scene.objects.size() > 1 || scene.HasSurfaceObjects();
   const MeasuredShading shading{brdf,      scene,      g,         distant,
                                 n_samples, lobe_alpha, occlusion, options.seed};
 

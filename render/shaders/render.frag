@@ -1,6 +1,6 @@
 // Radiance (and G-buffer) pass. Preamble added by the renderer: #version, SHADEFIT_TERM,
 // SHADEFIT_GBUFFER, SHADEFIT_NUM_OBJECTS, SHADEFIT_NUM_LIGHTS, SHADEFIT_SUPERSAMPLE,
-// SHADEFIT_ENV_MODE, SHADEFIT_OBJECT_TYPES, SHADEFIT_LIGHT_TYPES (kMaxObjects / kMaxLights
+// SHADEFIT_ENV_MODE, SHADEFIT_SURFACE, SHADEFIT_OBJECT_TYPES, SHADEFIT_LIGHT_TYPES (kMaxObjects / kMaxLights
 // comma-separated codes), SHADEFIT_CAMERA_ORTHO, SHADEFIT_TRANSPARENT, then brdf.glsl, model_dsl.glsl, the model's models/<name>.glsl,
 // models.glsl, scene.glsl, environment.glsl.
 
@@ -25,8 +25,18 @@ layout(location = 0) out vec4 out_color;     // premultiplied radiance, alpha = 
 // Offset added along the normal to shadow-ray origins, in world units (scenes are metre-sized).
 const float kRayEpsilon = 1e-4;
 
-// Light i's reflected radiance at p (a literal i, as IntersectObject's in scene.glsl).
-vec3 ShadeLight(const int i, vec3 p, vec3 n, vec3 v) {
+#if SHADEFIT_SURFACE
+// Surface objects (meshes, normal maps): the renderer's per-sample G-buffer at SHADEFIT_SUPERSAMPLE
+// times the image's resolution, and each sample's light visibility (bit i: light i reaches it),
+// ray cast on the CPU once per geometry and lights (renderer.cpp).
+uniform sampler2D u_surf_position;   // xyz world position, w = object + 1 (0 = nothing)
+uniform sampler2D u_surf_normal;     // xyz unit shading normal facing the eye
+uniform usampler2D u_surf_visibility;
+#endif
+
+// Light i's reflected radiance at p (a literal i, as IntersectObject's in scene.glsl). `visible`:
+// the surface path's visibility bits; the analytic path casts its shadow rays here.
+vec3 ShadeLight(const int i, vec3 p, vec3 n, vec3 v, uint visible) {
   vec3 l;
   vec3 e;
   float dist;
@@ -42,13 +52,17 @@ vec3 ShadeLight(const int i, vec3 p, vec3 n, vec3 v) {
     dist = 1e30;
   }
   // Selects rather than early returns (IntersectObject in scene.glsl says why).
+#if SHADEFIT_SURFACE
+  bool lit = !(dot(n, l) <= 0.0) && ((visible >> uint(i)) & 1u) != 0u;
+#else
   bool lit = !(dot(n, l) <= 0.0) && !(u_num_objects > 1 && Occluded(p + n * kRayEpsilon, l, dist));
+#endif
   return lit ? Reflect(n, l, v) * e : vec3(0.0);
 }
 
-vec3 ShadeDirect(vec3 p, vec3 n, vec3 v) {
+vec3 ShadeDirect(vec3 p, vec3 n, vec3 v, uint visible) {
   vec3 radiance = AmbientReflectance() * u_ambient;
-#define SHADEFIT_LIGHT_(i) if (i < u_num_lights) radiance += ShadeLight(i, p, n, v);
+#define SHADEFIT_LIGHT_(i) if (i < u_num_lights) radiance += ShadeLight(i, p, n, v, visible);
   SHADEFIT_UNROLL_8(SHADEFIT_LIGHT_)
 #undef SHADEFIT_LIGHT_
   radiance += ShadeEnvironment(p, n, v);
@@ -60,6 +74,21 @@ vec3 ShadeDirect(vec3 p, vec3 n, vec3 v) {
 void ShadeSample(vec2 pixel, inout vec3 sum, inout vec3 background_sum, inout int hits) {
   vec3 origin, dir;
   CameraRay(pixel, origin, dir);
+#if SHADEFIT_SURFACE
+  // The sample's texel of the per-sample G-buffer: pixel is corner + (s + 0.5) / ss.
+  ivec2 texel = ivec2(floor(pixel * float(max(u_supersample, 1))));
+  vec4 surface = texelFetch(u_surf_position, texel, 0);
+  if (surface.w > 0.5) {
+    vec3 p = surface.xyz;
+    vec3 v = u_cam_ortho != 0 ? -u_cam_forward : normalize(u_cam_pos - p);
+    sum += ShadeDirect(p, texelFetch(u_surf_normal, texel, 0).xyz, v,
+                       texelFetch(u_surf_visibility, texel, 0).r);
+    ++hits;
+  } else if (u_transparent == 0) {
+    background_sum += BackgroundRadiance(dir, u_background);
+  }
+  return;
+#endif
   float t;
   vec3 n;
   bool hit = Intersect(origin, dir, 0.0, 1e30, t, n) >= 0;
@@ -67,11 +96,11 @@ void ShadeSample(vec2 pixel, inout vec3 sum, inout vec3 background_sum, inout in
   // (IntersectObject in scene.glsl says why); with environment light, shading is a loop over
   // hundreds of samples that a group of missing pixels should skip.
   if (u_transparent != 0 && u_env_mode == 0) {
-    vec3 radiance = ShadeDirect(origin + dir * t, n, -dir);
+    vec3 radiance = ShadeDirect(origin + dir * t, n, -dir, 0u);
     sum += hit ? radiance : vec3(0.0);
     hits += hit ? 1 : 0;
   } else if (hit) {
-    sum += ShadeDirect(origin + dir * t, n, -dir);
+    sum += ShadeDirect(origin + dir * t, n, -dir, 0u);
     ++hits;
   } else if (u_transparent == 0) {
     background_sum += BackgroundRadiance(dir, u_background);

@@ -66,7 +66,7 @@ void AttachEnvironmentSamples(const Scene& scene, const EnvironmentQuadrature& q
   }
   const int k = std::max(1, q.samples_per_technique);
   const int techniques = 2 + static_cast<int>(q.lobe_alphas.size());
-  const bool occlusion = scene.objects.size() > 1;
+  const bool occlusion = scene.objects.size() > 1 || scene.HasSurfaceObjects();
   std::vector<Vec3d> dirs;
   dirs.reserve(static_cast<std::size_t>(k) * techniques);
   for (ShadingPoint& sp : *points) {

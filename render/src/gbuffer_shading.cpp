@@ -2,10 +2,9 @@
 
 #include <cmath>
 
-namespace shadefit {
+#include "shadefit/render/shadows.h"
 
-// Same offset as kRayEpsilon in render/shaders/render.frag.
-constexpr double kRayEpsilon = 1e-4;
+namespace shadefit {
 
 bool TwinSupportsScene(const Scene& scene) { return scene.EnvironmentLight() < 0; }
 
@@ -49,11 +48,8 @@ std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
         } else {
           continue;
         }
-        if (Dot(sp.n, pl.l) <= 0) continue;
-        if (scene.objects.size() > 1 &&
-            Intersect(scene, Ray{p + sp.n * kRayEpsilon, pl.l}, 1e-4, dist, nullptr)) {
-          continue;
-        }
+        const int object = static_cast<int>(g.position.at(x, y, 3)) - 1;
+        if (!LightReaches(scene, object, p, sp.n, pl.l, dist)) continue;
         sp.lights.push_back(pl);
       }
       points.push_back(std::move(sp));

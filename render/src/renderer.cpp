@@ -4,12 +4,15 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <deque>
 #include <map>
 #include <regex>
 #include <string>
 
-#include "shadefit/render/environment.h"
 #include "shadefit/base/error.h"
+#include "shadefit/render/environment.h"
+#include "shadefit/render/mesh.h"
+#include "surface_samples.h"
 
 namespace shadefit {
 namespace internal {
@@ -108,6 +111,27 @@ struct Renderer::Impl {
   int env_samples = 0;
   GLuint env_tex = 0, env_pdf_tex = 0, env_samples_tex = 0;
 
+  // Surface objects (meshes, a normal map): the per-sample G-buffer of the last geometry drawn,
+  // its textures and the image's G-buffer, and the light visibility of recent light sets (a fit
+  // renders its lightings in turn over one geometry), at most kVisibilityCache of them.
+  static constexpr std::size_t kVisibilityCache = 16;
+  struct MeshBuffers {
+    std::shared_ptr<const TriangleMesh> mesh;  // Keeps the key's address alive.
+    GLuint vao = 0, vbo[4] = {0, 0, 0, 0}, ebo = 0;
+  };
+  std::map<const TriangleMesh*, MeshBuffers> mesh_buffers;
+  std::map<const NormalMap*, std::pair<std::shared_ptr<const NormalMap>, GLuint>> normal_maps;
+  GLuint mesh_program = 0;
+  GLuint mesh_fbo = 0, mesh_depth = 0, mesh_color[2] = {0, 0};
+  int mesh_width = 0, mesh_height = 0;
+  std::string surface_key;
+  internal::SurfaceSamples surface_samples;
+  GBuffer surface_gbuffer;
+  PixelRect surface_rect;  // The pixels any sample of which hits.
+  GLuint surface_tex[2] = {0, 0};
+  std::map<std::string, GLuint> visibility_tex;
+  std::deque<std::string> visibility_order;
+
   Impl(GlContext& c, const RendererOptions& o) : context(c), options(o) {
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &proxy_vbo);
@@ -119,6 +143,18 @@ struct Renderer::Impl {
 
   ~Impl() {
     for (auto& [key, program] : programs) glDeleteProgram(program);
+    if (mesh_program) glDeleteProgram(mesh_program);
+    for (auto& [key, b] : mesh_buffers) {
+      glDeleteVertexArrays(1, &b.vao);
+      glDeleteBuffers(4, b.vbo);
+      glDeleteBuffers(1, &b.ebo);
+    }
+    for (auto& [key, m] : normal_maps) glDeleteTextures(1, &m.second);
+    glDeleteTextures(2, mesh_color);
+    glDeleteRenderbuffers(1, &mesh_depth);
+    glDeleteFramebuffers(1, &mesh_fbo);
+    glDeleteTextures(2, surface_tex);
+    for (auto& [key, tex] : visibility_tex) glDeleteTextures(1, &tex);
     glDeleteTextures(3, color_tex);
     GLuint env_textures[3] = {env_tex, env_pdf_tex, env_samples_tex};
     glDeleteTextures(3, env_textures);
@@ -138,9 +174,11 @@ struct Renderer::Impl {
     // Object and light types as compile-time codes (scene.glsl, render.frag), padded to the
     // arrays' fixed sizes.
     std::string object_types, light_types;
+    // Surface objects are read from the per-sample G-buffer: no analytic object is ray cast.
+    const bool surface = scene.HasSurfaceObjects();
+    const int num_objects = surface ? 0 : static_cast<int>(scene.objects.size());
     for (int i = 0; i < kMaxObjects; ++i) {
-      const bool plane = i < static_cast<int>(scene.objects.size()) &&
-                         scene.objects[i].type != SceneObject::Type::kSphere;
+      const bool plane = i < num_objects && scene.objects[i].type != SceneObject::Type::kSphere;
       object_types += fmt::format("{}{}", i ? "," : "", plane ? 1 : 0);
     }
     int n = 0;
@@ -156,11 +194,12 @@ struct Renderer::Impl {
         "#define SHADEFIT_NUM_OBJECTS {}\n#define SHADEFIT_NUM_LIGHTS {}\n"
         "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n"
         "#define SHADEFIT_OBJECT_TYPES {}\n#define SHADEFIT_LIGHT_TYPES {}\n"
-        "#define SHADEFIT_CAMERA_ORTHO {}\n#define SHADEFIT_TRANSPARENT {}\n",
-        ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, scene.objects.size(),
+        "#define SHADEFIT_CAMERA_ORTHO {}\n#define SHADEFIT_TRANSPARENT {}\n"
+        "#define SHADEFIT_SURFACE {}\n",
+        ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, num_objects,
         num_lights, scene.camera.supersample, gbuffer ? 0 : env_mode, object_types, light_types,
         scene.camera.type == Camera::Type::kOrthographic ? 1 : 0,
-        scene.background.transparent ? 1 : 0);
+        scene.background.transparent ? 1 : 0, surface ? 1 : 0);
     auto it = programs.find(preamble);
     if (it != programs.end()) return it->second;
     const std::vector<std::string> vfiles = {"fullscreen.vert"};
@@ -370,6 +409,240 @@ struct Renderer::Impl {
     return true;
   }
 
+
+  // --- Surface objects ---------------------------------------------------------------------
+
+  MeshBuffers& BuffersOf(const std::shared_ptr<const TriangleMesh>& mesh) {
+    auto it = mesh_buffers.find(mesh.get());
+    if (it != mesh_buffers.end()) return it->second;
+    MeshBuffers b;
+    b.mesh = mesh;
+    glGenVertexArrays(1, &b.vao);
+    glGenBuffers(4, b.vbo);
+    glGenBuffers(1, &b.ebo);
+    glBindVertexArray(b.vao);
+    const std::size_t nv = mesh->VertexCount();
+    // Absent coordinates and tangents read as 0 (no normal map is applied without them).
+    const std::vector<float> zeros2(mesh->uvs.empty() ? 2 * nv : 0, 0.0f);
+    const std::vector<float> zeros4(mesh->tangents.empty() ? 4 * nv : 0, 0.0f);
+    const std::vector<float>* arrays[4] = {&mesh->positions, &mesh->normals,
+                                           mesh->uvs.empty() ? &zeros2 : &mesh->uvs,
+                                           mesh->tangents.empty() ? &zeros4 : &mesh->tangents};
+    const int sizes[4] = {3, 3, 2, 4};
+    for (int a = 0; a < 4; ++a) {
+      glBindBuffer(GL_ARRAY_BUFFER, b.vbo[a]);
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(arrays[a]->size() * sizeof(float)),
+                   arrays[a]->data(), GL_STATIC_DRAW);
+      glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, 0, nullptr);
+      glEnableVertexAttribArray(a);
+    }
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, b.ebo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+                 static_cast<GLsizeiptr>(mesh->indices.size() * sizeof(std::uint32_t)),
+                 mesh->indices.data(), GL_STATIC_DRAW);
+    glBindVertexArray(vao);
+    return mesh_buffers.emplace(mesh.get(), std::move(b)).first->second;
+  }
+
+  GLuint NormalMapTexture(const std::shared_ptr<const NormalMap>& map) {
+    auto it = normal_maps.find(map.get());
+    if (it != normal_maps.end()) return it->second.second;
+    GLuint tex = MakeFloatTexture(GL_RGB32F, GL_RGB, map->image.width, map->image.height,
+                                  map->image.data.data(), GL_LINEAR, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    normal_maps[map.get()] = {map, tex};
+    return tex;
+  }
+
+  // Rasterises the meshes at ss samples per pixel side into position and normal (mesh.vert,
+  // mesh.frag) and reads them back.
+  internal::SurfaceSamples RasterMeshes(const Scene& scene, int ss) {
+    if (!mesh_program) {
+      const std::vector<std::string> vfiles = {"mesh.vert"}, ffiles = {"mesh.frag"};
+      GLuint vs = CompileShader(GL_VERTEX_SHADER, JoinSources("#version 430 core\n", vfiles), vfiles);
+      GLuint fs = CompileShader(GL_FRAGMENT_SHADER, JoinSources("#version 430 core\n", ffiles), ffiles);
+      mesh_program = glCreateProgram();
+      glAttachShader(mesh_program, vs);
+      glAttachShader(mesh_program, fs);
+      glLinkProgram(mesh_program);
+      glDeleteShader(vs);
+      glDeleteShader(fs);
+      GLint ok = 0;
+      glGetProgramiv(mesh_program, GL_LINK_STATUS, &ok);
+      if (!ok) throw Error("GLSL", "link", "mesh program");
+    }
+    const Camera& cam = scene.camera;
+    const int w = cam.width * ss, h = cam.height_px * ss;
+    if (w != mesh_width || h != mesh_height) {
+      glDeleteTextures(2, mesh_color);
+      glDeleteRenderbuffers(1, &mesh_depth);
+      if (!mesh_fbo) glGenFramebuffers(1, &mesh_fbo);
+      glBindFramebuffer(GL_FRAMEBUFFER, mesh_fbo);
+      glGenTextures(2, mesh_color);
+      glActiveTexture(GL_TEXTURE0 + kScratchTextureUnit);
+      for (int i = 0; i < 2; ++i) {
+        glBindTexture(GL_TEXTURE_2D, mesh_color[i]);
+        glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, w, h);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + i, GL_TEXTURE_2D,
+                               mesh_color[i], 0);
+      }
+      glGenRenderbuffers(1, &mesh_depth);
+      glBindRenderbuffer(GL_RENDERBUFFER, mesh_depth);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, w, h);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, mesh_depth);
+      if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+        throw Error("OpenGL", "framebuffer", "the mesh G-buffer's targets are not supported");
+      }
+      mesh_width = w;
+      mesh_height = h;
+    }
+    Vec3d right, up, forward;
+    cam.Basis(&right, &up, &forward);
+    // The depth range: every vertex's distance along the view axis, with slack.
+    double z0 = 1e300, z1 = -1e300;
+    for (const SceneObject& o : scene.objects) {
+      for (std::size_t v = 0; v < o.mesh->VertexCount(); ++v) {
+        const double z = Dot(o.mesh->Position(static_cast<std::uint32_t>(v)) - cam.position, forward);
+        z0 = std::min(z0, z);
+        z1 = std::max(z1, z);
+      }
+    }
+    // Slack of 1% of the span, and of 0.1% of the distance: a flat mesh facing the camera has
+    // no span, and float depth needs a range it can resolve.
+    const double slack = std::max(0.01 * (z1 - z0), 1e-3 * std::max({std::abs(z0), std::abs(z1), 1e-3}));
+    double near = z0 - slack, far = z1 + slack;
+    if (cam.type == Camera::Type::kPerspective) near = std::max(near, 1e-4 * std::max(far, 1e-3));
+    glUseProgram(mesh_program);
+    auto loc = [&](const char* n) { return glGetUniformLocation(mesh_program, n); };
+    auto set3 = [&](const char* n, const Vec3d& v) {
+      glUniform3f(loc(n), static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
+    };
+    set3("u_cam_pos", cam.position);
+    set3("u_cam_right", right);
+    set3("u_cam_up", up);
+    set3("u_cam_forward", forward);
+    const double scale = cam.type == Camera::Type::kPerspective
+                             ? std::tan(0.5 * cam.fov_y_deg * kPi / 180.0)
+                             : 0.5 * cam.height;
+    glUniform1f(loc("u_cam_scale"), static_cast<float>(scale));
+    glUniform2f(loc("u_resolution"), static_cast<float>(cam.width), static_cast<float>(cam.height_px));
+    glUniform1i(loc("u_cam_ortho"), cam.type == Camera::Type::kOrthographic ? 1 : 0);
+    glUniform2f(loc("u_depth_range"), static_cast<float>(near), static_cast<float>(far));
+    glBindFramebuffer(GL_FRAMEBUFFER, mesh_fbo);
+    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(2, bufs);
+    glViewport(0, 0, w, h);
+    glClearColor(0.0f, 0.0f, 0.0f, 0.0f);
+    glClearDepth(1.0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    // The projection turns the image upside down (framebuffer row k = image row k), which turns
+    // a counter-clockwise front face clockwise in window space.
+    glFrontFace(GL_CW);
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+      const SceneObject& o = scene.objects[i];
+      MeshBuffers& b = BuffersOf(o.mesh);
+      glUniform1i(loc("u_object"), static_cast<int>(i));
+      glUniform1i(loc("u_has_normal_map"), o.normal_map ? 1 : 0);
+      glUniform1i(loc("u_flip_green"), o.normal_map && o.normal_map->flip_green ? 1 : 0);
+      if (o.normal_map) {
+        const GLuint texture = NormalMapTexture(o.normal_map);  // Uses the scratch unit.
+        glActiveTexture(GL_TEXTURE3);
+        glBindTexture(GL_TEXTURE_2D, texture);
+        glUniform1i(loc("u_normal_map"), 3);
+      }
+      glBindVertexArray(b.vao);
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(o.mesh->indices.size()), GL_UNSIGNED_INT,
+                     nullptr);
+    }
+    glBindVertexArray(vao);
+    glDisable(GL_DEPTH_TEST);
+    glFrontFace(GL_CCW);
+    internal::SurfaceSamples out;
+    out.ss = ss;
+    out.width = w;
+    out.height = h;
+    for (int a = 0; a < 2; ++a) {
+      Image img(w, h, 4);
+      glReadBuffer(GL_COLOR_ATTACHMENT0 + a);
+      glPixelStorei(GL_PACK_ALIGNMENT, 1);
+      glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, img.data.data());
+      (a == 0 ? out.position : out.normal) = std::move(img);
+    }
+    return out;
+  }
+
+  // The per-sample G-buffer, its textures and the image's G-buffer for the scene's geometry;
+  // the visibility texture for its lights. Returns the visibility texture.
+  GLuint PrepareSurface(const Scene& scene) {
+    const int ss = std::max(1, scene.camera.supersample);
+    const std::string key = internal::SurfaceGeometryKey(scene, ss);
+    const bool pixels = scene.objects.front().type == SceneObject::Type::kNormalMap;
+    if (key != surface_key) {
+      surface_key.clear();
+      surface_samples = pixels ? internal::PixelSurfaceSamples(scene, ss) : RasterMeshes(scene, ss);
+      const internal::SurfaceSamples centres =
+          ss == 1 ? surface_samples
+                  : (pixels ? internal::PixelSurfaceSamples(scene, 1) : RasterMeshes(scene, 1));
+      surface_gbuffer = internal::SurfaceGBuffer(scene, centres, surface_samples);
+      PixelRect r{scene.camera.width, scene.camera.height_px, 0, 0};
+      for (int y = 0; y < surface_gbuffer.height; ++y) {
+        for (int x = 0; x < surface_gbuffer.width; ++x) {
+          if (!(surface_gbuffer.Coverage(x, y) > 0)) continue;
+          r.x0 = std::min(r.x0, x);
+          r.y0 = std::min(r.y0, y);
+          r.x1 = std::max(r.x1, x + 1);
+          r.y1 = std::max(r.y1, y + 1);
+        }
+      }
+      surface_rect = r.empty() ? PixelRect{} : r;
+      glDeleteTextures(2, surface_tex);
+      surface_tex[0] = MakeFloatTexture(GL_RGBA32F, GL_RGBA, surface_samples.width,
+                                        surface_samples.height, surface_samples.position.data.data(),
+                                        GL_NEAREST, GL_CLAMP_TO_EDGE);
+      surface_tex[1] = MakeFloatTexture(GL_RGBA32F, GL_RGBA, surface_samples.width,
+                                        surface_samples.height, surface_samples.normal.data.data(),
+                                        GL_NEAREST, GL_CLAMP_TO_EDGE);
+      for (auto& [k, tex] : visibility_tex) glDeleteTextures(1, &tex);
+      visibility_tex.clear();
+      visibility_order.clear();
+      surface_key = key;
+    }
+    const std::string lights = internal::SurfaceLightsKey(scene, ss);
+    auto it = visibility_tex.find(lights);
+    if (it != visibility_tex.end()) return it->second;
+    const std::vector<std::uint32_t> bits = internal::SampleVisibility(scene, surface_samples);
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glActiveTexture(GL_TEXTURE0 + kScratchTextureUnit);
+    glBindTexture(GL_TEXTURE_2D, tex);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_R32UI, surface_samples.width, surface_samples.height);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, surface_samples.width, surface_samples.height,
+                    GL_RED_INTEGER, GL_UNSIGNED_INT, bits.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    if (visibility_order.size() >= kVisibilityCache) {
+      glDeleteTextures(1, &visibility_tex[visibility_order.front()]);
+      visibility_tex.erase(visibility_order.front());
+      visibility_order.pop_front();
+    }
+    visibility_order.push_back(lights);
+    visibility_tex[lights] = tex;
+    return tex;
+  }
+
+  void BindSurface(GLuint program, GLuint visibility) {
+    const GLuint textures[3] = {surface_tex[0], surface_tex[1], visibility};
+    const char* names[3] = {"u_surf_position", "u_surf_normal", "u_surf_visibility"};
+    for (int i = 0; i < 3; ++i) {
+      glActiveTexture(GL_TEXTURE3 + i);
+      glBindTexture(GL_TEXTURE_2D, textures[i]);
+      glUniform1i(glGetUniformLocation(program, names[i]), 3 + i);
+    }
+  }
+
   // Reads `rect` of an attachment straight into a w x h image (rows in our order already);
   // the pixels outside it stay 0.
   Image Read(int attachment, int w, int h, const PixelRect& rect) {
@@ -398,6 +671,7 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   }
   // Another GlContext made on this thread (a nested Fit, say) may have taken the thread over.
   impl_->context.MakeCurrent();
+  const GLuint visibility = scene.HasSurfaceObjects() ? impl_->PrepareSurface(scene) : 0;
   GLuint program = impl_->Program(model, term, false, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
@@ -411,6 +685,13 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   // outside the rectangle. An opaque background (a colour or the environment) is shaded.
   // Within the rectangle, only the objects' polygons are rasterised.
   const PixelRect frame{0, 0, w, h};
+  if (visibility) {
+    impl_->BindSurface(program, visibility);
+    // Outside the pixels any sample hits, a transparent background's pixel is 0 (as above).
+    const PixelRect rect = scene.background.transparent ? impl_->surface_rect : frame;
+    impl_->Draw(program, w, h, 1, rect);
+    return impl_->Read(0, w, h, rect);
+  }
   if (impl_->options.bound_objects && scene.background.transparent) {
     bool whole_frame = false;
     const std::vector<PixelPolygon> polygons = ObjectPixelPolygons(scene, &whole_frame);
@@ -426,6 +707,10 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
 
 GBuffer Renderer::RenderGBuffer(const Scene& scene) {
   impl_->context.MakeCurrent();
+  if (scene.HasSurfaceObjects()) {
+    impl_->PrepareSurface(scene);
+    return impl_->surface_gbuffer;
+  }
   GLuint program = impl_->Program(ModelId::kLambert, ModelTerm::kReflect, true, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);

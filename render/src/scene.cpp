@@ -13,6 +13,8 @@
 
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
+#include "shadefit/render/pixel_surface.h"
+#include "shadefit/render/ray_caster.h"
 
 namespace shadefit {
 namespace {
@@ -180,9 +182,99 @@ void ParseCamera(const TableReader& r, Camera* cam) {
   }
 }
 
-SceneObject ParseObject(const TableReader& r) {
+// A path given in a scene file, relative to the scene's folder; must exist.
+std::string ScenePath(const TableReader& r, const std::string& key, const std::string& scene_dir) {
+  fs::path file = r.String(key, "", true);
+  if (file.is_relative() && !scene_dir.empty()) file = fs::path(scene_dir) / file;
+  PathKind kind = PathKind::kMissing;
+  try {
+    kind = KindOfPath(file.string());
+  } catch (const Error& e) {
+    r.Fail(key, e.what(), r.table().get(key));
+  }
+  if (kind == PathKind::kMissing) {
+    r.Fail(key, fmt::format("'{}' not found", file.string()), r.table().get(key));
+  }
+  if (kind != PathKind::kFile) {
+    r.Fail(key, fmt::format("'{}' is not a regular file", file.string()), r.table().get(key));
+  }
+  return file.string();
+}
+
+// Errors from reading a mesh or normals file carry that file's name; the scene's key comes first
+// so that the user knows which line named it.
+template <typename F>
+auto Naming(const TableReader& r, const std::string& key, F&& read) {
+  try {
+    return read();
+  } catch (const Error& e) {
+    r.Fail(key, e.what(), r.table().get(key));
+  }
+}
+
+SceneObject ParseMesh(const TableReader& r, const std::string& scene_dir) {
+  r.CheckKeys({"type", "file", "translate", "rotate", "scale", "normals", "normal_map",
+               "normal_map_flip_green"});
+  SceneObject o;
+  o.type = SceneObject::Type::kMesh;
+  MeshTransform t;
+  t.translate = r.Vector("translate", t.translate);
+  t.rotate_deg = r.Vector("rotate", t.rotate_deg);
+  t.scale = r.Vector("scale", t.scale, false, true);
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(t.scale[i]) >= 1e-9)) r.Fail("scale", "must not be 0 (or below 1e-9) on an axis");
+  }
+  const std::string normals = r.String("normals", "auto");
+  MeshNormals mode = MeshNormals::kAuto;
+  if (normals == "smooth") {
+    mode = MeshNormals::kSmooth;
+  } else if (normals == "flat") {
+    mode = MeshNormals::kFlat;
+  } else if (normals != "auto") {
+    r.Fail("normals", "expected \"auto\", \"smooth\" or \"flat\"" +
+                          DidYouMean(normals, {"auto", "smooth", "flat"}),
+           r.table().get("normals"));
+  }
+  const std::string file = ScenePath(r, "file", scene_dir);
+  o.mesh = Naming(r, "file", [&] { return LoadMesh(file, t, mode); });
+  if (r.Has("normal_map")) {
+    const std::string map = ScenePath(r, "normal_map", scene_dir);
+    if (o.mesh->uvs.empty()) {
+      r.Fail("normal_map", fmt::format("the mesh {} has no texture coordinates", file));
+    }
+    const bool flip = r.Bool("normal_map_flip_green", false);
+    o.normal_map = Naming(r, "normal_map", [&] { return LoadNormalMap(map, flip); });
+  } else if (r.Has("normal_map_flip_green")) {
+    r.Fail("normal_map_flip_green", "given without a normal_map");
+  }
+  return o;
+}
+
+SceneObject ParseNormalMapObject(const TableReader& r, const std::string& scene_dir,
+                                 const Camera& camera) {
+  r.CheckKeys({"type", "normals", "mask", "depth", "variable", "y_axis"});
+  SceneObject o;
+  o.type = SceneObject::Type::kNormalMap;
+  NormalMapSpec spec;
+  spec.normals = ScenePath(r, "normals", scene_dir);
+  if (r.Has("mask")) spec.mask = ScenePath(r, "mask", scene_dir);
+  if (r.Has("depth")) spec.depth = ScenePath(r, "depth", scene_dir);
+  spec.variable = r.String("variable", "");
+  const std::string y_axis = r.String("y_axis", "up");
+  if (y_axis != "up" && y_axis != "down") {
+    r.Fail("y_axis", "expected \"up\" or \"down\"", r.table().get("y_axis"));
+  }
+  spec.y_down = y_axis == "down";
+  o.pixels = Naming(r, "normals", [&] { return LoadPixelSurface(spec, camera); });
+  o.mesh = o.pixels->depth_mesh;
+  return o;
+}
+
+SceneObject ParseObject(const TableReader& r, const std::string& scene_dir, const Camera& camera) {
   SceneObject o;
   const std::string type = r.String("type", "", true);
+  if (type == "mesh") return ParseMesh(r, scene_dir);
+  if (type == "normal_map") return ParseNormalMapObject(r, scene_dir, camera);
   if (type == "sphere") {
     r.CheckKeys({"type", "center", "radius"});
     o.type = SceneObject::Type::kSphere;
@@ -204,7 +296,8 @@ SceneObject ParseObject(const TableReader& r) {
       if (!(o.half_u > 0) || !(o.half_v > 0)) r.Fail("half_size", "must be positive", node);
     }
   } else {
-    r.Fail("type", "expected \"sphere\" or \"plane\"" + DidYouMean(type, {"sphere", "plane"}),
+    const std::vector<std::string> kinds = {"sphere", "plane", "mesh", "normal_map"};
+    r.Fail("type", "expected \"sphere\", \"plane\", \"mesh\" or \"normal_map\"" + DidYouMean(type, kinds),
            r.table().get("type"));
   }
   return o;
@@ -268,6 +361,32 @@ Light ParseLight(const TableReader& r, const std::string& scene_dir) {
   return l;
 }
 
+// Without a [camera], a scene whose one object is a normal map is seen as photometric stereo
+// assumes: orthographically along the normals' z axis (world -Z, up +Y), at the normals'
+// resolution, the longer side spanning 2 world units. False when the scene is not of that form.
+bool NormalMapCamera(const toml::table& root, const std::string& name, const std::string& dir,
+                     Camera* cam) {
+  const toml::array* objects = root["objects"].as_array();
+  if (!objects || objects->size() != 1 || !(*objects)[0].is_table()) return false;
+  const toml::table& t = *(*objects)[0].as_table();
+  if (t["type"].value_or(std::string()) != "normal_map") return false;
+  const TableReader r(t, name, "objects[0].");
+  const std::string normals = ScenePath(r, "normals", dir);
+  const std::string mask = r.Has("mask") ? ScenePath(r, "mask", dir) : "";
+  const NormalImage img = Naming(r, "normals", [&] {
+    return ReadNormalImage(normals, mask, r.String("variable", ""), r.String("y_axis", "up") == "down");
+  });
+  if (img.width > 8192 || img.height > 8192) r.Fail("normals", "larger than 8192 pixels a side");
+  cam->type = Camera::Type::kOrthographic;
+  cam->position = {0, 0, 10};
+  cam->look_at = {0, 0, 0};
+  cam->up = {0, 1, 0};
+  cam->width = img.width;
+  cam->height_px = img.height;
+  cam->height = 2.0 * img.height / std::max(img.width, img.height);
+  return true;
+}
+
 }  // namespace
 
 void Camera::Basis(Vec3d* right, Vec3d* true_up, Vec3d* forward) const {
@@ -280,6 +399,13 @@ void SceneObject::PlaneTangents(Vec3d* u, Vec3d* v) const {
   const Vec3d ref = std::abs(normal.x) > 0.9 ? Vec3d{0, 1, 0} : Vec3d{1, 0, 0};
   *u = Normalize(Cross(normal, ref));
   *v = Cross(normal, *u);
+}
+
+bool Scene::HasSurfaceObjects() const {
+  for (const SceneObject& o : objects) {
+    if (o.IsSurface()) return true;
+  }
+  return false;
 }
 
 int Scene::EnvironmentLight() const {
@@ -307,8 +433,11 @@ Scene ParseScene(const std::string& text, const std::string& name) {
   top.CheckKeys({"camera", "objects", "lights", "background"});
 
   const toml::table* cam = root["camera"].as_table();
-  if (!cam) top.Fail("camera", "missing [camera] table");
-  ParseCamera(TableReader(*cam, name, "camera."), &scene.camera);
+  if (cam) {
+    ParseCamera(TableReader(*cam, name, "camera."), &scene.camera);
+  } else if (!NormalMapCamera(root, name, dir, &scene.camera)) {
+    top.Fail("camera", "missing [camera] table");
+  }
 
   auto for_each_table = [&](const char* key, auto&& fn) {
     const toml::node* node = root.get(key);
@@ -322,7 +451,16 @@ Scene ParseScene(const std::string& text, const std::string& name) {
     }
   };
   for_each_table("objects", [&](const TableReader& r) {
-    scene.objects.push_back(ParseObject(r));
+    scene.objects.push_back(ParseObject(r, dir, scene.camera));
+    const SceneObject& o = scene.objects.back();
+    // One G-buffer path per scene: the analytic ray cast or the surface objects' raster.
+    if (scene.objects.size() > 1 && o.IsSurface() != scene.objects.front().IsSurface()) {
+      r.Fail("type", "a scene holds analytic objects (sphere, plane) or surface objects (mesh, "
+                     "normal_map), not both: make a ground plane a mesh");
+    }
+    if (o.type == SceneObject::Type::kNormalMap && scene.objects.size() > 1) {
+      r.Fail("type", "a normal_map object is the whole picture: it must be the only object");
+    }
   });
   for_each_table("lights", [&](const TableReader& r) {
     scene.lights.push_back(ParseLight(r, dir));
@@ -335,6 +473,20 @@ Scene ParseScene(const std::string& text, const std::string& name) {
   if (scene.objects.empty()) top.Fail("objects", "the scene has no [[objects]]");
   if (scene.objects.size() > 8) top.Fail("objects", "at most 8 objects");
   if (scene.lights.size() > 8) top.Fail("lights", "at most 8 lights");
+
+  if (scene.HasSurfaceObjects()) {
+    const int env = scene.EnvironmentLight();
+    if (env >= 0) {
+      top.Fail(fmt::format("lights[{}]", env),
+               "environment and uniform light on mesh or normal-map objects are not rendered yet "
+               "(point, directional and ambient lights are)");
+    }
+    std::vector<RayCaster::Part> parts;
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+      if (scene.objects[i].mesh) parts.push_back({static_cast<int>(i), scene.objects[i].mesh});
+    }
+    scene.ray_caster = std::make_shared<const RayCaster>(std::move(parts));
+  }
 
   if (const toml::table* bg = root["background"].as_table()) {
     TableReader r(*bg, name, "background.");
@@ -408,6 +560,7 @@ bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, H
         if (std::abs(Dot(q, u)) > o.half_u || std::abs(Dot(q, v)) > o.half_v) continue;
       }
     }
+    if (o.IsSurface()) continue;  // The ray caster's, below.
     if (t <= t_min || t >= t_max) continue;
     t_max = t;
     found = true;
@@ -420,9 +573,70 @@ bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, H
       } else {
         hit->normal = Dot(o.normal, ray.direction) < 0 ? o.normal : -o.normal;
       }
+      hit->geometric_normal = hit->normal;
     }
   }
-  return found;
+  if (!scene.ray_caster) return found;
+  RayCaster::TriangleHit th;
+  if (!scene.ray_caster->Nearest(ray, t_min, t_max, &th)) return found;
+  if (hit) {
+    const RayCaster::Part& part = scene.ray_caster->parts()[th.part];
+    const SceneObject& o = scene.objects[part.object];
+    hit->t = th.t;
+    hit->object = part.object;
+    hit->position = ray.origin + ray.direction * th.t;
+    SurfaceFrame frame = MeshSurfaceFrame(o, th.triangle, th.u, th.v);
+    const bool back = Dot(frame.geometric_normal, ray.direction) > 0;
+    hit->geometric_normal = back ? -frame.geometric_normal : frame.geometric_normal;
+    if (o.type == SceneObject::Type::kNormalMap) {
+      // The data's normal at the pixel whose centre is nearest (the pixels are the vertices).
+      const std::uint32_t* idx = &part.mesh->indices[3 * th.triangle];
+      const double w[3] = {1 - th.u - th.v, th.u, th.v};
+      const std::uint32_t v = idx[w[0] >= w[1] && w[0] >= w[2] ? 0 : (w[1] >= w[2] ? 1 : 2)];
+      frame.normal = Vec3d{o.pixels->normal[3 * v], o.pixels->normal[3 * v + 1],
+                           o.pixels->normal[3 * v + 2]};
+      hit->normal = frame.normal;
+    } else {
+      hit->normal = back ? -frame.normal : frame.normal;
+    }
+  }
+  return true;
+}
+
+SurfaceFrame MeshSurfaceFrame(const SceneObject& o, unsigned triangle, double u, double v) {
+  const TriangleMesh& m = *o.mesh;
+  const std::uint32_t* i = &m.indices[3 * triangle];
+  const double w[3] = {1 - u - v, u, v};
+  SurfaceFrame f;
+  const Vec3d p0 = m.Position(i[0]), p1 = m.Position(i[1]), p2 = m.Position(i[2]);
+  const Vec3d ng = Cross(p1 - p0, p2 - p0);
+  const double len = Length(ng);
+  f.geometric_normal = len > 0 ? ng / len : Vec3d{0, 0, 1};
+  Vec3d n{0, 0, 0};
+  for (int k = 0; k < 3; ++k) n += m.Normal(i[k]) * w[k];
+  const double nl = Length(n);
+  f.normal = nl > 1e-12 ? n / nl : f.geometric_normal;
+  if (o.normal_map && !m.uvs.empty()) {
+    double uv[2] = {0, 0};
+    Vec3d t{0, 0, 0};
+    double hand = 0;
+    for (int k = 0; k < 3; ++k) {
+      uv[0] += w[k] * m.uvs[2 * i[k]];
+      uv[1] += w[k] * m.uvs[2 * i[k] + 1];
+      t += Vec3d{m.tangents[4 * i[k]], m.tangents[4 * i[k] + 1], m.tangents[4 * i[k] + 2]} * w[k];
+      hand += w[k] * m.tangents[4 * i[k] + 3];
+    }
+    // The interpolated frame, orthonormalised as the GLSL twin does (render/shaders/surface.glsl).
+    t = t - f.normal * Dot(f.normal, t);
+    const double tl = Length(t);
+    if (tl > 1e-12) {
+      t = t / tl;
+      const Vec3d b = Cross(f.normal, t) * (hand < 0 ? -1.0 : 1.0);
+      const Vec3d ts = o.normal_map->Sample(uv[0], uv[1]);
+      f.normal = Normalize(t * ts.x + b * ts.y + f.normal * ts.z);
+    }
+  }
+  return f;
 }
 
 }  // namespace shadefit

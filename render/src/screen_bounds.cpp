@@ -137,7 +137,9 @@ void AddPlane(const View& view, const Camera& cam, const SceneObject& o, Extent*
 }
 
 void AddObject(const View& view, const Camera& cam, const SceneObject& o, Extent* e) {
-  if (o.type == SceneObject::Type::kSphere) {
+  if (o.IsSurface()) {  // The renderer's surface path reads its own G-buffer: no bounds here.
+    e->full = true;
+  } else if (o.type == SceneObject::Type::kSphere) {
     AddSphere(view, cam, o, e);
   } else {
     AddPlane(view, cam, o, e);

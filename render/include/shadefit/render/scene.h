@@ -2,9 +2,11 @@
 // World coordinates are Blender's (+Z up); the conventions match Blender Cycles.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "shadefit/render/mesh.h"
 #include "shadefit/render/vec.h"
 
 namespace shadefit {
@@ -25,14 +27,26 @@ struct Camera {
   void Basis(Vec3d* right, Vec3d* true_up, Vec3d* forward) const;
 };
 
+struct PixelSurface;
+class RayCaster;
+
 struct SceneObject {
-  enum class Type { kSphere, kPlane };
+  // Spheres and planes are ray cast analytically; meshes and normal-map objects are "surface
+  // objects": the GL renderer rasterises (or reads) them into a per-sample G-buffer and shades it,
+  // and cast shadows come from ray casting their triangles (docs/scenes.md, "Objects").
+  enum class Type { kSphere, kPlane, kMesh, kNormalMap };
   Type type = Type::kSphere;
   Vec3d center{0, 0, 0};   // Sphere.
   double radius = 1.0;
   Vec3d point{0, 0, 0};    // Plane: a point on it, its normal, optional half extents
   Vec3d normal{0, 0, 1};   //   along its tangents (0 = infinite).
   double half_u = 0.0, half_v = 0.0;
+  // Mesh: world-space triangles (mesh.h) and an optional tangent-space normal map. Normal map:
+  // the surface through the pixels (pixel_surface.h), whose `mesh` is its depth surface.
+  std::shared_ptr<const TriangleMesh> mesh;
+  std::shared_ptr<const NormalMap> normal_map;
+  std::shared_ptr<const PixelSurface> pixels;
+  bool IsSurface() const { return type == Type::kMesh || type == Type::kNormalMap; }
   void PlaneTangents(Vec3d* u, Vec3d* v) const;
 };
 
@@ -62,8 +76,13 @@ struct Scene {
   std::vector<Light> lights;
   Background background;
 
+  // The triangles of the surface objects for CPU ray casting; null when there are none.
+  std::shared_ptr<const RayCaster> ray_caster;
+
   // Index of the environment or uniform light, -1 when there is none (at most one allowed).
   int EnvironmentLight() const;
+  // Whether any object is a mesh or a normal-map object (the renderer's surface path).
+  bool HasSurfaceObjects() const;
 };
 
 // Parses and validates a scene. Throws shadefit::Error "<file>:<line>: <key>: <problem>".
@@ -83,11 +102,21 @@ Ray CameraRay(const Camera& camera, double px, double py);
 struct Hit {
   double t = 0;
   int object = -1;
-  Vec3d position, normal;  // Normal faces the ray origin for planes (two-sided).
+  // Normal faces the ray origin for planes and surface objects (two-sided); for those it is the
+  // shading normal (interpolated, normal-mapped) and geometric_normal the triangle's.
+  Vec3d position, normal, geometric_normal;
 };
 
-// Nearest hit with t in (t_min, t_max); false when none.
+// Nearest hit with t in (t_min, t_max); false when none. Surface objects through
+// scene.ray_caster.
 bool Intersect(const Scene& scene, const Ray& ray, double t_min, double t_max, Hit* hit);
+
+// A mesh object's geometry at barycentrics (u, v) of a triangle: the face's unit normal (counter-
+// clockwise front) and the shading normal (interpolated, then normal-mapped), both unflipped.
+struct SurfaceFrame {
+  Vec3d geometric_normal, normal;
+};
+SurfaceFrame MeshSurfaceFrame(const SceneObject& object, unsigned triangle, double u, double v);
 
 // Pixels [x0, x1) x [y0, y1), row 0 on top.
 struct PixelRect {
