@@ -23,7 +23,6 @@ import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import figure_cache  # noqa: E402
 import report_charts  # noqa: E402
-import report_classes  # noqa: E402
 import report_grids  # noqa: E402
 import report_latex  # noqa: E402
 import report_metric_figures  # noqa: E402
@@ -34,6 +33,7 @@ import report_sections  # noqa: E402
 import report_summary  # noqa: E402
 import report_tables  # noqa: E402
 import report_verdicts  # noqa: E402
+import report_inputs  # noqa: E402
 from report_inputs import ReportInputError, load_study  # noqa: E402
 from progress import Progress  # noqa: E402
 from report_util import flatten, fmt, materials_of, to_float, write_text  # noqa: E402
@@ -167,7 +167,7 @@ class Inputs:
         # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs).
         self.data_floor = data_floor.compute_floor(study_dir, self.study, self.fits)
         # The material classes' tables (report_classes: beside the measured folder, and ours).
-        self.classified = report_classes.classifications(self.study, study_dir)
+        self.classified = report_inputs.classifications(self.study, study_dir)
 
 
 def study_tables(inp, summary, detail, answers):

@@ -21,10 +21,8 @@ import math
 
 import numpy as np
 
-import judging
 from answer_rules import metric_error
 from answer_stats import bootstrap_ci
-from answer_words import fmt_range
 from report_util import materials_of
 
 
@@ -103,71 +101,3 @@ def model_floors(study, rows, records, to_float):
                                     "metrics": per})
         out[rec["name"]] = entries
     return out
-
-
-def floor_sentence(e):
-    ratios = [v["ratio"] for v in e["metrics"].values()]
-    los = [v["ci"][0] for v in e["metrics"].values() if v["ci"][0] is not None]
-    his = [v["ci"][1] for v in e["metrics"].values() if v["ci"][1] is not None]
-    ci = f"; 95% CIs from {min(los):.3g} to {max(his):.3g}" if los and his else ""
-    above = sum(1 for v in e["metrics"].values() if v["ci"][0] is not None and v["ci"][0] > 1)
-    what = f"{e['fit']} (the BRDF-space fit)" if e["role"] == "brdf" else e["fit"]
-    return (f"{what}'s error over its floor {e['floor']} on {', '.join(e['lightings'])}: "
-            f"{fmt_range((min(ratios), max(ratios)))} over the {len(ratios)} metrics{ci}; the CI "
-            f"lies above 1 under {above} of {len(ratios)}")
-
-
-def ordering_sentences(records):
-    """Where the floors order a model pair otherwise than a training set does: a sentence per
-    (question, pair). The floors' verdict is the floor pair's on the training question (the
-    floor fits train on every floor lighting)."""
-    train_q = next((r for r in records if r["source"] == "metrics" and r["split"] == "train"),
-                   None)
-    if train_q is None:
-        return {}
-    floors = {(p["model"], p["baseline_model"], p["loss"]): p for p in train_q["comparisons"]
-              if p["role"] == "floor"}
-    out = {}
-    for rec in (r for r in records if r["source"] == "metrics"):
-        lines = []
-        for p in (p for p in rec["comparisons"] if p["role"] == "train"):
-            fp = floors.get((p["model"], p["baseline_model"], p["loss"]))
-            if fp is None or fp["verdict"].kind == p["verdict"].kind:
-                continue
-            lines.append(f"The floors order {p['model']} and {p['baseline_model']} otherwise "
-                         f"than one training set does: {fp['fit']} vs {fp['baseline']} is "
-                         f"'{fp['verdict'].word}', {p['fit']} vs {p['baseline']} on this "
-                         f"question is '{p['verdict'].word}'")
-        out[rec["name"]] = lines
-    return out
-
-
-def model_floor_lines(floors, records):
-    """List items (depth, text) per question: the ratios over the floor, then the ordering
-    sentences."""
-    if not floors:
-        return []
-    order = ordering_sentences(records)
-    lines = []
-    for rec in (r for r in records if r["source"] == "metrics"):
-        entries = floors.get(rec["name"], [])
-        if not entries and not order.get(rec["name"]):
-            continue
-        lines.append((0, f"**{rec['question']}**"))
-        lines += [(1, f"{floor_sentence(e)}.") for e in entries]
-        lines += [(1, f"{s}.") for s in order.get(rec["name"], [])]
-    return lines
-
-
-def model_floor_table(floors):
-    cols = ["question", "fit", "floor", "lightings", "metric", "materials",
-            "error ratio fit/floor", "95% CI"]
-    out = []
-    for q, entries in floors.items():
-        for e in entries:
-            for m, v in e["metrics"].items():
-                lo, hi = v["ci"]
-                out.append([q, e["fit"], e["floor"], ", ".join(e["lightings"]),
-                            judging.metric_name(m), str(v["n"]), f"{v['ratio']:.3g}x",
-                            "" if lo is None else f"{lo:.3g}-{hi:.3g}"])
-    return cols, out

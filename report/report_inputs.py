@@ -13,6 +13,7 @@ Writers: studies/runner/src/study.cpp (study.json), fit_job.cpp (fit jobs), prob
 metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance.json).
 """
 
+import csv
 import glob
 import json
 import os
@@ -417,3 +418,54 @@ def load_study(study_dir):
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = read_checked(prov_path, PROVENANCE) if os.path.exists(prov_path) else {}
     return study, rows, fits, probes, provenance
+
+
+# ------------------------------------------------------------------------------------------------
+# Material classes (report_classes.py answers per class; docs/studies.md, "Material classes"):
+# the coarse Metal/Dielectric split of Lavoue et al. 2021, found beside the study's measured
+# folder, and the finer classes compiled in report/material_classes.tsv.
+
+FINE_TSV = os.path.join(os.path.dirname(os.path.abspath(__file__)), "material_classes.tsv")
+
+
+COARSE_NAME = "merl-material-types.tsv"
+
+
+def read_tsv(path, column):
+    """{material: value of `column`} of a tab-separated file whose comment lines start '#'."""
+    with open(path, encoding="utf-8") as f:
+        lines = [l for l in f if l.strip() and not l.startswith("#")]
+    return {r["material"]: r[column] for r in csv.DictReader(lines, delimiter="\t")}
+
+
+def coarse_path(study, study_dir):
+    """merl-material-types.tsv beside the first measured folder that has one, or None. The
+    runner writes the folder joined to the study file's folder (study_materials.cpp), so a
+    relative one is relative to where the study ran; failing that, to the study's out folder."""
+    for src in study["measured"]:
+        folder = src.get("folder")
+        if not folder:
+            continue
+        for where in ([folder] if os.path.isabs(folder)
+                      else [os.path.abspath(folder), os.path.join(study_dir, folder)]):
+            path = os.path.join(os.path.dirname(os.path.normpath(where)), COARSE_NAME)
+            if os.path.exists(path):
+                return path
+    return None
+
+
+def classifications(study, study_dir, fine_path=FINE_TSV):
+    """([(name, source, {material: class})], [why a classification is left out])."""
+    out, skipped = [], []
+    path = coarse_path(study, study_dir)
+    if path is None:
+        skipped.append(f"Metal/Dielectric (Lavoue et al. 2021): no {COARSE_NAME} beside the "
+                       "study's measured folder")
+    else:
+        out.append(("Metal/Dielectric", f"Lavoue et al. 2021, {path}", read_tsv(path, "type")))
+    if os.path.exists(fine_path):
+        out.append(("finer classes", f"report/{os.path.basename(fine_path)} (sources per row)",
+                    read_tsv(fine_path, "class")))
+    else:
+        skipped.append(f"finer classes: {fine_path} is missing")
+    return out, skipped

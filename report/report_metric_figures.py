@@ -8,7 +8,9 @@ import numpy as np
 
 from report_figures import (COLUMN_IN, FONT_PT, PAGE_IN, bar_style, legend_layout, plt,
                             save_figure, style_of, text_width_in, wrap_to_width)
+from report_regions import lightings_of
 from report_util import materials_of
+from results_csv import REGIONS
 
 
 
@@ -138,3 +140,45 @@ def paired_errors_figure(rec, study, fig_dir, manifest, title, y_label):
                           f"(box: quartiles and median; whiskers: 1.5 IQR)"
                           + (" (log axis)" if log else ""),
                 {"kind": "comparison", "question": rec["name"]})
+
+
+def region_figure(means, rec, labels, fig_dir, manifest):
+    """One question's regions: a panel per region (rows), lightings along x, a bar per fit of
+    its mean |error| with a black tick at its mean signed error."""
+    split = rec["split"]
+    used = {x for p in rec["comparisons"] for x in (p["fit"], p["baseline"])}
+    fits = [l for l in labels if l in used]
+    lightings = lightings_of(means, split)
+    if not fits or not lightings:
+        return
+    cols, _, legend_in = legend_layout(fits, PAGE_IN - 0.2, handlelength=1.5, columnspacing=1.5)
+    label_in = max(text_width_in(g, FONT_PT) for g in REGIONS) + 0.55
+    panel_in, gap_in = 1.1, 0.3
+    height = legend_in + 0.1 + len(REGIONS) * (panel_in + gap_in) + 0.15
+    fig = plt.figure(figsize=(PAGE_IN, height))
+    width = 0.8 / len(fits)
+    x = np.arange(len(lightings))
+    for k, g in enumerate(REGIONS):
+        y0 = (height - legend_in - 0.1 - (k + 1) * (panel_in + gap_in) + gap_in) / height
+        ax = fig.add_axes([label_in / PAGE_IN, y0, 1 - (label_in + 0.1) / PAGE_IN,
+                           panel_in / height])
+        for i, f in enumerate(fits):
+            cells = [means.get((split, l, g, f)) for l in lightings]
+            xs = x + (i - (len(fits) - 1) / 2) * width
+            ax.bar(xs, [c["abs"] if c else np.nan for c in cells], width,
+                   label=f if k == 0 else None, **bar_style(i, f))
+            ax.scatter(xs, [c["signed"] if c else np.nan for c in cells], marker="_",
+                       color="black", s=30, linewidths=1.0, zorder=3)
+        ax.axhline(0, color="#555555", linewidth=0.5)
+        ax.set_xticks(x)
+        ax.set_xticklabels(lightings if k == len(REGIONS) - 1 else [""] * len(lightings))
+        ax.set_ylabel(f"{g}\nluminance error", fontsize=FONT_PT - 1)
+    fig.legend(loc="upper center", ncol=cols, frameon=False, bbox_to_anchor=(0.5, 1.0),
+               handlelength=1.5, columnspacing=1.5)
+    name = f"regions-{re.sub(r'[^A-Za-z0-9_-]+', '_', rec['name'])}"
+    save_figure(fig, fig_dir, name, manifest,
+                f"{rec['question']}: each fit's mean absolute luminance error (bars) and mean "
+                f"signed error (black ticks; above 0: brighter than the reference) per "
+                f"{split} lighting and image region (highlight: the reference's brightest 5%; "
+                f"rim: n.v < 0.35; body: the rest; measured pixels; mean over materials)",
+                {"kind": "regions", "question": rec["name"]})

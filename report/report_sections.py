@@ -9,7 +9,9 @@ import answer_words
 import report_classes
 import report_findings
 import model_floor
+import report_metric_figures
 import report_regions
+import section_words
 from results_csv import METRIC_COLUMNS
 
 
@@ -31,16 +33,16 @@ class Answers:
         regions, objects and classes, each only where the study has it (classes: always, with
         why not)."""
         out = []
-        floors = model_floor.model_floor_lines(self.model_floors, self.records)
+        floors = section_words.model_floor_lines(self.model_floors, self.records)
         if floors:
             out.append(("floors", "Against the model's floor", floors))
-        regions = report_regions.region_lines(self.regions, self.records)
+        regions = section_words.region_lines(self.regions, self.records)
         if regions:
             out.append(("regions", "Where the difference lies", regions))
         if self.objects:
             out.append(("objects", "Per object", answer_words.object_lines(self.objects)))
         out.append(("classes", "Per material class",
-                    report_classes.class_lines(self.classes)))
+                    section_words.class_lines(self.classes)))
         return out
 
     def tables(self):
@@ -56,11 +58,11 @@ class Answers:
         if self.model_floors:
             out["floors"] = ("Error over the model's floor per fit, question and metric "
                              "(geometric mean over materials, bootstrap 95% CI)",
-                             model_floor.model_floor_table(self.model_floors))
+                             section_words.model_floor_table(self.model_floors))
         if self.regions:
             out["regions"] = ("Mean luminance error per split, lighting, image region and fit "
                               "(mean over materials; measured pixels)",
-                              report_regions.region_table(self.regions))
+                              section_words.region_table(self.regions))
         return out
 
     def figures(self, labels, fig_dir, manifest):
@@ -68,13 +70,13 @@ class Answers:
         report_findings.forest_plot(self.records, fig_dir, manifest)
         if self.regions:
             for rec in (r for r in self.records if r["source"] == "metrics" and r["comparisons"]):
-                report_regions.region_figure(self.regions, rec, labels, fig_dir, manifest)
+                report_metric_figures.region_figure(self.regions, rec, labels, fig_dir, manifest)
 
     def json(self):
         return answer_words.to_json(self.records, {
             "findings": [{"title": t, "columns": c, "rows": r} for t, (c, r) in self.findings],
             "floors": self.model_floors,
-            "floor_order": model_floor.ordering_sentences(self.records),
+            "floor_order": section_words.ordering_sentences(self.records),
             "regions": [] if not self.regions else [
                 dict(zip(("split", "lighting", "region", "fit"), k), **v)
                 for k, v in sorted(self.regions.items())],
