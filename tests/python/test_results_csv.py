@@ -3,6 +3,8 @@ stays one quoted field, read back whole by Python's csv module and by shadefit.l
 
 import csv
 
+import pytest
+
 import shadefit
 from conftest import CYCLES
 
@@ -39,3 +41,20 @@ def test_a_material_name_with_comma_and_quote_is_one_field(cli, out):
         column = rows[0].index("material")
         assert {r[column] for r in rows[1:]} == {NAME}, table
     assert {r["material"] for r in shadefit.load_results(out / "o" / "quoted")} == {NAME}
+
+
+def test_load_results_reads_through_the_reports_reader(out):
+    """One results.csv reader in Python (report/results_csv.py): shadefit.load_results converts
+    what it reads, and a row with a missing cell is one error naming the file and the line."""
+    study = out / "one_reader"
+    study.mkdir()
+    (study / "results.csv").write_text("material,converged,rmse,object\n"
+                                       "red,1,0.25,\n"
+                                       "gold,0,,teapot\n")
+    rows = shadefit.load_results(study)
+    assert rows == [{"material": "red", "converged": True, "rmse": 0.25, "object": None},
+                    {"material": "gold", "converged": False, "rmse": None, "object": "teapot"}]
+    assert shadefit._results.results_csv.__file__.endswith("report/results_csv.py")
+    (study / "results.csv").write_text("material,converged,rmse\nred,1\n")
+    with pytest.raises(shadefit.Error, match=r"results\.csv:2: row: 3 cells expected"):
+        shadefit.load_results(study)
