@@ -177,7 +177,10 @@ def forest_plot(records, fig_dir, manifest):
     save_figure(fig, fig_dir, "findings-forest", manifest,
                 "Findings: each compared pair's error ratio (fit / baseline; < 1: the fit is "
                 "closer) under every metric of the judging set, with its bootstrap 95% CI over "
-                "materials; one panel per image question",
+                "materials" + (" (over lightings for a question of fewer than "
+                               f"{answer_rules.MIN_MATERIALS_FOR_PAIRED_TEST} materials)"
+                               if any(r.get("unit") == "lighting" for r in questions) else "")
+                + "; one panel per image question",
                 {"kind": "forest"})
 
 

@@ -140,6 +140,9 @@ def test_one_object(make_report, out):
           "one object: the findings cell is not 'smaller under all 2 metrics; 0.5x; 2/2 sig.'")
     check("of 1 materials" not in md and "| mixed" not in md,
           "one object: still answered over one material")
+    check("CI over materials (over lightings for a question of fewer than 6 materials)"
+          in json.dumps(read(d, "figures.json")), "one object: the forest plot's caption does "
+          "not say its intervals are over lightings")
     no_empty_table(d, "one object")
 
 
