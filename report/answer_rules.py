@@ -18,7 +18,7 @@ or writes a word: it is handed the rows make_report.py read.
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -231,6 +231,32 @@ def comparison_pairs(study):
     return pairs
 
 
+@dataclass
+class PairAnswer:
+    """A compared pair on an image question: a Comparison per metric of the judging set, then
+    (on the question's own pairs, not the all-pixel ones) its Verdict and what the two fits
+    are: training set, loss, role, models."""
+    fit: str
+    baseline: str
+    per_metric: list
+    verdict: "Verdict" = None
+    train: list = None
+    loss: str = None
+    role: str = None
+    model: str = None
+    baseline_model: str = None
+
+    def to_json(self):
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {k: v for k, v in out.items() if v is not None}
+
+
+def comparisons_of(pair):
+    """The Comparisons a question's entry holds: an image pair's per metric, or a probe
+    question's one."""
+    return pair.per_metric if isinstance(pair, PairAnswer) else [pair]
+
+
 def answer_pair(errors_by_metric, materials, label, base, metrics):
     """The comparison of `label` with `base` under each metric (those where both have errors),
     or None where no metric has one."""
@@ -238,15 +264,15 @@ def answer_pair(errors_by_metric, materials, label, base, metrics):
     for m in metrics:
         c = compare_pair(errors_by_metric[m], materials, label, base, metric_mode(m))
         if c is not None:
-            c["metric"] = m
+            c.metric = m
             per.append(c)
-    return {"fit": label, "baseline": base, "per_metric": per} if per else None
+    return PairAnswer(label, base, per) if per else None
 
 
 def direction(c):
     """+1: the fit's error is smaller; -1: larger; 0: tied."""
-    neutral = 1.0 if c["mode"] == "ratio" else 0.0
-    return (c["effect"] > neutral) - (c["effect"] < neutral)
+    neutral = 1.0 if c.mode == "ratio" else 0.0
+    return (c.effect > neutral) - (c.effect < neutral)
 
 
 @dataclass
@@ -272,8 +298,8 @@ class Verdict:
 def verdict(per_metric, alpha=ALPHA):
     """The pair's Verdict over the metrics (each with its Holm-adjusted p_holm)."""
     n = len(per_metric)
-    sides = {d: [c["metric"] for c in per_metric if direction(c) == d] for d in (1, -1, 0)}
-    sig = {d: [c["metric"] for c in per_metric if direction(c) == d and c["p_holm"] < alpha]
+    sides = {d: [c.metric for c in per_metric if direction(c) == d] for d in (1, -1, 0)}
+    sig = {d: [c.metric for c in per_metric if direction(c) == d and c.p_holm < alpha]
            for d in (1, -1)}
     if len(sides[1]) == n:
         kind = "smaller"
@@ -291,14 +317,14 @@ def error_ratio(c):
     """The one ratio convention of the report: fit error / baseline error (< 1: the fit is
     closer), from a comparison whose statistic is baseline / fit (answer_stats.compare_pair's
     `effect`, as comparisons.json records it); None for a difference."""
-    return 1.0 / c["effect"] if c["mode"] == "ratio" and c["effect"] > 0 else None
+    return 1.0 / c.effect if c.mode == "ratio" and c.effect > 0 else None
 
 
 def error_ratio_ci(c):
     """The 95% CI of error_ratio (the effect's interval inverted), (None, None) where there is
     none or the comparison is a difference."""
-    lo, hi = c["ci"]
-    if c["mode"] != "ratio" or lo is None:
+    lo, hi = c.ci
+    if c.mode != "ratio" or lo is None:
         return None, None
     return 1 / hi, 1 / lo
 
@@ -316,9 +342,9 @@ def across_losses(pairs, fit_of):
     more than one loss."""
     groups = {}
     for p in pairs:
-        f, b = fit_of[p["fit"]], fit_of[p["baseline"]]
+        f, b = fit_of[p.fit], fit_of[p.baseline]
         key = ("+".join(f["train"]), f["role"], f["model"], b["model"])
-        groups.setdefault(key, {})[f["loss"]] = p["verdict"].kind
+        groups.setdefault(key, {})[f["loss"]] = p.verdict.kind
     out = []
     for (train, role, model, base), by_loss in groups.items():
         if len(by_loss) < 2:
@@ -359,7 +385,7 @@ def compare_study(study, rows, summary, to_float, materials=None, lighting_units
             rec["judging"] = why
             if len(objects) > 1:
                 rec["pooled_objects"] = len(objects)
-            tests += [c for p in rec["comparisons"] for c in p["per_metric"]]
+            tests += [c for p in rec["comparisons"] for c in p.per_metric]
         else:
             rec = probe_record(study, rows, summary, q, to_float, materials, pairs)
             tests += rec["comparisons"]
@@ -370,10 +396,10 @@ def compare_study(study, rows, summary, to_float, materials=None, lighting_units
         if rec["source"] != "metrics":
             continue
         for p in rec["comparisons"]:
-            p["verdict"] = verdict(p["per_metric"])
-            f, b = fit_of[p["fit"]], fit_of[p["baseline"]]
-            p.update(train=f["train"], loss=f["loss"], role=f["role"], model=f["model"],
-                     baseline_model=b["model"])
+            p.verdict = verdict(p.per_metric)
+            f, b = fit_of[p.fit], fit_of[p.baseline]
+            p.train, p.loss, p.role = f["train"], f["loss"], f["role"]
+            p.model, p.baseline_model = f["model"], b["model"]
         rec["across_losses"] = across_losses(rec["comparisons"], fit_of)
     return records
 
@@ -432,7 +458,7 @@ def probe_record(study, rows, summary, q, to_float, materials, pairs):
     if q["kind"] == "max":
         what = f"excess over the bound {float(q['tolerance']):g}"
     for c in comparisons:
-        c["what"] = what
+        c.what = what
     return dict(record_head(q, mode), n_a=sorted(set(why.values())), comparisons=comparisons,
                 errors=[{"material": m, "fit": l, "error": e} for (m, l), e in errors.items()])
 
@@ -473,8 +499,8 @@ def every_metric_cells(study, rows, records, to_float, columns):
         for m in metrics:
             errs = image_errors(rows, rec, to_float, unit, units, labels, m)
             for p in rec["comparisons"]:
-                cells[(p["fit"], p["baseline"], m, rec["name"])] = describe_pair(
-                    errs, names, p["fit"], p["baseline"], m)
+                cells[(p.fit, p.baseline, m, rec["name"])] = describe_pair(
+                    errs, names, p.fit, p.baseline, m)
     return cells, metrics
 
 
@@ -490,12 +516,12 @@ def objects_of(rows):
 
 
 @dataclass
-class PairAnswer:
-    """One compared pair's verdict on one question: the verdict record (verdict()) and the
-    lowest and highest error ratio (fit / baseline) over the metrics."""
+class ObjectPair:
+    """One compared pair's verdict on one object's question: its Verdict and the lowest and
+    highest error ratio (fit / baseline) over the metrics."""
     fit: str
     baseline: str
-    verdict: dict
+    verdict: Verdict
     ratio_range: tuple = None
 
 
@@ -539,15 +565,17 @@ def object_answers(study, rows, summary, to_float):
                      if e["error"] is not None})
             questions.append(QuestionAnswer(
                 rec["name"], rec["question"], rec["split"], rec.get("unit", "material"), n,
-                [PairAnswer(p["fit"], p["baseline"], p["verdict"], ratio_range(p["per_metric"]))
+                [ObjectPair(p.fit, p.baseline, p.verdict, ratio_range(p.per_metric))
                  for p in rec["comparisons"]]))
         out.append(ObjectAnswer(obj, materials, questions))
     return out
 
 
 def to_jsonable(value):
-    """json.dumps' `default`: a dataclass record (Verdict, ObjectAnswer, ...) as its fields, in
-    their order."""
+    """json.dumps' `default`: a record (Comparison, PairAnswer, Verdict, ObjectAnswer) as its
+    fields, in their order (to_json where it leaves some out)."""
+    if hasattr(value, "to_json"):
+        return value.to_json()
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return dataclasses.asdict(value)
     raise TypeError(f"{type(value).__name__} is not JSON serializable")

@@ -12,6 +12,7 @@ python3-statsmodels); nothing here is a hand-written statistic. No file is read,
 import gc
 import math
 import warnings
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy import stats
@@ -69,6 +70,40 @@ def quartiles(values):
     return float(med), float(q1), float(q3)
 
 
+@dataclass
+class Comparison:
+    """A pair of fits compared over the units both have an error on: `effect` is the geometric
+    mean of baseline error / fit error (mode "ratio"; > 1: the fit is closer) or the mean of
+    baseline error - fit error ("difference"), `ci` its bootstrap 95% interval, `p` the paired
+    test's and `p_holm` its Holm-adjusted p (holm_by_pair); `metric` (an image question's) or
+    `what` (a probe question's error, in words) beside. comparisons.json records it by
+    to_json(), without the fields it does not have."""
+    fit: str
+    baseline: str
+    materials: list  # the units compared (materials, or "material, lighting")
+    n: int
+    mode: str
+    effect: float
+    ci: list
+    closer: int
+    farther: int
+    tied: int
+    p: float
+    test: str
+    fit_quartiles: tuple
+    baseline_quartiles: tuple
+    errors: dict
+    metric: str = None
+    what: str = None
+    p_holm: float = None
+    holm_family: int = None
+
+    def to_json(self):
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {k: v for k, v in out.items()
+                if v is not None or k not in ("metric", "what", "p_holm", "holm_family")}
+
+
 def compare_pair(errors, materials, label, base, mode):
     """The comparison of fit `label` with `base` over the materials where both have an error."""
     a, b, used = [], [], []
@@ -95,11 +130,9 @@ def compare_pair(errors, materials, label, base, mode):
         effect = float(np.mean(x))
         ci = bootstrap_ci(x)
     p, test = paired_test(x)
-    return {"fit": label, "baseline": base, "materials": used, "n": n, "mode": mode,
-            "effect": effect, "ci": list(ci), "closer": int(np.sum(a < b)),
-            "farther": int(np.sum(a > b)), "tied": int(np.sum(a == b)), "p": p, "test": test,
-            "fit_quartiles": quartiles(a), "baseline_quartiles": quartiles(b),
-            "errors": {m: [float(ea), float(eb)] for m, ea, eb in zip(used, a, b)}}
+    return Comparison(label, base, used, n, mode, effect, list(ci), int(np.sum(a < b)),
+                      int(np.sum(a > b)), int(np.sum(a == b)), p, test, quartiles(a),
+                      quartiles(b), {m: [float(ea), float(eb)] for m, ea, eb in zip(used, a, b)})
 
 
 def holm_by_pair(tests):
@@ -107,15 +140,15 @@ def holm_by_pair(tests):
     `p`), one family per compared pair: sets each record's `p_holm` and `holm_family`."""
     families = {}
     for c in tests:
-        families.setdefault((c["fit"], c["baseline"]), []).append(c)
+        families.setdefault((c.fit, c.baseline), []).append(c)
     # statsmodels' Holm branch calls gc.collect() on every call (0.15 s each with the report's
     # heap: 20 s for the measured study's 140 families); frozen objects are not traversed.
     gc.freeze()
     try:
         for family in families.values():
-            adjusted = multipletests([c["p"] for c in family], method="holm")[1]
+            adjusted = multipletests([c.p for c in family], method="holm")[1]
             for c, p in zip(family, adjusted):
-                c["p_holm"] = float(p)
-                c["holm_family"] = len(family)
+                c.p_holm = float(p)
+                c.holm_family = len(family)
     finally:
         gc.unfreeze()

@@ -3,7 +3,7 @@ comparisons table, the method paragraph, comparisons.json's record, and the ever
 Formats what answer_rules computed; computes no statistic and decides no answer."""
 
 import judging
-from answer_rules import (ALPHA, MIN_MATERIALS_FOR_PAIRED_TEST, direction, error_ratio, error_ratio_ci,
+from answer_rules import (ALPHA, MIN_MATERIALS_FOR_PAIRED_TEST, comparisons_of, direction, error_ratio, error_ratio_ci,
                           ratio_range)
 from answer_stats import BOOTSTRAP_RESAMPLES, BOOTSTRAP_SEED, SIGN_TEST_BELOW
 
@@ -27,10 +27,10 @@ def fmt_effect(v):
 def effect_parts(c):
     """('2.3x smaller than blinn-phong's', '95% CI 1.8-3.0') and the like: how the fit's error
     stands to the baseline's, and its interval in the same direction."""
-    lo, hi = c["ci"]
+    lo, hi = c.ci
     none = "no CI: fewer than 3 materials"
-    if c["mode"] == "ratio":
-        r = c["effect"]
+    if c.mode == "ratio":
+        r = c.effect
         prefix, ci = "", (lo, hi)
         if 0.995 <= r <= 1.005:
             words, prefix = "within 0.5% of", "ratio "
@@ -39,28 +39,28 @@ def effect_parts(c):
         else:
             words, ci = f"{fmt_effect(error_ratio(c))}x larger than", error_ratio_ci(c)
         ci_text = none if ci[0] is None else f"{prefix}95% CI {fmt_effect(ci[0])}-{fmt_effect(ci[1])}"
-        return f"{words} {c['baseline']}'s", ci_text
-    d = c["effect"]
+        return f"{words} {c.baseline}'s", ci_text
+    d = c.effect
     # The interval in the sentence's own direction: of how much lower (or higher).
     lo_s, hi_s = (lo, hi) if d >= 0 else (None if hi is None else -hi, None if lo is None else -lo)
     ci_text = none if lo is None else f"95% CI {lo_s + 0.0:.3g} to {hi_s + 0.0:.3g}"  # no "-0"
     side = "lower" if d >= 0 else "higher"
-    return f"{side} than {c['baseline']}'s by {abs(d):.3g} on average", ci_text
+    return f"{side} than {c.baseline}'s by {abs(d):.3g} on average", ci_text
 
 
 def effect_words(c):
     """'ggx's error is 2.3x smaller than blinn-phong's (95% CI 1.8-3.0)' and the like."""
     relation, ci_text = effect_parts(c)
-    return f"{c['fit']}'s {c.get('what', 'error')} is {relation} ({ci_text})"
+    return f"{c.fit}'s {c.what or 'error'} is {relation} ({ci_text})"
 
 
 def sentence(rec, c):
-    if c["test"] == "all tied":
-        return (f"{c['fit']}'s {c.get('what', 'error')} equals {c['baseline']}'s on every one of "
-                f"the {c['n']} materials (p = 1)")
-    test = {"Wilcoxon": "Wilcoxon", "sign test": "exact sign test"}[c["test"]]
-    return (f"{effect_words(c)}; {c['fit']} is closer on {c['closer']} of {c['n']} materials "
-            f"({test} p = {fmt_p(c.get('p_holm', c['p']))}, Holm)")
+    if c.test == "all tied":
+        return (f"{c.fit}'s {c.what or 'error'} equals {c.baseline}'s on every one of "
+                f"the {c.n} materials (p = 1)")
+    test = {"Wilcoxon": "Wilcoxon", "sign test": "exact sign test"}[c.test]
+    return (f"{effect_words(c)}; {c.fit} is closer on {c.closer} of {c.n} materials "
+            f"({test} p = {fmt_p(c.p if c.p_holm is None else c.p_holm)}, Holm)")
 
 
 def question_title(rec):
@@ -87,8 +87,8 @@ def comparison_table(records, fmt):
     out = []
     for rec in records:
         for pair in rec["comparisons"]:
-            per = pair.get("per_metric", [pair])
-            word = pair["verdict"].word if "verdict" in pair else ""
+            per = comparisons_of(pair)
+            word = pair.verdict.word if getattr(pair, "verdict", None) else ""
             out += [comparison_row(rec, c, fmt, word) for c in per]
     return cols, out
 
@@ -96,17 +96,17 @@ def comparison_table(records, fmt):
 def comparison_row(rec, c, fmt, word):
     def med(q):
         return f"{fmt(q[0])} [{fmt(q[1])}, {fmt(q[2])}]"
-    lo, hi = c["ci"]
-    effect = (f"{c['effect']:.3g}x" if c["mode"] == "ratio" else f"{c['effect']:+.3g}")
-    ci = "" if lo is None else (f"{lo:.3g}-{hi:.3g}" if c["mode"] == "ratio"
+    lo, hi = c.ci
+    effect = (f"{c.effect:.3g}x" if c.mode == "ratio" else f"{c.effect:+.3g}")
+    ci = "" if lo is None else (f"{lo:.3g}-{hi:.3g}" if c.mode == "ratio"
                                 else f"{lo:+.3g} to {hi:+.3g}")
-    metric = METRIC_NAMES.get(c["metric"], c["metric"]) if "metric" in c else ""
+    metric = "" if c.metric is None else METRIC_NAMES.get(c.metric, c.metric)
     # The same ratio the other way round, as issue 40's table and the findings read it.
     ratio = error_ratio(c)
     inverse = "" if ratio is None else f"{ratio:.3g}"
-    return [rec["name"], c["fit"], c["baseline"], metric, str(c["n"]), med(c["fit_quartiles"]),
-            med(c["baseline_quartiles"]), effect, ci, inverse, f"{c['closer']}/{c['n']}",
-            c["test"], fmt_p(c["p"]), fmt_p(c.get("p_holm")), word]
+    return [rec["name"], c.fit, c.baseline, metric, str(c.n), med(c.fit_quartiles),
+            med(c.baseline_quartiles), effect, ci, inverse, f"{c.closer}/{c.n}",
+            c.test, fmt_p(c.p), fmt_p(c.p_holm), word]
 
 
 def fmt_range(rng, digits=3):
@@ -123,13 +123,13 @@ def pair_sentence(pair, unit="material"):
     """One pair's answer on one question, in words; states a metric-dependent or mixed answer
     as such, with the metrics of each side, never as one metric's answer. `unit`: what the
     question compares over (the record's `unit`: materials, or lightings)."""
-    v, per = pair["verdict"], pair["per_metric"]
-    fit, base = pair["fit"], pair["baseline"]
+    v, per = pair.verdict, pair.per_metric
+    fit, base = pair.fit, pair.baseline
     rng = ratio_range(per)
     ratios = "" if rng is None else f"error ratio {fmt_range(rng)} over the metrics; "
-    closer = sorted({c["closer"] for c in per})
+    closer = sorted({c.closer for c in per})
     closer = f"{closer[0]}" if len(closer) == 1 else f"{closer[0]}-{closer[-1]}"
-    n_mat = max(c["n"] for c in per)
+    n_mat = max(c.n for c in per)
     if v.kind in ("smaller", "larger"):
         sig = v.significant()
         return (f"{fit} vs {base}: {v.word}: {fit}'s error is {v.kind} than {base}'s "
@@ -159,11 +159,11 @@ def loss_sentence(a):
 def all_pixels_text(rec, pair):
     """' [all pixels, extrapolated data included: smaller under 3 and larger under 5 of 8
     metrics]' beside a pair, where the measured references' all-pixel numbers differ."""
-    alls = {(a["fit"], a["baseline"]): a for a in rec.get("all_pixels", [])}
-    a = alls.get((pair["fit"], pair["baseline"]))
+    alls = {(a.fit, a.baseline): a for a in rec.get("all_pixels", [])}
+    a = alls.get((pair.fit, pair.baseline))
     if a is None:
         return ""
-    d = [direction(c) for c in a["per_metric"]]
+    d = [direction(c) for c in a.per_metric]
     return (f" [all pixels, extrapolated data included: smaller under {d.count(1)} and larger "
             f"under {d.count(-1)} of {len(d)} metrics]")
 
@@ -221,7 +221,7 @@ def lighting_units_text(rec):
 
 def method_text(records):
     """How the answers are computed, in one paragraph (summary.md and index.html)."""
-    tests = sum(len(p.get("per_metric", [p])) for r in records for p in r["comparisons"])
+    tests = sum(len(comparisons_of(p)) for r in records for p in r["comparisons"])
     few = any(r.get("unit") == "lighting" for r in records)
     return ("Every fit is compared with the baseline fit of its training set and loss over the "
             "materials, from each material's continuous error (an image metric's mean over the "
@@ -279,7 +279,7 @@ def every_metric_table(records, cells, metrics):
     if cells is None:
         return None
     judged = set(image[0]["metrics"])
-    pairs = list(dict.fromkeys((p["fit"], p["baseline"]) for r in image for p in r["comparisons"]))
+    pairs = list(dict.fromkeys((p.fit, p.baseline) for r in image for p in r["comparisons"]))
     head = ["fit", "baseline", "metric", "in the judging set"] + [
         f"{r['name']}: ratio, closer" for r in image]
     out = [[f, b, judging.metric_name(m), "yes" if m in judged else ""]

@@ -89,6 +89,8 @@ def store(fig_dir, material, key, records, write_text):
 
 def _jsonable(value):
     """Records (dataclasses) as their fields; anything else JSON lacks by its repr."""
+    if hasattr(value, "to_json"):
+        return value.to_json()
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return dataclasses.asdict(value)
     return repr(value)

@@ -46,6 +46,6 @@ def class_answers(study, rows, summary, to_float, classified):
 
 def class_question(rec):
     return {"name": rec["name"], "question": rec["question"],
-            "pairs": [{"fit": p["fit"], "baseline": p["baseline"], "verdict": p["verdict"],
-                       "ratio_range": answer_rules.ratio_range(p["per_metric"])}
+            "pairs": [{"fit": p.fit, "baseline": p.baseline, "verdict": p.verdict,
+                       "ratio_range": answer_rules.ratio_range(p.per_metric)}
                       for p in rec["comparisons"]]}

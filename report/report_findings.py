@@ -19,7 +19,7 @@ METRIC_COLOURS = OKABE_ITO + ["#000000", "#777777", "#999933", "#882255"]
 
 
 def set_key(pair, fit_of):
-    f = fit_of[pair["fit"]]
+    f = fit_of[pair.fit]
     return ("+".join(f["train"]), f["role"])
 
 
@@ -31,7 +31,7 @@ def set_title(key):
 
 def column(pair, fit_of, several_losses):
     """'ggx vs blinn-phong', and '(log)' after it where the study has several losses."""
-    f, b = fit_of[pair["fit"]], fit_of[pair["baseline"]]
+    f, b = fit_of[pair.fit], fit_of[pair.baseline]
     col = f"{f['model']} vs {b['model']}"
     return col + (f" ({f['loss']})" if several_losses and f["role"] != "brdf" else "")
 
@@ -39,26 +39,26 @@ def column(pair, fit_of, several_losses):
 def cell(pair):
     """The verdict in a few words: 'smaller under all 8 metrics; 0.52-0.88x; 8/8 sig.'; a
     probe question's single comparison: '2.3x smaller; sig.'."""
-    if "verdict" in pair:
-        v = pair["verdict"]
-        rng = answer_rules.ratio_range(pair["per_metric"])
+    if isinstance(pair, answer_rules.PairAnswer):
+        v = pair.verdict
+        rng = answer_rules.ratio_range(pair.per_metric)
         r = "" if rng is None else f"; {fmt_range(rng, 2)}"
         if v.kind in ("smaller", "larger"):
             sig = len(v.significant())
             return f"{v.word}{r}; {sig}/{v.n} sig."
         a, b = len(v.significant_smaller), len(v.significant_larger)
         return f"{v.word}{r}; " + (f"sig.: {a} smaller, {b} larger" if a or b else "none sig.")
-    sig = "; sig." if pair.get("p_holm", 1) < answer_rules.ALPHA else ""
-    if pair["mode"] == "ratio":
+    sig = "; sig." if (1 if pair.p_holm is None else pair.p_holm) < answer_rules.ALPHA else ""
+    if pair.mode == "ratio":
         r = answer_rules.error_ratio(pair)
         r = math.inf if r is None else r
         if r == 1:
             return "equal"
         return f"{'smaller' if r < 1 else 'larger'}; {r:.2g}x{sig}"
-    if pair["effect"] == 0:
+    if pair.effect == 0:
         return "equal"
-    side = "smaller" if pair["effect"] > 0 else "larger"
-    return f"{side}; {-pair['effect']:+.2g}{sig}"
+    side = "smaller" if pair.effect > 0 else "larger"
+    return f"{side}; {-pair.effect:+.2g}{sig}"
 
 
 def findings_tables(study, records):
@@ -131,12 +131,12 @@ def forest_rows(records):
     rows = {}
     for rec in (r for r in records if r["source"] == "metrics"):
         for p in rec["comparisons"]:
-            label = f"{p['fit']} vs {p['baseline']}"
+            label = f"{p.fit} vs {p.baseline}"
             pts = []
-            for c in p["per_metric"]:
+            for c in p.per_metric:
                 r = answer_rules.error_ratio(c)
                 if r is not None:
-                    pts.append((c["metric"], r, *answer_rules.error_ratio_ci(c)))
+                    pts.append((c.metric, r, *answer_rules.error_ratio_ci(c)))
             rows.setdefault(label, {})[rec["name"]] = pts
     return list(rows.items())
 

@@ -82,7 +82,7 @@ def paired_errors_figure(rec, study, fig_dir, manifest, title, y_label):
     fits = study["fits"]
     used = set()
     for c in rec["comparisons"]:
-        used.update([c["fit"], c["baseline"]])
+        used.update([c.fit, c.baseline])
     order = [f["label"] for f in fits if f["label"] in used]
     if not order:
         return
@@ -146,7 +146,7 @@ def region_figure(means, rec, labels, fig_dir, manifest):
     """One question's regions: a panel per region (rows), lightings along x, a bar per fit of
     its mean |error| with a black tick at its mean signed error."""
     split = rec["split"]
-    used = {x for p in rec["comparisons"] for x in (p["fit"], p["baseline"])}
+    used = {x for p in rec["comparisons"] for x in (p.fit, p.baseline)}
     fits = [l for l in labels if l in used]
     lightings = lightings_of(means, split)
     if not fits or not lightings:

@@ -28,19 +28,19 @@ def ordering_sentences(records):
                    None)
     if train_q is None:
         return {}
-    floors = {(p["model"], p["baseline_model"], p["loss"]): p for p in train_q["comparisons"]
-              if p["role"] == "floor"}
+    floors = {(p.model, p.baseline_model, p.loss): p for p in train_q["comparisons"]
+              if p.role == "floor"}
     out = {}
     for rec in (r for r in records if r["source"] == "metrics"):
         lines = []
-        for p in (p for p in rec["comparisons"] if p["role"] == "train"):
-            fp = floors.get((p["model"], p["baseline_model"], p["loss"]))
-            if fp is None or fp["verdict"].kind == p["verdict"].kind:
+        for p in (p for p in rec["comparisons"] if p.role == "train"):
+            fp = floors.get((p.model, p.baseline_model, p.loss))
+            if fp is None or fp.verdict.kind == p.verdict.kind:
                 continue
-            lines.append(f"The floors order {p['model']} and {p['baseline_model']} otherwise "
-                         f"than one training set does: {fp['fit']} vs {fp['baseline']} is "
-                         f"'{fp['verdict'].word}', {p['fit']} vs {p['baseline']} on this "
-                         f"question is '{p['verdict'].word}'")
+            lines.append(f"The floors order {p.model} and {p.baseline_model} otherwise "
+                         f"than one training set does: {fp.fit} vs {fp.baseline} is "
+                         f"'{fp.verdict.word}', {p.fit} vs {p.baseline} on this "
+                         f"question is '{p.verdict.word}'")
         out[rec["name"]] = lines
     return out
 
@@ -77,7 +77,7 @@ def model_floor_table(floors):
 
 
 def region_sentence(means, split, pair):
-    fit, base = pair["fit"], pair["baseline"]
+    fit, base = pair.fit, pair.baseline
     where = extra_error(means, split, fit, base)
     if where is None:
         return (f"{fit}'s mean absolute error is not larger than {base}'s in any region of the "
