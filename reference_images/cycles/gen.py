@@ -217,12 +217,40 @@ def _Plane(cfg, mat):
   return bpy.data.objects.new("plane", mesh)
 
 
-def BuildObjects(scene, objects, mat):
+def _Mesh(cfg, mat, scene_dir):
+  """A mesh file placed as shadefit places it (render/include/shadefit/render/mesh.h): scale,
+  rotation about X then Y then Z (Blender's XYZ Euler), translation; smooth or flat shading from
+  the triangles (the shipped PLY files carry no normals)."""
+  path = os.path.normpath(os.path.join(scene_dir, cfg["file"]))
+  bpy.ops.import_mesh.ply(filepath=path)
+  obj = bpy.context.selected_objects[0]
+  obj.location = _V(cfg.get("translate", [0, 0, 0]))
+  obj.rotation_mode = "XYZ"
+  obj.rotation_euler = [math.radians(a) for a in cfg.get("rotate", [0, 0, 0])]
+  scale = cfg.get("scale", [1, 1, 1])
+  obj.scale = [scale] * 3 if isinstance(scale, (int, float)) else scale
+  smooth = cfg.get("normals", "auto") != "flat"
+  for poly in obj.data.polygons:
+    poly.use_smooth = smooth
+  obj.data.use_auto_smooth = False
+  # Shadow rays start at the surface, as shadefit's do: no terminator offsets.
+  obj.cycles.shadow_terminator_offset = 0.0
+  obj.cycles.shadow_terminator_geometry_offset = 0.0
+  obj.data.materials.clear()
+  obj.data.materials.append(mat)
+  for c in obj.users_collection:
+    c.objects.unlink(obj)
+  return obj
+
+
+def BuildObjects(scene, objects, mat, scene_dir="."):
   for k, o in enumerate(objects):
     if o["type"] == "sphere":
       obj = _SphereGeometryNodes(o["center"], o["radius"], mat)
     elif o["type"] == "plane":
       obj = _Plane(o, mat)
+    elif o["type"] == "mesh":
+      obj = _Mesh(o, mat, scene_dir)
     else:
       raise ValueError(f"objects[{k}]: unknown type {o['type']}")
     scene.collection.objects.link(obj)
@@ -334,7 +362,7 @@ def BuildLights(scene, lights, background):
   return transparent, env_info
 
 
-def ConfigureCycles(scene, samples, seed, supersample, transparent):
+def ConfigureCycles(scene, samples, seed, supersample, transparent, bounces=1):
   scene.render.engine = "CYCLES"
   c = scene.cycles
   c.device = "CPU"
@@ -354,9 +382,11 @@ def ConfigureCycles(scene, samples, seed, supersample, transparent):
   # lights or the world, so one bounce of each kind is all the transport there is. The second
   # path segment is what carries the BSDF-sampled half of MIS for the environment; bounces >= 1
   # keep it, more would change nothing.
-  c.max_bounces = 1
-  c.diffuse_bounces = 1
-  c.glossy_bounces = 1
+  # Objects (meshes) are rendered with bounces = 0, direct light only, so that a shading model is
+  # judged on what it models; one reference per object set gives the full transport beside them.
+  c.max_bounces = int(bounces)
+  c.diffuse_bounces = int(bounces)
+  c.glossy_bounces = int(bounces)
   c.transmission_bounces = 0
   c.volume_bounces = 0
   c.transparent_max_bounces = 0
@@ -464,10 +494,11 @@ def RenderEntry(entry, manifest_dir, out_dir):
   scene = bpy.context.scene
   mat, mat_inputs = BuildMaterial(entry["material"])
   supersample = BuildCamera(scene, scene_cfg["camera"])
-  BuildObjects(scene, scene_cfg.get("objects", []), mat)
+  BuildObjects(scene, scene_cfg.get("objects", []), mat, os.path.dirname(scene_path))
   transparent, env_info = BuildLights(scene, scene_cfg.get("lights", []),
                                       scene_cfg.get("background", {}))
-  ConfigureCycles(scene, entry["samples"], entry["seed"], supersample, transparent)
+  ConfigureCycles(scene, entry["samples"], entry["seed"], supersample, transparent,
+                  entry.get("bounces", 1))
 
   final_exr = os.path.join(out_dir, name + ".exr")
   final_json = os.path.join(out_dir, name + ".json")

@@ -9,6 +9,7 @@ SCENE_KEYS = {
                "supersample"},
     "sphere": {"type", "center", "radius"},
     "plane": {"type", "point", "normal", "half_size"},
+    "mesh": {"type", "file", "translate", "rotate", "scale", "normals"},
     "point": {"type", "position", "power", "intensity"},
     "directional": {"type", "direction", "irradiance"},
     "ambient": {"type", "radiance"},

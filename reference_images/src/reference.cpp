@@ -1,6 +1,8 @@
 // Reading a reference from files: image, sidecar JSON, scene TOML, optional mask.
 #include "shadefit/reference_images/reference.h"
 
+#include "shadefit/render/shadows.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -80,6 +82,7 @@ void ReadMeasuredDomain(const nlohmann::json& domain, const fs::path& sidecar, R
 }  // namespace
 
 bool IsMeasuredPixel(const Reference& ref, int x, int y) {
+  if (!ref.shadow_edge.empty() && ref.shadow_edge.at(x, y, 0) > 0.5f) return false;
   return ref.extrapolated_share.empty() ||
          ref.extrapolated_share.at(x, y, 0) <= ref.measured_share_max;
 }
@@ -156,6 +159,8 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   if (!PathExists(ref.scene_path)) throw Error(ref.scene_path, "", "scene does not exist");
   ref.scene = LoadScene(ref.scene_path);
   ref.sha256["scene"] = Sha256File(ref.scene_path);
+  // Objects' shadow edges are outside what the renderer reproduces (docs/scenes.md, "Shadows").
+  ref.shadow_edge = ShadowEdgeMask(ref.scene);
   if (ref.scene.camera.width != ref.image.width || ref.scene.camera.height_px != ref.image.height) {
     throw Error(
         image_path, "resolution",

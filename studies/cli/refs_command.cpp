@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "shadefit/base/error.h"
 #include "shadefit/reference_images/import.h"
+#include "shadefit/reference_images/import_set.h"
 #include "shadefit/reference_images/light_calibration.h"
 #include "shadefit/reference_images/render_measured.h"
 #include "shadefit/render/gl_context.h"
@@ -134,6 +135,46 @@ void AddImport(CLI::App& refs) {
             s.highlight_y);
       }
     }
+  });
+}
+
+void AddImportSet(CLI::App& refs) {
+  auto* cmd = refs.add_subcommand(
+      "import-set",
+      "Import a photometric-stereo data set (images, light_directions.txt, "
+      "light_intensities.txt, mask.png, ground-truth normals; one object or one per subfolder): "
+      "references, scenes and a study file that runs as it is");
+  auto opt = std::make_shared<reference_images::ImportSetOptions>();
+  cmd->add_option("dir", opt->input, "The data set's folder")->required();
+  cmd->add_option("-o,--output", opt->output, "Output folder (refs/, scenes/, <name>.toml)")
+      ->required();
+  cmd->add_option("--name", opt->name, "The study's name (default: the folder's name)");
+  cmd->add_option("--normals", opt->normals,
+                  "File name of each object's normals (default: Normal_gt.mat, normal.txt, ...)");
+  cmd->add_option("--y-axis", opt->y_axis,
+                  "The normals' y axis: up, down, or auto (the one Lambertian photometric stereo "
+                  "on the images agrees with)")
+      ->check(CLI::IsMember({"auto", "up", "down"}));
+  cmd->add_option("--train", opt->train_lights, "Lights the fit trains on (a spread subset)")
+      ->check(CLI::Range(1, 1000));
+  cmd->add_option("--clip-threshold", opt->clip_threshold,
+                  "8-bit code at or above which a channel counts as clipped (256: off)");
+  cmd->add_option("--pixel-stride", opt->pixel_stride, "The study's training pixel stride")
+      ->check(CLI::Range(1, 64));
+  cmd->callback([opt] {
+    GlContext context;
+    Renderer renderer(context);
+    const reference_images::ImportSetResult r =
+        reference_images::ImportPhotometricSet(*opt, renderer);
+    for (const reference_images::ImportedObject& o : r.objects) {
+      fmt::print(
+          "{}: {} lights, normals {} (y {}; Lambertian photometric stereo against them: median "
+          "{:.1f} deg, {:.1f} with y flipped)\n",
+          o.name, o.lights, o.normals_file, o.y_axis, o.check_angle_deg,
+          o.check_angle_flipped_deg);
+    }
+    fmt::print("wrote {} (train on {} lights); run: shadefit study run {} -o OUT\n",
+               r.study_path, r.objects.front().train.size(), r.study_path);
   });
 }
 
@@ -284,10 +325,11 @@ void AddCycles(CLI::App& refs) {
 
 void RegisterRefsCommand(CLI::App& app) {
   auto* refs =
-      app.add_subcommand("refs", "Make reference images: measured, import, lights, cycles");
+      app.add_subcommand("refs", "Make reference images: measured, import, import-set, lights, cycles");
   refs->require_subcommand(1);
   AddMeasured(*refs);
   AddImport(*refs);
+  AddImportSet(*refs);
   AddLights(*refs);
   AddCycles(*refs);
 }

@@ -361,7 +361,9 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   record.metrics_all = all.report ? MetricsSummary(*all.report) : NullMetricsSummary();
   json& e = record.details;
   e = {{"rmse_fitter", rmse},
-            {"metrics_pixels", ref.extrapolated_share.empty() ? "covered" : "covered and measured"},
+            {"metrics_pixels", ref.extrapolated_share.empty() && ref.shadow_edge.empty()
+                                   ? "covered"
+                                   : "covered and measured"},
             {"covered_pixels", covered_pixels},
             {"measured_pixels", measured_pixels},
             {"lit_pixels", lit_pixels},

@@ -56,6 +56,7 @@ std::string HostName() {
 // One fit job's rows of results.csv.
 void AppendResultRows(const RunContext& context, const Job& job, std::ostringstream& csv) {
   const FitJobRecord fit = ReadFitJobRecord(context.paths.JobJson(job));
+  const std::string& object = context.spec.groups[job.group].object;
   const auto row_start = [&](const std::string& lighting, const std::string& reference,
                              const std::string& split) {
     csv << Text(fit.material) << "," << Text(lighting) << "," << Text(reference) << ","
@@ -69,7 +70,7 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
       // kMetricColumns, measured_fraction, the _all columns, the regions: all empty.
       csv << std::string(2 * kMetricColumns.size() + 1 + kRegionColumns.size() *
                                                               kRegionNames.size(), ',')
-          << "\n";
+          << "," << Text(object) << "\n";
     }
     return;
   }
@@ -84,7 +85,7 @@ void AppendResultRows(const RunContext& context, const Job& job, std::ostringstr
         csv << "," << (regions.is_object() ? Cell(regions[r][c]) : std::string());
       }
     }
-    csv << "\n";
+    csv << "," << Text(object) << "\n";
   }
 }
 
@@ -146,7 +147,7 @@ void WriteResultsCsv(const RunContext& context, const std::vector<Job>& jobs) {
   for (const auto& r : kRegionNames) {
     for (const auto& c : kRegionColumns) csv << ",region_" << r << "_" << c;
   }
-  csv << "\n";
+  csv << ",object\n";  // The group's object ("" for spheres and planes): the report's unit.
   for (const Job& job : jobs) {
     if (job.kind == Job::Kind::kFit) AppendResultRows(context, job, csv);
   }

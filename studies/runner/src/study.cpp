@@ -128,7 +128,9 @@ nlohmann::json StudySpec::ToJson() const {
                       {"image", r.image_path},
                       {"sidecar", r.sidecar_path}});
     }
-    groups_json.push_back({{"material", g.material}, {"references", refs}});
+    nlohmann::json group = {{"material", g.material}, {"references", refs}};
+    if (!g.object.empty()) group["object"] = g.object;  // Sphere studies' study.json unchanged.
+    groups_json.push_back(group);
   }
   nlohmann::json settings = nlohmann::json::object();
   for (const auto& [model, s] : model_settings) settings[model] = s.ToJson();

@@ -133,8 +133,9 @@ namespace {
 bool ReadGroup(const Reader& r, const toml::node& gn, const fs::path& base, const QuickFilter& q,
                ReferenceGroup* group) {
   const toml::table& g = *gn.as_table();
-  r.CheckKeys(g, "group.", {"material", "images", "exclude", "lightings"});
+  r.CheckKeys(g, "group.", {"material", "object", "images", "exclude", "lightings"});
   group->material = r.String(g, "group.", "material", "");
+  group->object = r.String(g, "group.", "object", "");
   if (group->material.empty()) r.Fail(&gn, "group.material", "missing");
   if (!q.KeepsMaterial(group->material)) return false;
   const std::vector<std::string> images = r.Strings(g, "group.", "images");

@@ -46,13 +46,18 @@ struct Reference {
   Image extrapolated_share;
   double measured_share_max = 0.0;
   std::string domain_path;  // "" when no domain.
+  // Scenes with mesh or normal-map objects: 1 at the pixels on a shadow's edge (ShadowEdgeMask,
+  // render/shadows.h), which the renderer cannot reproduce; they are outside the measured domain
+  // (IsMeasuredPixel) with that reason. Empty for every other scene.
+  Image shadow_edge;
   // SHA-256 (hex) of the bytes of every input file read, keyed by role: image, sidecar, scene,
   // mask, domain.
   std::map<std::string, std::string> sha256;
 };
 
-// Whether pixel (x, y) lies in the reference's measured domain: its extrapolated share is at most
-// measured_share_max; every pixel of a reference without a domain does.
+// Whether pixel (x, y) lies in the reference's measured domain: not on a shadow's edge, and its
+// extrapolated share is at most measured_share_max; every other pixel of a reference without a
+// domain does.
 bool IsMeasuredPixel(const Reference& ref, int x, int y);
 
 // Reads a reference as the CLI does. The image: EXR/HDR are linear radiance; any other format

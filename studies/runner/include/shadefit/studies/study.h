@@ -30,6 +30,10 @@ struct ReferenceSpec {
 // One material under several lightings.
 struct ReferenceGroup {
   std::string material;
+  // What the material is on, when a study compares objects ("suzanne"; a photo set's object):
+  // results.csv's object column, the report's unit of per-object answers. "" for spheres and
+  // planes (docs/studies.md, "Objects").
+  std::string object;
   std::vector<ReferenceSpec> references;  // Sorted by lighting name.
 };
 
