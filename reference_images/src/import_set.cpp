@@ -15,6 +15,7 @@
 #include "shadefit/reference_images/import.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/pixel_surface.h"
+#include "shadefit/render/shadows.h"
 
 namespace shadefit::reference_images {
 namespace {
@@ -240,6 +241,60 @@ void WriteFileAtomic(const fs::path& path, const std::string& text) {
   fs::rename(tmp, path);
 }
 
+// The pixels whose cast shadow the object's depth does not reproduce: dark in the image where the
+// scene lights them, or lit in the image where the scene's depth casts a shadow. A normal-map
+// object's depth is integrated from its normals, which says nothing across a depth discontinuity
+// (an ear in front of a head), so its cast shadows can fall where the photograph's do not; those
+// pixels are outside what the renderer reproduces, as a shadow's edge is. Only pixels facing the
+// light (n.l > 0.1) are judged: the attached shadow is the model's own. "Dark": below 10% of what
+// the object's typical albedo would give there (the 90th percentile of luminance / n.l over the
+// facing pixels, times n.l). Returns the mask with those pixels set to 0 and their count.
+Image ShadowAgreementMask(const Scene& scene, const Image& linear, const Vec3d& intensity,
+                          long long* removed) {
+  const SceneObject& o = scene.objects.at(0);
+  const PixelSurface& s = *o.pixels;
+  const Light* light = nullptr;
+  for (const Light& l : scene.lights) {
+    if (l.type == Light::Type::kDirectional) light = &l;
+  }
+  Image mask(s.width, s.height, 1);
+  *removed = 0;
+  if (!light) return mask;
+  const Vec3d to_light = -light->direction;
+  const double scale = 0.2126 * intensity.x + 0.7152 * intensity.y + 0.0722 * intensity.z;
+  std::vector<double> albedo;
+  const std::size_t n = static_cast<std::size_t>(s.width) * s.height;
+  std::vector<double> ndotl(n, 0.0), lum(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!s.mask[i]) continue;
+    const Vec3d nn{s.normal[3 * i], s.normal[3 * i + 1], s.normal[3 * i + 2]};
+    ndotl[i] = Dot(nn, to_light);
+    lum[i] = Luminance(linear, i) / scale;
+    if (ndotl[i] > 0.1) albedo.push_back(lum[i] / ndotl[i]);
+  }
+  if (albedo.empty()) {
+    for (std::size_t i = 0; i < n; ++i) mask.data[i] = s.mask[i];
+    return mask;
+  }
+  std::nth_element(albedo.begin(), albedo.begin() + static_cast<long>(albedo.size() * 9 / 10),
+                   albedo.end());
+  const double typical = albedo[albedo.size() * 9 / 10];
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!s.mask[i]) continue;
+    mask.data[i] = 1.0f;
+    if (ndotl[i] <= 0.1) continue;
+    const Vec3d p{s.position[3 * i], s.position[3 * i + 1], s.position[3 * i + 2]};
+    const Vec3d nn{s.normal[3 * i], s.normal[3 * i + 1], s.normal[3 * i + 2]};
+    const bool shadowed = !LightReaches(scene, 0, p, nn, to_light, 1e30);
+    const bool dark = lum[i] < 0.1 * typical * ndotl[i];
+    if (shadowed != dark) {
+      mask.data[i] = 0.0f;
+      ++*removed;
+    }
+  }
+  return mask;
+}
+
 std::string Vec(const Vec3d& v) { return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", v.x, v.y, v.z); }
 
 }  // namespace
@@ -308,6 +363,7 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
     }
   }
   ImportSetResult result;
+  std::vector<std::vector<Image>> images;  // Per object, per light: linear RGB.
   for (const ObjectFiles& f : objects) {
     ImportedObject obj;
     obj.name = f.name;
@@ -326,15 +382,19 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
       linear.push_back(DecodeToLinear(loaded, Encoding::kLinear, &applied));
     }
     CheckNormals(f, linear, normals, &obj.check_angle_deg, &obj.check_angle_flipped_deg);
+    obj.masked_pixels = std::count(normals.mask.begin(), normals.mask.end(), std::uint8_t{1});
     obj.y_axis = o.y_axis != "auto" ? o.y_axis
                  : (obj.check_angle_flipped_deg < obj.check_angle_deg ? "down" : "up");
     for (int k : train) obj.train.push_back(LightName(static_cast<std::size_t>(k)));
     result.objects.push_back(obj);
+    images.push_back(std::move(linear));
   }
   // 2. Scenes, references, the study.
   const fs::path out = fs::absolute(o.output);
   fs::create_directories(out / "scenes");
   fs::create_directories(out / "refs");
+  fs::create_directories(out / "masks");
+  std::vector<long long> obj_removed(objects.size(), 0);
   for (std::size_t j = 0; j < objects.size(); ++j) {
     const ObjectFiles& f = objects[j];
     const ImportedObject& obj = result.objects[j];
@@ -352,15 +412,28 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
                           Vec(-f.directions[k]));
       text += fmt::format("irradiance = {}  # light_intensities.txt\n", Vec(f.intensities[k]));
       WriteFileAtomic(scene, text);
+      // The object's mask less the pixels whose cast shadow the depth does not reproduce.
+      const Scene parsed = LoadScene(scene.string());
+      long long removed = 0;
+      const Image agree = ShadowAgreementMask(parsed, images[j][k], f.intensities[k], &removed);
+      const fs::path mask_path = out / "masks" / (stem + ".png");
+      WritePng8(mask_path.string(), agree);
+      obj_removed[j] += removed;
       ImportOptions io;
       io.image_path = f.images[k];
       io.scene_path = scene.string();
-      io.mask_path = f.mask;
+      io.mask_path = mask_path.string();
       io.encoding = Encoding::kLinear;  // Photometric-stereo sets store linear radiance.
       io.clip_threshold = o.clip_threshold;
       io.output = (out / "refs" / (stem + ".exr")).string();
       ImportReference(io, renderer);
     }
+  }
+  for (std::size_t j = 0; j < objects.size(); ++j) {
+    const double judged = static_cast<double>(objects[j].images.size()) *
+                          static_cast<double>(result.objects[j].masked_pixels);
+    result.objects[j].shadow_disagreement_fraction =
+        judged > 0 ? static_cast<double>(obj_removed[j]) / judged : 0.0;
   }
   const std::string name = o.name.empty() ? FileSafeName(input.filename().string()) : o.name;
   std::string study = fmt::format(
@@ -372,9 +445,10 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
   for (const ImportedObject& obj : result.objects) {
     study += fmt::format(
         "# {}: {} lights; normals {} (y {}); Lambertian photometric stereo vs these normals: "
-        "median {:.1f} deg ({:.1f} with y flipped)\n",
+        "median {:.1f} deg ({:.1f} with y flipped);\n#   {:.1f}% of the object's pixel-lights "
+        "left out (masks/): a cast shadow the integrated depth does not reproduce\n",
         obj.name, obj.lights, obj.normals_file, obj.y_axis, obj.check_angle_deg,
-        obj.check_angle_flipped_deg);
+        obj.check_angle_flipped_deg, 100 * obj.shadow_disagreement_fraction);
   }
   study += fmt::format("\n[study]\nname = \"{}\"\ndescription = \"{} object(s) under their "
                        "data set's lights: joint fit on {}, tested on the rest\"\n",

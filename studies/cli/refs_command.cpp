@@ -169,9 +169,10 @@ void AddImportSet(CLI::App& refs) {
     for (const reference_images::ImportedObject& o : r.objects) {
       fmt::print(
           "{}: {} lights, normals {} (y {}; Lambertian photometric stereo against them: median "
-          "{:.1f} deg, {:.1f} with y flipped)\n",
+          "{:.1f} deg, {:.1f} with y flipped); {:.1f}% of pixel-lights left out: a cast shadow "
+          "the integrated depth does not reproduce\n",
           o.name, o.lights, o.normals_file, o.y_axis, o.check_angle_deg,
-          o.check_angle_flipped_deg);
+          o.check_angle_flipped_deg, 100 * o.shadow_disagreement_fraction);
     }
     fmt::print("wrote {} (train on {} lights); run: shadefit study run {} -o OUT\n",
                r.study_path, r.objects.front().train.size(), r.study_path);

@@ -38,6 +38,10 @@ struct ImportedObject {
   // against the data's normals: the median angle (degrees) with the y axis as used and flipped.
   double check_angle_deg = 0, check_angle_flipped_deg = 0;
   std::vector<std::string> train;  // Lighting names of the training subset.
+  long long masked_pixels = 0;     // The object's pixels (its mask).
+  // Of the object's pixels over all lights, the share left out because its cast shadow is not
+  // the one the object's depth casts (masks/<object>-<light>.png; import_set.cpp says how).
+  double shadow_disagreement_fraction = 0;
 };
 
 struct ImportSetResult {
