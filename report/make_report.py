@@ -23,6 +23,7 @@ import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import figure_cache  # noqa: E402
 import report_charts  # noqa: E402
+import report_figures  # noqa: E402
 import report_grids  # noqa: E402
 import report_latex  # noqa: E402
 import report_metric_figures  # noqa: E402
@@ -98,6 +99,7 @@ class MaterialFigures:
         jobs = min(jobs, len(self.todo))
         self.pool = None
         if jobs > 1:
+            report_figures.warm_up()  # once here, not once per worker
             try:
                 # Fork: the workers inherit the inputs and matplotlib's state; no figure is
                 # open yet.

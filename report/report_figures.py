@@ -150,6 +150,18 @@ def text_problems(fig):
     return overlaps, outside
 
 
+def warm_up():
+    """Loads what every figure needs once (the font and its glyphs, the Agg and PDF backends) by
+    drawing a small figure with text to memory, so that worker processes forked after it share
+    it instead of each loading it again."""
+    import io
+    fig = plt.figure(figsize=(1, 1))
+    fig.text(0.1, 0.5, "Warm-up 0123456789 abcdefghijklmnopqrstuvwxyz", fontsize=FONT_PT)
+    fig.canvas.draw()
+    fig.savefig(io.BytesIO(), format="pdf")
+    plt.close(fig)
+
+
 def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
     """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
     fields for the record (a split grid's kind, material and part)."""
