@@ -188,12 +188,19 @@ bool LightReaches(const Scene& scene, int object, const Vec3d& p, const Vec3d& n
     return !(scene.objects.size() > 1 &&
              Intersect(scene, Ray{p + n * kRayEpsilon, l}, 1e-4, dist, nullptr));
   }
-  double offset = kRayEpsilon;
+  // A mesh's shadow ray starts on the surface and skips only kRayEpsilon along the light, as
+  // Cycles' does (with its terminator offsets at 0, which the object references set): where the
+  // smooth normal faces the light but the facet does not, the ray enters the solid and the point
+  // is in shadow in both renderers. An offset along the shading normal would lift it over the
+  // neighbouring facets instead (measured: lit pixels Cycles leaves black on the knot's tube).
+  // A normal-map object's depth surface is a facet approximation of the data: its rays start 1.5
+  // pixels out along the normal.
+  double offset = 0;
   if (object >= 0 && object < static_cast<int>(scene.objects.size()) &&
       scene.objects[object].pixels) {
-    offset = std::max(offset, scene.objects[object].pixels->ray_offset);
+    offset = scene.objects[object].pixels->ray_offset;
   }
-  return !scene.ray_caster->Occluded(Ray{p + n * offset, l}, 1e-4, dist);
+  return !scene.ray_caster->Occluded(Ray{p + n * offset, l}, kRayEpsilon, dist);
 }
 
 Image ShadowEdgeMask(const Scene& scene) {
