@@ -204,19 +204,23 @@ def answer_lines(records):
 
 
 def lighting_units_text(rec):
-    """What an image question answered over its lightings is about, said plainly."""
+    """What an image question answered over its lightings is about, said plainly: how many
+    (material, lighting) units its pairs have (each pair is compared over the lightings of the
+    split both its fits have: a fit trained on more lightings has more training units)."""
     n = rec["unit_materials"]
-    units = len({e["material"] + "\0" + e.get("object", "") + "\0" + e["lighting"]
-                 for e in rec["errors"]})
+    ns = sorted({c.n for p in rec["comparisons"] for c in p.per_metric})
+    count = "" if not ns else f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}-{ns[-1]}"
     which = "test" if rec["split"] == "test" else "training"
-    about = ("this object under other lights" if rec["split"] == "test"
-             else "this object under the lights it was fitted to")
-    if n > 1:
-        about = about.replace("this object", f"these {n} materials and objects")
-    return (f"Units: the {units} {which} lightings. With {n} material{'s' if n > 1 else ''} "
-            f"(fewer than {MIN_MATERIALS_FOR_PAIRED_TEST}, too few for a paired test over "
-            f"materials) each (material, {which} lighting) is a unit of the paired test: the "
-            f"answer is about {about}, not about other materials")
+    # Pooled over several objects a unit's first part is a material on an object.
+    noun = "material-object pair" if rec.get("pooled_objects") else "material"
+    who = "this object" if n == 1 else f"these {n} {noun}s"
+    lights = ("other lights" if rec["split"] == "test" else
+              f"the lights {'it was' if n == 1 else 'they were'} fitted to")
+    return (f"Units: the {which} lightings ({count} per compared pair). With {n} "
+            f"{noun}{'s' if n > 1 else ''} (fewer than {MIN_MATERIALS_FOR_PAIRED_TEST}, too "
+            f"few for a paired test over materials) each (material, {which} lighting) is a unit "
+            f"of the paired test: the answer is about {who} under {lights}, not about other "
+            "materials")
 
 
 def method_text(records):

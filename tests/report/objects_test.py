@@ -133,6 +133,8 @@ def test_one_object(make_report, out):
     check(p["verdict"]["kind"] == "smaller" and len(p["verdict"]["significant_smaller"]) == 2,
           f"one object: verdict {p['verdict']}")
     check("closer on 8 of 8 lightings" in md, "one object: no 'closer on 8 of 8 lightings'")
+    check("Units: the test lightings (8 per compared pair)" in md,
+          "one object: summary.md does not say 'Units: the test lightings (8 per compared pair)'")
     check("the answer is about this object under other lights" in md,
           "one object: summary.md does not say the answer is about this object under other "
           "lights")
@@ -189,6 +191,9 @@ def test_two_objects(make_report, out):
     check("ggx vs blinn-phong: larger under all 2 metrics, error ratio 2x" in md,
           "two objects: the knot's line is not 'larger under all 2 metrics, error ratio 2x'")
     check("Pooled over the 2 objects" in md, "two objects: the pooled answer is not said so")
+    check("With 2 material-object pairs" in md and "about these 2 material-object pairs under "
+          "other lights" in md, "two objects: the pooled units are not named material-object "
+          "pairs")
     no_empty_table(d, "two objects")
 
 
