@@ -135,9 +135,9 @@ ObjectFiles ReadObject(const fs::path& dir, const std::string& name, const Impor
   for (const auto& r : ReadRows(dirs, 3)) {
     const Vec3d d{r[0], r[1], r[2]};
     const double len = Length(d);
-    if (std::abs(len - 1.0) > 0.02) {
+    if (!(len > 1e-9)) {  // Any other length is normalised, as `refs lights` does.
       throw Error(dirs.string(), fmt::format("line {}", f.directions.size() + 1),
-                  fmt::format("direction has length {:.4g}, not 1", len));
+                  "a direction of length 0");
     }
     f.directions.push_back(d / len);
   }
@@ -229,6 +229,27 @@ void CheckNormals(const ObjectFiles& f, const std::vector<Image>& linear, const 
   };
   *angle = median(a);
   *angle_flipped = median(b);
+}
+
+// Mean |curl| of the slope field the normals give (p = -nx/nz along the columns, q = +ny/nz down
+// the rows, as IntegrateNormals reads them), with y as stored or flipped, over the 2 x 2 blocks of
+// masked pixels facing the camera (nz > 0.3): normals of a real surface are integrable (curl 0)
+// only in the frame whose y runs up the picture (Frankot and Chellappa 1988's integrability).
+double MeanCurl(const NormalImage& n, bool flip_y) {
+  double sum = 0;
+  long count = 0;
+  auto ok = [&](std::size_t i) { return n.mask[i] && n.normal[3 * i + 2] > 0.3; };
+  auto p = [&](std::size_t i) { return -n.normal[3 * i] / n.normal[3 * i + 2]; };
+  auto q = [&](std::size_t i) { return (flip_y ? -1.0 : 1.0) * n.normal[3 * i + 1] / n.normal[3 * i + 2]; };
+  for (int y = 0; y + 1 < n.height; ++y) {
+    for (int x = 0; x + 1 < n.width; ++x) {
+      const std::size_t a = static_cast<std::size_t>(y) * n.width + x, b = a + 1, c = a + n.width;
+      if (!ok(a) || !ok(b) || !ok(c)) continue;
+      sum += std::abs((p(c) - p(a)) - (q(b) - q(a)));
+      ++count;
+    }
+  }
+  return count > 0 ? sum / count : 0.0;
 }
 
 void WriteFileAtomic(const fs::path& path, const std::string& text) {
@@ -354,22 +375,42 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
     }
     for (const fs::path& d : dirs) objects.push_back(ReadObject(d, FileSafeName(d.filename().string()), o));
   }
-  const std::vector<int> train = SpreadSubset(objects[0].directions, o.train_lights);
-  for (const ObjectFiles& f : objects) {
-    if (f.images.size() <= static_cast<std::size_t>(train.back())) {
-      throw Error(f.dir.string(), "images",
-                  fmt::format("{} images; the training lights (chosen on {}) need {}",
-                              f.images.size(), objects[0].name, train.back() + 1));
-    }
-  }
   ImportSetResult result;
   std::vector<std::vector<Image>> images;  // Per object, per light: linear RGB.
+  std::vector<NormalImage> frames;         // Per object: the normals in shadefit's frame.
   for (const ObjectFiles& f : objects) {
     ImportedObject obj;
     obj.name = f.name;
     obj.lights = static_cast<int>(f.images.size());
     obj.normals_file = f.normals;
-    const NormalImage normals = ReadNormalImage(f.normals, f.mask, "", false);
+    // The data set's frame, found from the data: z toward the camera (most normals face it, and
+    // a photograph sees its lights' side), y up the picture (the normals integrate), and the
+    // lights' y the normals' (Lambertian photometric stereo agrees); or as --y-axis says.
+    NormalImage normals = ReadNormalImage(f.normals, f.mask, "", false, /*check_facing=*/false);
+    long facing = 0, masked = 0;
+    for (std::size_t i = 0; i < normals.mask.size(); ++i) {
+      masked += normals.mask[i];
+      facing += normals.mask[i] && normals.normal[3 * i + 2] > 0;
+    }
+    obj.normals_z_flipped = facing < masked / 2;
+    if (obj.normals_z_flipped) {
+      for (std::size_t i = 0; i < normals.mask.size(); ++i) normals.normal[3 * i + 2] *= -1;
+    }
+    long lights_toward = 0;
+    for (const Vec3d& d : f.directions) lights_toward += d.z > 0;
+    ObjectFiles& fm = objects[&f - &objects[0]];
+    obj.lights_z_flipped = lights_toward < static_cast<long>(f.directions.size()) / 2;
+    if (obj.lights_z_flipped) {
+      for (Vec3d& d : fm.directions) d.z = -d.z;
+    }
+    obj.curl_as_stored = MeanCurl(normals, false);
+    obj.curl_flipped = MeanCurl(normals, true);
+    const bool normals_y_down =
+        o.y_axis == "auto" ? obj.curl_flipped < obj.curl_as_stored : o.y_axis == "down";
+    if (normals_y_down) {
+      for (std::size_t i = 0; i < normals.mask.size(); ++i) normals.normal[3 * i + 1] *= -1;
+    }
+    obj.y_axis = normals_y_down ? "down" : "up";
     std::vector<Image> linear;
     for (const std::string& path : f.images) {
       const LoadedImage loaded = LoadImageForImport(path);
@@ -381,19 +422,44 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
       Encoding applied;
       linear.push_back(DecodeToLinear(loaded, Encoding::kLinear, &applied));
     }
-    CheckNormals(f, linear, normals, &obj.check_angle_deg, &obj.check_angle_flipped_deg);
-    obj.masked_pixels = std::count(normals.mask.begin(), normals.mask.end(), std::uint8_t{1});
-    obj.y_axis = o.y_axis != "auto" ? o.y_axis
-                 : (obj.check_angle_flipped_deg < obj.check_angle_deg ? "down" : "up");
-    for (int k : train) obj.train.push_back(LightName(static_cast<std::size_t>(k)));
+    CheckNormals(fm, linear, normals, &obj.check_angle_deg, &obj.check_angle_flipped_deg);
+    obj.lights_y_flipped = obj.check_angle_flipped_deg < obj.check_angle_deg;
+    if (obj.lights_y_flipped) {  // The lights' y runs the other way: turn them, not the normals.
+      for (Vec3d& d : fm.directions) d.y = -d.y;
+      std::swap(obj.check_angle_deg, obj.check_angle_flipped_deg);
+    }
+    if (!(obj.check_angle_deg < 45)) {
+      throw Error(f.normals, "normals",
+                  fmt::format("Lambertian photometric stereo on the images disagrees with these "
+                              "normals by {:.0f} degrees (median) in every frame tried: are they "
+                              "the ground truth of these images and lights?", obj.check_angle_deg));
+    }
+    obj.masked_pixels = masked;
+    frames.push_back(std::move(normals));
     result.objects.push_back(obj);
     images.push_back(std::move(linear));
+  }
+  // The training lights, spread over the first object's directions (in shadefit's frame).
+  const std::vector<int> train = SpreadSubset(objects[0].directions, o.train_lights);
+  for (std::size_t j = 0; j < objects.size(); ++j) {
+    if (objects[j].images.size() <= static_cast<std::size_t>(train.back())) {
+      throw Error(objects[j].dir.string(), "images",
+                  fmt::format("{} images; the training lights (chosen on {}) need {}",
+                              objects[j].images.size(), objects[0].name, train.back() + 1));
+    }
+    for (int k : train) result.objects[j].train.push_back(LightName(static_cast<std::size_t>(k)));
   }
   // 2. Scenes, references, the study.
   const fs::path out = fs::absolute(o.output);
   fs::create_directories(out / "scenes");
   fs::create_directories(out / "refs");
   fs::create_directories(out / "masks");
+  fs::create_directories(out / "normals");
+  for (std::size_t j = 0; j < objects.size(); ++j) {
+    const fs::path npy = out / "normals" / (objects[j].name + ".npy");
+    WriteNormalsNpy(npy.string(), frames[j]);
+    objects[j].normals = npy.string();  // The scenes read the normals in shadefit's frame.
+  }
   std::vector<long long> obj_removed(objects.size(), 0);
   for (std::size_t j = 0; j < objects.size(); ++j) {
     const ObjectFiles& f = objects[j];
@@ -407,7 +473,7 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
           "(docs/scenes.md).\n[[objects]]\ntype = \"normal_map\"\nnormals = \"{}\"\n",
           f.name, k + 1, f.images.size(), input.string(), "light_directions.txt", k + 1, f.normals);
       if (!f.mask.empty()) text += fmt::format("mask = \"{}\"\n", f.mask);
-      text += fmt::format("y_axis = \"{}\"\n\n[[lights]]\ntype = \"directional\"\n", obj.y_axis);
+      text += "\n[[lights]]\ntype = \"directional\"\n";
       text += fmt::format("direction = {}  # travel: minus light_directions.txt's\n",
                           Vec(-f.directions[k]));
       text += fmt::format("irradiance = {}  # light_intensities.txt\n", Vec(f.intensities[k]));
@@ -444,11 +510,15 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
       input.string(), objects.size(), train.size());
   for (const ImportedObject& obj : result.objects) {
     study += fmt::format(
-        "# {}: {} lights; normals {} (y {}); Lambertian photometric stereo vs these normals: "
-        "median {:.1f} deg ({:.1f} with y flipped);\n#   {:.1f}% of the object's pixel-lights "
-        "left out (masks/): a cast shadow the integrated depth does not reproduce\n",
-        obj.name, obj.lights, obj.normals_file, obj.y_axis, obj.check_angle_deg,
-        obj.check_angle_flipped_deg, 100 * obj.shadow_disagreement_fraction);
+        "# {}: {} lights; normals {} read with y {}{} (mean curl {:.3g}, {:.3g} the other way), "
+        "lights{}{};\n#   Lambertian photometric stereo vs these normals: median {:.1f} deg "
+        "({:.1f} with the lights' y flipped);\n#   {:.1f}% of the object's pixel-lights left "
+        "out (masks/): a cast shadow the integrated depth does not reproduce\n",
+        obj.name, obj.lights, obj.normals_file, obj.y_axis, obj.normals_z_flipped ? ", z flipped" : "",
+        obj.y_axis == "up" ? obj.curl_as_stored : obj.curl_flipped,
+        obj.y_axis == "up" ? obj.curl_flipped : obj.curl_as_stored,
+        obj.lights_y_flipped ? " y flipped" : " as given", obj.lights_z_flipped ? ", z flipped" : "",
+        obj.check_angle_deg, obj.check_angle_flipped_deg, 100 * obj.shadow_disagreement_fraction);
   }
   study += fmt::format("\n[study]\nname = \"{}\"\ndescription = \"{} object(s) under their "
                        "data set's lights: joint fit on {}, tested on the rest\"\n",

@@ -222,7 +222,7 @@ RawNormals ReadImageNormals(const std::string& path, bool* eight_bit) {
 }  // namespace
 
 NormalImage ReadNormalImage(const std::string& path, const std::string& mask_path,
-                            const std::string& variable, bool y_down) {
+                            const std::string& variable, bool y_down, bool check_facing) {
   const PathKind kind = KindOfPath(path, "normals");
   if (kind == PathKind::kMissing) throw Error(path, "normals", "file not found");
   if (kind != PathKind::kFile) throw Error(path, "normals", "not a regular file");
@@ -286,13 +286,35 @@ NormalImage ReadNormalImage(const std::string& path, const std::string& mask_pat
     for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = static_cast<float>(v[c] / len);
   }
   if (masked == 0) throw Error(mask_path.empty() ? path : mask_path, "mask", "no pixel is masked in");
-  if (facing < 0.9 * masked) {
+  if (check_facing && facing < 0.9 * masked) {
     throw Error(path, "normals",
                 fmt::format("only {:.0f}% of the masked normals face the camera (z > 0): the "
                             "convention is x right, y up, z toward the camera; is z flipped?",
                             100.0 * facing / masked));
   }
   return out;
+}
+
+void WriteNormalsNpy(const std::string& path, const NormalImage& n) {
+  std::string header = fmt::format("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}, {}, 3), }}",
+                                   n.height, n.width);
+  while ((10 + header.size() + 1) % 64 != 0) header += ' ';
+  header += '\n';
+  const std::string tmp = path + ".partial";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write("\x93NUMPY\x01\x00", 8);
+    const unsigned char len[2] = {static_cast<unsigned char>(header.size() & 0xFF),
+                                  static_cast<unsigned char>(header.size() >> 8)};
+    out.write(reinterpret_cast<const char*>(len), 2);
+    out << header;
+    for (std::size_t i = 0; i < n.normal.size(); ++i) {
+      const float v = n.mask[i / 3] ? n.normal[i] : 0.0f;
+      out.write(reinterpret_cast<const char*>(&v), 4);
+    }
+    if (!out) throw Error(path, "normals", "cannot write");
+  }
+  fs::rename(tmp, path);
 }
 
 std::vector<double> IntegrateNormals(const NormalImage& img, double pixel_size, double base_depth) {

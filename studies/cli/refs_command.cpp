@@ -168,11 +168,12 @@ void AddImportSet(CLI::App& refs) {
         reference_images::ImportPhotometricSet(*opt, renderer);
     for (const reference_images::ImportedObject& o : r.objects) {
       fmt::print(
-          "{}: {} lights, normals {} (y {}; Lambertian photometric stereo against them: median "
-          "{:.1f} deg, {:.1f} with y flipped); {:.1f}% of pixel-lights left out: a cast shadow "
-          "the integrated depth does not reproduce\n",
-          o.name, o.lights, o.normals_file, o.y_axis, o.check_angle_deg,
-          o.check_angle_flipped_deg, 100 * o.shadow_disagreement_fraction);
+          "{}: {} lights, normals {} (y {}{}; lights{}{}; Lambertian photometric stereo against "
+          "them: median {:.1f} deg, {:.1f} with the lights' y flipped); {:.1f}% of pixel-lights "
+          "left out: a cast shadow the integrated depth does not reproduce\n",
+          o.name, o.lights, o.normals_file, o.y_axis, o.normals_z_flipped ? ", z flipped" : "",
+          o.lights_y_flipped ? " y flipped" : " as given", o.lights_z_flipped ? ", z flipped" : "",
+          o.check_angle_deg, o.check_angle_flipped_deg, 100 * o.shadow_disagreement_fraction);
     }
     fmt::print("wrote {} (train on {} lights); run: shadefit study run {} -o OUT\n",
                r.study_path, r.objects.front().train.size(), r.study_path);

@@ -114,12 +114,13 @@ TEST(ImportSet, TwoObjectsImportAndTheirStudyRunsAsItIs) {
   }
 }
 
-TEST(ImportSet, FlippedNormalsAreFoundFlipped) {
-  // The same set with its normals stored y-down (as some data sets store them): auto must say so.
-  const std::string copy = Out("flipped_in");
+// Multiplies the normals' y and z (normal.npy, float32) and the lights' y and z of a copy of the
+// torus: the set as a data set in another frame would store it.
+std::string InFrame(const std::string& name, float ny, float nz, double ly, double lz) {
+  const std::string copy = Out(name);
   fs::create_directories(copy);
-  fs::copy(kSet + "/suzanne", copy + "/suzanne", fs::copy_options::recursive);
-  const std::string npy = copy + "/suzanne/normal.npy";
+  fs::copy(kSet + "/torus", copy + "/torus", fs::copy_options::recursive);
+  const std::string npy = copy + "/torus/normal.npy";
   std::fstream f(npy, std::ios::in | std::ios::out | std::ios::binary);
   char magic[10];
   f.read(magic, 10);
@@ -130,13 +131,32 @@ TEST(ImportSet, FlippedNormalsAreFoundFlipped) {
   std::vector<float> v(static_cast<std::size_t>(bytes / 4));
   f.seekg(data);
   f.read(reinterpret_cast<char*>(v.data()), bytes);
-  for (std::size_t i = 1; i < v.size(); i += 3) v[i] = -v[i];
+  for (std::size_t i = 0; i < v.size(); i += 3) {
+    v[i + 1] *= ny;
+    v[i + 2] *= nz;
+  }
   f.seekp(data);
   f.write(reinterpret_cast<const char*>(v.data()), bytes);
   f.close();
+  std::ifstream in(copy + "/torus/light_directions.txt");
+  std::stringstream out;
+  for (double x, y, z; in >> x >> y >> z;) out << x << " " << y * ly << " " << z * lz << "\n";
+  in.close();
+  std::ofstream(copy + "/torus/light_directions.txt") << out.str();
+  return copy;
+}
+
+TEST(ImportSet, TheDataSetsFrameIsFoundFromTheData) {
   std::string log;
-  ASSERT_EQ(Shadefit("refs import-set " + copy + " -o " + Out("flipped") + " --train 4", &log), 0) << log;
-  EXPECT_NE(log.find("(y down;"), std::string::npos) << log;
+  // Normals stored y-down, lights y-up: the normals integrate only y-down.
+  ASSERT_EQ(Shadefit("refs import-set " + InFrame("ydown_normals", -1, 1, 1, 1) + " -o " +
+                     Out("ydown_normals_out") + " --train 4", &log), 0) << log;
+  EXPECT_NE(log.find("(y down; lights as given;"), std::string::npos) << log;
+  // Everything in image coordinates (y down the picture, z into the scene).
+  ASSERT_EQ(Shadefit("refs import-set " + InFrame("image_frame", -1, -1, -1, -1) + " -o " +
+                     Out("image_frame_out") + " --train 4", &log), 0) << log;
+  EXPECT_NE(log.find("(y down, z flipped; lights y flipped, z flipped;"), std::string::npos) << log;
+  EXPECT_NE(log.find("median 2."), std::string::npos) << log;  // Measured 2.9 deg in every frame.
 }
 
 TEST(ImportSet, BadInputIsOneLineAndWritesNothing) {

@@ -33,9 +33,16 @@ struct ImportedObject {
   std::string name;
   int lights = 0;
   std::string normals_file;
-  std::string y_axis;  // As used.
+  // The data set's frame as found (or as --y-axis says): the normals' y as stored runs "up" or
+  // "down" the picture (the one whose slopes have the smaller mean curl: real normals
+  // integrate), their z and the lights' flipped when most point away from the camera, and the
+  // lights' y flipped when Lambertian photometric stereo agrees with the normals better so.
+  // OUT/normals/<object>.npy holds the normals in shadefit's frame; the scenes read it.
+  std::string y_axis;
+  bool normals_z_flipped = false, lights_z_flipped = false, lights_y_flipped = false;
+  double curl_as_stored = 0, curl_flipped = 0;
   // Lambertian photometric stereo (Woodham 1980) from the images and the calibrated lights,
-  // against the data's normals: the median angle (degrees) with the y axis as used and flipped.
+  // against the normals: the median angle (degrees), and with the lights' y the other way.
   double check_angle_deg = 0, check_angle_flipped_deg = 0;
   std::vector<std::string> train;  // Lighting names of the training subset.
   long long masked_pixels = 0;     // The object's pixels (its mask).
@@ -50,7 +57,7 @@ struct ImportSetResult {
 };
 
 // Reads every object's files, checks them (one-line errors naming the file and the field: a
-// missing or unreadable file, a light count that differs from the image count, a non-unit light
+// missing or unreadable file, a light count that differs from the image count, a zero light
 // direction, normals whose size differs from the images'), then writes the references, their
 // scenes and the study, each file atomically; nothing is written before every input is read.
 ImportSetResult ImportPhotometricSet(const ImportSetOptions& options, Renderer& renderer);

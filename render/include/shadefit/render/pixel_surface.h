@@ -38,8 +38,13 @@ struct NormalImage {
 // non-zero normal. Checks: finite values, unit length within 2% inside the mask (8-bit: 5%),
 // the mask's size, and that at least 90% of the masked normals face the camera (z > 0).
 // Throws shadefit::Error "<file>: <field>: <problem>".
+// check_facing = false skips the facing check (a data set's own frame may point z away; the
+// import finds the frame first, reference_images/import_set.h).
 NormalImage ReadNormalImage(const std::string& path, const std::string& mask_path,
-                            const std::string& variable, bool y_down);
+                            const std::string& variable, bool y_down, bool check_facing = true);
+
+// Writes normals as a .npy of float32, H x W x 3 (0 outside the mask), atomically.
+void WriteNormalsNpy(const std::string& path, const NormalImage& normals);
 
 // Depth (distance along the view axis, world units) of every masked pixel from its normals under
 // an orthographic camera with square pixels of `pixel_size`: least squares over the mask's edges
