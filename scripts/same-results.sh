@@ -3,7 +3,8 @@
 # AFTER (two output folders of `shadefit study run`, e.g. from two builds, to check that a
 # restructuring changed no result; docs/solver.md). Left out, as in the determinism tests: what
 # records when, where or how a run ran (study.log, provenance.json, timings.csv, shards/, the
-# jobs' .timing.json, the references' .key cache keys, which hash the build). In the other
+# jobs' .timing.json, the references' .key cache keys, which hash the build, and the report's
+# figure cache keys, report/figures/*.hash, which cover the output folder's paths). In the other
 # files, lines naming the output folder are compared with it replaced, and lines that carry a
 # build's version, a duration, or a hash over files that hold one (a reference's sidecar records
 # its render time) are left out. Prints each differing file;
@@ -14,7 +15,7 @@ a=${1:?usage: same-results.sh BEFORE AFTER}
 b=${2:?usage: same-results.sh BEFORE AFTER}
 for d in "$a" "$b"; do [ -d "$d" ] || { echo "same-results: error: $d: not a folder" >&2; exit 2; }; done
 a=$(cd "$a" && pwd); b=$(cd "$b" && pwd)
-not_results='(^|/)(study\.log|provenance\.json|timings\.csv)$|(^|/)shards/|\.timing\.json$|\.key$'
+not_results='(^|/)(study\.log|provenance\.json|timings\.csv)$|(^|/)shards/|\.timing\.json$|\.key$|/figures/[^/]*\.hash$'
 normalise() {
   sed -e "s#$2#OUT#g" "$1" |
     grep -Ev 'shadefit_version|git_revision|version&quot;: &quot;[0-9]|shadefit [0-9]+\.[0-9]+\.[0-9]+\+|_seconds"|"sha256"|"hash"' || true

@@ -87,6 +87,26 @@ constexpr int kMaxLights = 8;   // kMaxLights in render.frag.
 // environment samplers are bound to.
 constexpr int kScratchTextureUnit = 15;
 
+// The camera's uniforms, shared by scene.glsl's CameraRay and mesh.vert's projection.
+void BindCamera(GLuint program, const Camera& cam) {
+  Vec3d right, up, forward;
+  cam.Basis(&right, &up, &forward);
+  auto set3 = [&](const char* n, const Vec3d& v) {
+    glUniform3f(glGetUniformLocation(program, n), static_cast<float>(v.x),
+                static_cast<float>(v.y), static_cast<float>(v.z));
+  };
+  set3("u_cam_pos", cam.position);
+  set3("u_cam_right", right);
+  set3("u_cam_up", up);
+  set3("u_cam_forward", forward);
+  const double scale = cam.type == Camera::Type::kPerspective
+                           ? std::tan(0.5 * cam.fov_y_deg * kPi / 180.0)
+                           : 0.5 * cam.height;
+  glUniform1f(glGetUniformLocation(program, "u_cam_scale"), static_cast<float>(scale));
+  glUniform2f(glGetUniformLocation(program, "u_resolution"), static_cast<float>(cam.width),
+              static_cast<float>(cam.height_px));
+}
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -306,22 +326,11 @@ struct Renderer::Impl {
   void BindScene(GLuint program, const Scene& scene) {
     auto loc = [&](const std::string& n) { return glGetUniformLocation(program, n.c_str()); };
     const Camera& cam = scene.camera;
-    Vec3d right, up, forward;
-    cam.Basis(&right, &up, &forward);
     auto set3 = [&](const std::string& n, const Vec3d& v) {
       glUniform3f(loc(n), static_cast<float>(v.x), static_cast<float>(v.y),
                   static_cast<float>(v.z));
     };
-    set3("u_cam_pos", cam.position);
-    set3("u_cam_right", right);
-    set3("u_cam_up", up);
-    set3("u_cam_forward", forward);
-    const double scale = cam.type == Camera::Type::kPerspective
-                             ? std::tan(0.5 * cam.fov_y_deg * kPi / 180.0)
-                             : 0.5 * cam.height;
-    glUniform1f(loc("u_cam_scale"), static_cast<float>(scale));
-    glUniform2f(loc("u_resolution"), static_cast<float>(cam.width),
-                static_cast<float>(cam.height_px));
+    BindCamera(program, cam);
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
       const SceneObject& o = scene.objects[i];
       const std::string idx = fmt::format("[{}]", i);
@@ -496,8 +505,7 @@ struct Renderer::Impl {
       mesh_width = w;
       mesh_height = h;
     }
-    Vec3d right, up, forward;
-    cam.Basis(&right, &up, &forward);
+    const Vec3d forward = Normalize(cam.look_at - cam.position);  // Camera::Basis's forward.
     // The depth range: every vertex's distance along the view axis, with slack.
     double z0 = 1e300, z1 = -1e300;
     for (const SceneObject& o : scene.objects) {
@@ -514,18 +522,7 @@ struct Renderer::Impl {
     if (cam.type == Camera::Type::kPerspective) near = std::max(near, 1e-4 * std::max(far, 1e-3));
     glUseProgram(mesh_program);
     auto loc = [&](const char* n) { return glGetUniformLocation(mesh_program, n); };
-    auto set3 = [&](const char* n, const Vec3d& v) {
-      glUniform3f(loc(n), static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
-    };
-    set3("u_cam_pos", cam.position);
-    set3("u_cam_right", right);
-    set3("u_cam_up", up);
-    set3("u_cam_forward", forward);
-    const double scale = cam.type == Camera::Type::kPerspective
-                             ? std::tan(0.5 * cam.fov_y_deg * kPi / 180.0)
-                             : 0.5 * cam.height;
-    glUniform1f(loc("u_cam_scale"), static_cast<float>(scale));
-    glUniform2f(loc("u_resolution"), static_cast<float>(cam.width), static_cast<float>(cam.height_px));
+    BindCamera(mesh_program, cam);
     glUniform1i(loc("u_cam_ortho"), cam.type == Camera::Type::kOrthographic ? 1 : 0);
     glUniform2f(loc("u_depth_range"), static_cast<float>(near), static_cast<float>(far));
     glBindFramebuffer(GL_FRAMEBUFFER, mesh_fbo);

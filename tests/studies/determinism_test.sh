@@ -25,7 +25,7 @@ name=$(basename "$(ls -d "$work"/a/*/)")
 "$shadefit" study merge -q "$work/c/$name" >/dev/null
 
 # Files that record when, where or how a run ran, not what it found.
-not_results='^(study\.log|provenance\.json|timings\.csv|shards/.*|jobs/.*\.timing\.json)$'
+not_results='^(study\.log|provenance\.json|timings\.csv|shards/.*|jobs/.*\.timing\.json|report/figures/.*\.hash)$'  # .hash: the report's figure cache (report/figure_cache.py), whose keys cover the output folder's paths
 list() {
   (cd "$1" && find . -type f ! -name '.*' | sed 's|^\./||' | grep -Ev "$not_results" | sort)
 }

@@ -23,7 +23,7 @@ run -o "$work/ref" >/dev/null
 name=$(basename "$(ls -d "$work"/ref/*/)")
 ref="$work/ref/$name"
 # What records when, where or how a run ran, not what it found (docs/studies.md, "Determinism").
-not_results='^(study\.log|provenance\.json|timings\.csv|shards/.*|jobs/.*\.timing\.json)$'
+not_results='^(study\.log|provenance\.json|timings\.csv|shards/.*|jobs/.*\.timing\.json|report/figures/.*\.hash)$'  # .hash: the report's figure cache (report/figure_cache.py), whose keys cover the output folder's paths
 results() { (cd "$1" && find . -type f ! -name '.*' | sed 's|^\./||' | grep -Ev "$not_results" | sort); }
 total_jobs=$(ls "$ref/jobs" | grep -vc timing)
 
