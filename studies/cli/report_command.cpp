@@ -26,7 +26,7 @@
 namespace shadefit::cli {
 namespace fs = std::filesystem;
 
-void MakeReport(const std::string& study_dir) {
+void MakeReport(const std::string& study_dir, bool quiet) {
   if (!fs::is_directory(study_dir)) throw Error(study_dir, "", "study output folder not found");
   if (!fs::exists(fs::path(study_dir) / "results.csv")) {
     throw Error(study_dir, "results.csv", "missing (run `shadefit study run` to completion first)");
@@ -43,7 +43,9 @@ void MakeReport(const std::string& study_dir) {
     throw Error(python, env_python != nullptr && *env_python ? "SHADEFIT_PYTHON" : "python",
                 "not found or not executable (set SHADEFIT_PYTHON to a Python 3 interpreter)");
   }
-  std::vector<std::string> args = {python, script, study_dir};
+  std::vector<std::string> args = {python, script};
+  if (quiet) args.push_back("-q");  // No progress line under `study run -q`.
+  args.push_back(study_dir);
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

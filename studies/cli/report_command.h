@@ -9,6 +9,6 @@ namespace shadefit::cli {
 // Runs `<python> <source>/report/make_report.py <study_dir>`. The interpreter is $SHADEFIT_PYTHON
 // or /usr/bin/python3 (the system Python, which has matplotlib and numpy). Throws shadefit::Error
 // when the script cannot be started or exits non-zero.
-void MakeReport(const std::string& study_dir);
+void MakeReport(const std::string& study_dir, bool quiet = false);
 
 }  // namespace shadefit::cli

@@ -55,9 +55,10 @@ struct StudyRunOptions {
 };
 
 // Sphere grids over each model's parameters, then the report (both read the finished results).
-void FinishStudy(const studies::StudySpec& spec, const std::string& study_dir, bool report) {
+void FinishStudy(const studies::StudySpec& spec, const std::string& study_dir, bool report,
+                 bool quiet) {
   studies::WriteParameterCharts(spec, study_dir);  // Sphere grids the report lays out.
-  if (spec.report && report) MakeReport(study_dir);
+  if (spec.report && report) MakeReport(study_dir, quiet);
 }
 
 void RunStudyCommand(const StudyRunOptions& o) {
@@ -125,7 +126,7 @@ void RunStudyCommand(const StudyRunOptions& o) {
                  spec.name.c_str(), s.fits_without_parameters.size(),
                  s.fits_without_parameters.front().c_str());
   }
-  if (shard.whole()) FinishStudy(spec, s.study_dir, !o.no_report);
+  if (shard.whole()) FinishStudy(spec, s.study_dir, !o.no_report, o.quiet);
   fmt::print("{}\n", s.study_dir);
 }
 
@@ -161,7 +162,7 @@ void MergeStudyCommand(const StudyMergeOptions& o) {
   ro.shard_manifests = sharded.manifests;
   ro.quiet = o.quiet;
   const studies::RunSummary s = studies::RunStudy(spec, ro);
-  FinishStudy(spec, s.study_dir, !o.no_report);
+  FinishStudy(spec, s.study_dir, !o.no_report, o.quiet);
   fmt::print("{}\n", s.study_dir);
 }
 

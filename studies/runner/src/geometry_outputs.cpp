@@ -148,6 +148,7 @@ void WriteGeometry(const RunContext& context, Renderer& renderer) {
                 {"material", group.material},
                 {"lighting", rs.lighting},
                 {"decoded_from", reference_images::EncodingName(ref.decoded_from)}};
+      if (!group.object.empty()) e["object"] = group.object;  // The report's floor per object.
       json lights = json::array();
       for (const Light& l : ref.scene.lights) lights.push_back(LightJson(l));
       e["lights"] = lights;
