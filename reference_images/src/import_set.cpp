@@ -463,7 +463,6 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
   std::vector<long long> obj_removed(objects.size(), 0);
   for (std::size_t j = 0; j < objects.size(); ++j) {
     const ObjectFiles& f = objects[j];
-    const ImportedObject& obj = result.objects[j];
     for (std::size_t k = 0; k < f.images.size(); ++k) {
       const std::string stem = f.name + "-" + LightName(k);
       const fs::path scene = out / "scenes" / (stem + ".toml");

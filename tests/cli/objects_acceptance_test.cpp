@@ -41,7 +41,9 @@ TEST_P(ObjectsAgainstCycles, GgxRecoversTheTruthOnTheUnshadowedPixels) {
   std::ifstream in(out / "fit.json");
   const nlohmann::json fit = nlohmann::json::parse(in);
   for (const auto& p : fit.at("parameters")) {
-    if (p.at("name") == "roughness") EXPECT_NEAR(p.at("value").get<double>(), c.roughness, 0.02);
+    if (p.at("name") == "roughness") {
+      EXPECT_NEAR(p.at("value").get<double>(), c.roughness, 0.02);
+    }
   }
   const shadefit::Image ref = shadefit::ReadImage(src + c.name + ".exr");
   const shadefit::Image img = shadefit::ReadImage((out / ("fit." + c.name + ".fit.exr")).string());
