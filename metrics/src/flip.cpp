@@ -24,6 +24,7 @@ using internal::CombineSides;
 using internal::ComputeSide;
 using internal::FlipSide;
 using internal::Plane;
+using internal::RowSpans;
 
 // 64-bit hash of an image's size and pixel bits (splitmix64's finaliser per 32-bit word).
 std::uint64_t HashPixels(const Image& image) {
@@ -43,11 +44,13 @@ std::uint64_t HashPixels(const Image& image) {
 
 }  // namespace
 
-// What identifies a reference's half: its pixels (hash), the observer, and the exposure scale and
-// tone mapper applied before its half is computed (tone mapper 0: none, LDR-FLIP).
+// What identifies a reference's half: its pixels (hash), the pixels it is wanted at (hash of the
+// spans), the observer, and the exposure scale and tone mapper applied before its half is
+// computed (tone mapper 0: none, LDR-FLIP).
 struct FlipReferenceCache::Impl {
   struct Key {
     std::uint64_t pixels;
+    std::uint64_t spans;
     double ppd;
     int tone_mapper;
     float scale;
@@ -109,10 +112,11 @@ namespace {
 template <typename MakeReference>
 std::shared_ptr<const FlipSide> ReferenceSide(FlipReferenceCache* cache,
                                               const FlipReferenceCache::Impl::Key& key, double ppd,
+                                              const RowSpans& wanted,
                                               MakeReference make_reference) {
   std::shared_ptr<const FlipSide> side = cache ? cache->impl().Find(key) : nullptr;
   if (!side) {
-    side = std::make_shared<const FlipSide>(ComputeSide(make_reference(), ppd));
+    side = std::make_shared<const FlipSide>(ComputeSide(make_reference(), ppd, wanted));
     if (cache) cache->impl().Insert(key, side);
   }
   return side;
@@ -196,17 +200,25 @@ void ToneMap(Image& image, FlipToneMapper tm) {
 
 Image FirstThree(const Image& image) { return image.channels == 3 ? image : image.Channels(0, 3); }
 
+// The pixels a map is computed at: the mask's (what Pool reads) unless a whole map is returned.
+RowSpans WantedSpans(const Image& ref, const Image* mask, bool whole_map) {
+  return whole_map ? internal::FullSpans(ref.width, ref.height)
+                   : internal::MaskSpans(mask, ref.width, ref.height);
+}
+
 }  // namespace
 
 FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
                    Image* flip_map) {
   ValidateInputs(reference, test, p.mask, 3);
   const Image ref = FirstThree(reference);
-  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0, p.ppd, 0, 1.0f};
-  const auto ref_side =
-      ReferenceSide(p.reference_cache, key, p.ppd, [&]() -> const Image& { return ref; });
-  const Plane map =
-      CombineSides(*ref_side, ComputeSide(FirstThree(test), p.ppd), ref.width, ref.height);
+  const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr);
+  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0,
+                                          internal::HashSpans(wanted), p.ppd, 0, 1.0f};
+  const auto ref_side = ReferenceSide(p.reference_cache, key, p.ppd, wanted,
+                                      [&]() -> const Image& { return ref; });
+  const Plane map = CombineSides(*ref_side, ComputeSide(FirstThree(test), p.ppd, wanted),
+                                 ref.width, ref.height, wanted);
   FlipResult result = Pool(map, p.mask);
   if (flip_map) *flip_map = ToImage(map, reference.width, reference.height);
   return result;
@@ -256,6 +268,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
 
   Plane worst(n, 0.0f), worst_index(n, 0.0f);
   const std::uint64_t ref_hash = p.reference_cache ? HashPixels(ref) : 0;
+  const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr || exposure_map != nullptr);
+  const std::uint64_t spans_hash = internal::HashSpans(wanted);
   for (int e = 0; e < count; ++e) {
     const float scale = static_cast<float>(std::exp2(start + e * step));
     const auto exposed = [&](const Image& image) {
@@ -264,12 +278,12 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
       ToneMap(out, p.tone_mapper);
       return out;
     };
-    const FlipReferenceCache::Impl::Key key{ref_hash, p.ppd, 1 + static_cast<int>(p.tone_mapper),
-                                            scale};
+    const FlipReferenceCache::Impl::Key key{ref_hash, spans_hash, p.ppd,
+                                            1 + static_cast<int>(p.tone_mapper), scale};
     const auto ref_side =
-        ReferenceSide(p.reference_cache, key, p.ppd, [&] { return exposed(ref); });
-    const Plane map =
-        CombineSides(*ref_side, ComputeSide(exposed(tst), p.ppd), ref.width, ref.height);
+        ReferenceSide(p.reference_cache, key, p.ppd, wanted, [&] { return exposed(ref); });
+    const Plane map = CombineSides(*ref_side, ComputeSide(exposed(tst), p.ppd, wanted),
+                                   ref.width, ref.height, wanted);
     for (std::size_t i = 0; i < n; ++i) {
       if (map[i] > worst[i]) {
         worst[i] = map[i];

@@ -136,57 +136,114 @@ float MaxColorDifference() {
   return std::pow(HyAB(LinearRgbToHuntLab(0, 1, 0), LinearRgbToHuntLab(0, 0, 1)), kQc);
 }
 
-// Runs body(pixel index) for every pixel, rows split across threads.
+// Runs body(pixel index) for every pixel of `spans`, rows split across threads.
 template <typename Body>
-void ForEachPixel(int w, int h, Body body) {
-  internal::ParallelRows(h, [&](int begin, int end) {
-    const std::size_t last = static_cast<std::size_t>(end) * w;
-    for (std::size_t i = static_cast<std::size_t>(begin) * w; i < last; ++i) body(i);
-  });
-}
-
-// Separable filtering with clamp-to-edge borders.
-void FilterRows(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps) {
-  const int r = static_cast<int>(taps.size()) / 2;
-  out.resize(in.size());
-  internal::ParallelRows(h, [&](int begin, int end) {
-    std::vector<float> padded(w + 2 * r);
+void ForEachPixel(int w, const RowSpans& spans, Body body) {
+  internal::ParallelRows(static_cast<int>(spans.begin.size()), [&](int begin, int end) {
     for (int y = begin; y < end; ++y) {
-      const float* row = &in[static_cast<std::size_t>(y) * w];
-      for (int i = -r; i < w + r; ++i) padded[i + r] = row[std::clamp(i, 0, w - 1)];
-      // Tap-outer loop: the inner loop runs along x and vectorises (a sum over taps would not,
-      // without reassociating floating-point additions).
-      float* o = &out[static_cast<std::size_t>(y) * w];
-      std::fill(o, o + w, 0.0f);
-      for (int k = 0; k < 2 * r + 1; ++k) {
-        const float t = taps[k];
-        const float* in = padded.data() + k;
-        for (int x = 0; x < w; ++x) o[x] += t * in[x];
-      }
+      const std::size_t row = static_cast<std::size_t>(y) * w;
+      for (int x = spans.begin[y]; x < spans.end[y]; ++x) body(row + x);
     }
   });
 }
 
-void FilterColumns(const Plane& in, Plane& out, int w, int h, const std::vector<float>& taps) {
+// The spans whose pixels are within `radius` rows of a pixel of `spans` in the same column: the
+// hull per row of the spans of rows y - radius .. y + radius (what a column filter reads).
+RowSpans DilateRows(const RowSpans& spans, int radius) {
+  const int h = static_cast<int>(spans.begin.size());
+  RowSpans out{std::vector<int>(h, 0), std::vector<int>(h, 0)};
+  for (int y = 0; y < h; ++y) {
+    for (int k = std::max(0, y - radius); k <= std::min(h - 1, y + radius); ++k) {
+      if (spans.begin[k] >= spans.end[k]) continue;
+      if (out.begin[y] >= out.end[y]) {
+        out.begin[y] = spans.begin[k];
+        out.end[y] = spans.end[k];
+      } else {
+        out.begin[y] = std::min(out.begin[y], spans.begin[k]);
+        out.end[y] = std::max(out.end[y], spans.end[k]);
+      }
+    }
+  }
+  return out;
+}
+
+// Each non-empty span widened by `radius` columns, within [0, w) (what a row filter reads).
+RowSpans WidenColumns(RowSpans spans, int radius, int w) {
+  for (std::size_t y = 0; y < spans.begin.size(); ++y) {
+    if (spans.begin[y] >= spans.end[y]) continue;
+    spans.begin[y] = std::max(0, spans.begin[y] - radius);
+    spans.end[y] = std::min(w, spans.end[y] + radius);
+  }
+  return spans;
+}
+
+// out[x] += tap * in[x] for x in [0, n): the filters' inner loop. Also built for AVX2 and chosen
+// at run time: wider vectors of the same multiplies and adds (AVX2 has no fused multiply-add,
+// which would round differently), so the same bits on every machine.
+[[gnu::target_clones("avx2", "default")]] void AddScaled(float* out, const float* in, float tap,
+                                                          int n) {
+  for (int x = 0; x < n; ++x) out[x] += tap * in[x];
+}
+
+// Separable filtering with clamp-to-edge borders: the row pass at the pixels of `wanted`, which
+// reads `in` within the taps' radius of them.
+void FilterRows(const Plane& in, Plane& out, int w, const RowSpans& wanted,
+                const std::vector<float>& taps) {
   const int r = static_cast<int>(taps.size()) / 2;
+  out.assign(in.size(), 0.0f);
+  internal::ParallelRows(static_cast<int>(wanted.begin.size()), [&](int begin, int end) {
+    std::vector<float> padded(w + 2 * r);
+    for (int y = begin; y < end; ++y) {
+      const int x0 = wanted.begin[y], x1 = wanted.end[y];
+      if (x0 >= x1) continue;
+      const float* row = &in[static_cast<std::size_t>(y) * w];
+      // padded[j] holds column x0 - r + j, clamped to the frame.
+      for (int i = x0 - r; i < x1 + r; ++i) padded[i - (x0 - r)] = row[std::clamp(i, 0, w - 1)];
+      // Tap-outer loop: the inner loop runs along x and vectorises (a sum over taps would not,
+      // without reassociating floating-point additions).
+      float* o = &out[static_cast<std::size_t>(y) * w + x0];
+      for (int k = 0; k < 2 * r + 1; ++k) AddScaled(o, padded.data() + k, taps[k], x1 - x0);
+    }
+  });
+}
+
+// The column pass at the pixels of `wanted`, which reads `in` within the taps' radius of them in
+// their columns.
+void FilterColumns(const Plane& in, Plane& out, int w, const RowSpans& wanted,
+                   const std::vector<float>& taps) {
+  const int r = static_cast<int>(taps.size()) / 2;
+  const int h = static_cast<int>(wanted.begin.size());
   out.assign(in.size(), 0.0f);
   internal::ParallelRows(h, [&](int begin, int end) {
     for (int y = begin; y < end; ++y) {
-      float* o = &out[static_cast<std::size_t>(y) * w];
+      const int x0 = wanted.begin[y], x1 = wanted.end[y];
+      if (x0 >= x1) continue;
+      float* o = &out[static_cast<std::size_t>(y) * w + x0];
       for (int k = -r; k <= r; ++k) {
-        const float* row = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w];
-        const float t = taps[k + r];
-        for (int x = 0; x < w; ++x) o[x] += t * row[x];
+        const float* row = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w + x0];
+        AddScaled(o, row, taps[k + r], x1 - x0);
       }
     }
   });
 }
 
-Plane Filter2D(const Plane& in, int w, int h, const std::vector<float>& row_taps,
-               const std::vector<float>& column_taps) {
+// What a side's stages read: the wanted pixels, the rows the column filters read (within the
+// largest radius of them) and the columns the row filters read around those.
+struct SideSpans {
+  RowSpans wanted, rows, columns;
+};
+
+SideSpans SpansFor(const RowSpans& wanted, int radius, int w) {
+  SideSpans s{wanted, DilateRows(wanted, radius), {}};
+  s.columns = WidenColumns(s.rows, radius, w);
+  return s;
+}
+
+Plane Filter2D(const Plane& in, int w, const SideSpans& spans,
+               const std::vector<float>& row_taps, const std::vector<float>& column_taps) {
   Plane tmp, out;
-  FilterRows(in, tmp, w, h, row_taps);
-  FilterColumns(tmp, out, w, h, column_taps);
+  FilterRows(in, tmp, w, spans.rows, row_taps);
+  FilterColumns(tmp, out, w, spans.wanted, column_taps);
   return out;
 }
 
@@ -266,11 +323,11 @@ FeatureFilters MakeFeatureFilters(double ppd) {
 
 // Linear RGB (first three channels, clamped to [0, 1]) -> YCxCz planes (Sec. 4.1): the linearised
 // CIELAB of Flohr et al., Y = 116 Y/Yn - 16, Cx = 500 (X/Xn - Y/Yn), Cz = 200 (Y/Yn - Z/Zn).
-std::array<Plane, 3> ToYCxCz(const Image& rgb) {
+std::array<Plane, 3> ToYCxCz(const Image& rgb, const RowSpans& spans) {
   const ColorSpace& s = Srgb();
   const std::size_t n = rgb.PixelCount();
   std::array<Plane, 3> out = {Plane(n), Plane(n), Plane(n)};
-  ForEachPixel(rgb.width, rgb.height, [&](std::size_t i) {
+  ForEachPixel(rgb.width, spans, [&](std::size_t i) {
     const float* p = &rgb.data[i * rgb.channels];
     const Float3 xyz = Apply(s.rgb_to_xyz, std::clamp(p[0], 0.0f, 1.0f),
                              std::clamp(p[1], 0.0f, 1.0f), std::clamp(p[2], 0.0f, 1.0f));
@@ -285,15 +342,15 @@ std::array<Plane, 3> ToYCxCz(const Image& rgb) {
 }
 
 // Colour pipeline output per pixel, Hunt-adjusted CIELAB of the CSF-filtered image.
-std::vector<Float3> FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w, int h,
-                                    const CsfFilters& f) {
-  const Plane y = Filter2D(ycxcz[0], w, h, f.y, f.y);
-  const Plane cx = Filter2D(ycxcz[1], w, h, f.cx, f.cx);
-  const Plane cz1 = Filter2D(ycxcz[2], w, h, f.cz1, f.cz1);
-  const Plane cz2 = Filter2D(ycxcz[2], w, h, f.cz2, f.cz2);
+std::vector<Float3> FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w,
+                                    const SideSpans& spans, const CsfFilters& f) {
+  const Plane y = Filter2D(ycxcz[0], w, spans, f.y, f.y);
+  const Plane cx = Filter2D(ycxcz[1], w, spans, f.cx, f.cx);
+  const Plane cz1 = Filter2D(ycxcz[2], w, spans, f.cz1, f.cz1);
+  const Plane cz2 = Filter2D(ycxcz[2], w, spans, f.cz2, f.cz2);
   const ColorSpace& s = Srgb();
-  std::vector<Float3> lab(y.size());
-  ForEachPixel(w, h, [&](std::size_t i) {
+  std::vector<Float3> lab(y.size(), Float3{{0.0f, 0.0f, 0.0f}});
+  ForEachPixel(w, spans.wanted, [&](std::size_t i) {
     // Back to linear RGB, clamped to [0, 1] (filtered colours can leave the gamut), then CIELAB.
     const float yy = (y[i] + 16.0f) / 116.0f;
     const float xx = (yy + cx[i] / 500.0f) * static_cast<float>(s.white[0]);
@@ -305,20 +362,21 @@ std::vector<Float3> FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w, in
   return lab;
 }
 
-Features DetectFeatures(const Plane& y_channel, int w, int h, const FeatureFilters& f) {
+Features DetectFeatures(const Plane& y_channel, int w, const SideSpans& spans,
+                        const FeatureFilters& f) {
   Plane gray(y_channel.size());
-  for (std::size_t i = 0; i < gray.size(); ++i) gray[i] = (y_channel[i] + 16.0f) / 116.0f;
+  ForEachPixel(w, spans.columns, [&](std::size_t i) { gray[i] = (y_channel[i] + 16.0f) / 116.0f; });
   Plane hg, hdg, hddg;
-  FilterRows(gray, hg, w, h, f.g);
-  FilterRows(gray, hdg, w, h, f.dg);
-  FilterRows(gray, hddg, w, h, f.ddg);
+  FilterRows(gray, hg, w, spans.rows, f.g);
+  FilterRows(gray, hdg, w, spans.rows, f.dg);
+  FilterRows(gray, hddg, w, spans.rows, f.ddg);
   Plane ex, ey, px, py;
-  FilterColumns(hdg, ex, w, h, f.g);   // d/dx
-  FilterColumns(hg, ey, w, h, f.dg);   // d/dy
-  FilterColumns(hddg, px, w, h, f.g);  // d2/dx2
-  FilterColumns(hg, py, w, h, f.ddg);  // d2/dy2
+  FilterColumns(hdg, ex, w, spans.wanted, f.g);   // d/dx
+  FilterColumns(hg, ey, w, spans.wanted, f.dg);   // d/dy
+  FilterColumns(hddg, px, w, spans.wanted, f.g);  // d2/dx2
+  FilterColumns(hg, py, w, spans.wanted, f.ddg);  // d2/dy2
   Features out{Plane(gray.size()), Plane(gray.size())};
-  ForEachPixel(w, h, [&](std::size_t i) {
+  ForEachPixel(w, spans.wanted, [&](std::size_t i) {
     out.edge[i] = std::sqrt(ex[i] * ex[i] + ey[i] * ey[i]);
     out.point[i] = std::sqrt(px[i] * px[i] + py[i] * py[i]);
   });
@@ -327,20 +385,58 @@ Features DetectFeatures(const Plane& y_channel, int w, int h, const FeatureFilte
 
 }  // namespace
 
-FlipSide ComputeSide(const Image& rgb, double ppd) {
-  const std::array<Plane, 3> ycxcz = ToYCxCz(rgb);
+RowSpans FullSpans(int w, int h) { return {std::vector<int>(h, 0), std::vector<int>(h, w)}; }
+
+RowSpans MaskSpans(const Image* mask, int w, int h) {
+  if (mask == nullptr) return FullSpans(w, h);
+  RowSpans spans{std::vector<int>(h, 0), std::vector<int>(h, 0)};
+  for (int y = 0; y < h; ++y) {
+    const std::size_t row = static_cast<std::size_t>(y) * w;
+    int first = w, last = -1;
+    for (int x = 0; x < w; ++x) {
+      if (!internal::IsValid(mask, row + x)) continue;
+      first = std::min(first, x);
+      last = x;
+    }
+    if (last >= 0) {
+      spans.begin[y] = first;
+      spans.end[y] = last + 1;
+    }
+  }
+  return spans;
+}
+
+std::uint64_t HashSpans(const RowSpans& spans) {
+  std::uint64_t h = 0x9E3779B97F4A7C15ull ^ spans.begin.size();
+  for (std::size_t y = 0; y < spans.begin.size(); ++y) {
+    for (const std::uint64_t v : {static_cast<std::uint64_t>(spans.begin[y]),
+                                  static_cast<std::uint64_t>(spans.end[y])}) {
+      h ^= v + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+    }
+  }
+  return h;
+}
+
+FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted) {
+  const CsfFilters csf = MakeCsfFilters(ppd);
+  const FeatureFilters features = MakeFeatureFilters(ppd);
+  // The widest filter's radius bounds what every filter reads.
+  const int radius = static_cast<int>(std::max(csf.y.size(), features.g.size())) / 2;
+  const SideSpans spans = SpansFor(wanted, radius, rgb.width);
+  const std::array<Plane, 3> ycxcz = ToYCxCz(rgb, spans.columns);
   FlipSide side;
-  side.lab = FilteredHuntLab(ycxcz, rgb.width, rgb.height, MakeCsfFilters(ppd));
-  side.features = DetectFeatures(ycxcz[0], rgb.width, rgb.height, MakeFeatureFilters(ppd));
+  side.lab = FilteredHuntLab(ycxcz, rgb.width, spans, csf);
+  side.features = DetectFeatures(ycxcz[0], rgb.width, spans, features);
   return side;
 }
 
 // The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
-Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h) {
+Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int /*h*/,
+                   const RowSpans& wanted) {
   const float c_max = MaxColorDifference();
   const float pc_cmax = kPc * c_max;
-  Plane flip(ref.lab.size());
-  ForEachPixel(w, h, [&](std::size_t i) {
+  Plane flip(ref.lab.size(), 0.0f);
+  ForEachPixel(w, wanted, [&](std::size_t i) {
     // Eq. 4-5: HyAB^q_c, remapped so the lower p_c of the range covers [0, p_t].
     float color = std::pow(HyAB(ref.lab[i], tst.lab[i]), kQc);
     color = color < pc_cmax ? color * (kPt / pc_cmax)

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "shadefit/render/image.h"
@@ -31,11 +32,28 @@ struct FlipSide {
   }
 };
 
-// The reference's or the test image's half (linear RGB in the first three channels, clamped to
-// [0, 1]) for an observer at `ppd` pixels per degree.
-FlipSide ComputeSide(const Image& rgb, double ppd);
+// The pixels a FLIP map is wanted at: one [begin, end) column range per row (begin == end: none).
+// Every stage of a side computes only what those pixels read (the filters' supports), with the
+// same arithmetic per pixel as over the whole frame, so the wanted pixels get the same bits.
+struct RowSpans {
+  std::vector<int> begin, end;
+};
 
-// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
-Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h);
+// Every pixel of a w x h frame.
+RowSpans FullSpans(int w, int h);
+// Per row, the columns from the first to the last pixel `mask` keeps (internal::IsValid); every
+// pixel without a mask.
+RowSpans MaskSpans(const Image* mask, int w, int h);
+// A hash of the spans, for cache keys.
+std::uint64_t HashSpans(const RowSpans& spans);
+
+// The reference's or the test image's half (linear RGB in the first three channels, clamped to
+// [0, 1]) for an observer at `ppd` pixels per degree, valid at the pixels of `wanted` (0
+// elsewhere).
+FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted);
+
+// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4) at the pixels of `wanted`
+// (0 elsewhere).
+Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h, const RowSpans& wanted);
 
 }  // namespace shadefit::metrics::internal

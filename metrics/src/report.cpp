@@ -1,5 +1,6 @@
 #include "shadefit/metrics/report.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 
@@ -31,11 +32,30 @@ nlohmann::json FlipJson(const FlipResult& f, bool hdr) {
   return j;
 }
 
+// Adds the seconds since the previous lap to the field a lap names (no clock without a target).
+class MetricClock {
+ public:
+  explicit MetricClock(MetricsSeconds* target) : target_(target), last_(Clock::now()) {}
+  void Lap(double MetricsSeconds::*field) {
+    if (target_ == nullptr) return;
+    const Clock::time_point now = Clock::now();
+    target_->*field += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  MetricsSeconds* target_;
+  Clock::time_point last_;
+};
+
 }  // namespace
 
 MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Image* mask,
                              const MetricsParameters& p, MetricsMaps* maps) {
+  MetricClock clock(p.seconds);
   ValidateInputs(reference, test, mask, 3, p.names);
+  const auto wanted = [&](MetricMap map) { return maps != nullptr && (p.maps_wanted & map) != 0; };
   const Image ref = reference.channels == 3 ? reference : reference.Channels(0, 3);
   const Image tst = test.channels == 3 ? test : test.Channels(0, 3);
 
@@ -55,6 +75,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   r.log_rmse = LogRmse(ref, tst, pixel);
   r.mae = MeanAbsoluteError(ref, tst, pixel);
   r.psnr = Psnr(ref, tst, {p.exposure_stops, mask});
+  clock.Lap(&MetricsSeconds::pixel);
 
   // Structural metrics on display-encoded values in [0, 1].
   SsimParameters ssim;
@@ -62,7 +83,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   ssim.mask = mask;
   const Image ref_y = DisplayEncode(Luminance(ref), p.exposure_stops);
   const Image tst_y = DisplayEncode(Luminance(tst), p.exposure_stops);
-  Image* ssim_map = maps ? &maps->ssim : nullptr;
+  Image* ssim_map = wanted(kSsimMap) ? &maps->ssim : nullptr;
   try {
     r.ssim_luminance = Ssim(ref_y, tst_y, ssim, ssim_map);
     r.ssim_rgb =
@@ -80,29 +101,35 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     }
     throw Error(p.names.reference, "", problem);
   }
+  clock.Lap(&MetricsSeconds::ssim);
 
   DeltaE2000Parameters de;
   de.exposure_stops = p.exposure_stops;
   de.mask = mask;
-  r.ciede2000 = DeltaE2000(ref, tst, de, maps ? &maps->ciede2000 : nullptr);
+  r.ciede2000 = DeltaE2000(ref, tst, de, wanted(kCiede2000Map) ? &maps->ciede2000 : nullptr);
+  clock.Lap(&MetricsSeconds::ciede2000);
 
   DeltaEItpParameters itp;
   itp.white_luminance = p.itp_white_luminance;
   itp.mask = mask;
-  r.delta_e_itp = DeltaEItp(ref, tst, itp, maps ? &maps->delta_e_itp : nullptr);
+  r.delta_e_itp = DeltaEItp(ref, tst, itp, wanted(kDeltaEItpMap) ? &maps->delta_e_itp : nullptr);
+  clock.Lap(&MetricsSeconds::delta_e_itp);
 
   FlipParameters flip;
   flip.ppd = p.ppd;
   flip.mask = mask;
   flip.reference_cache = p.flip_reference_cache;
   r.flip_ldr = FlipLdr(ExposeAndClip(ref, p.exposure_stops), ExposeAndClip(tst, p.exposure_stops),
-                       flip, maps ? &maps->flip_ldr : nullptr);
-  r.flip_hdr = FlipHdr(ref, tst, flip, maps ? &maps->flip_hdr : nullptr);
+                       flip, wanted(kFlipLdrMap) ? &maps->flip_ldr : nullptr);
+  clock.Lap(&MetricsSeconds::flip_ldr);
+  r.flip_hdr = FlipHdr(ref, tst, flip, wanted(kFlipHdrMap) ? &maps->flip_hdr : nullptr);
+  clock.Lap(&MetricsSeconds::flip_hdr);
 
-  if (maps) {
-    maps->absolute_error = AbsoluteErrorMap(ref, tst, mask);
+  if (wanted(kAbsoluteErrorMap)) maps->absolute_error = AbsoluteErrorMap(ref, tst, mask);
+  if (wanted(kRelativeErrorMap)) {
     maps->relative_error = RelativeErrorMap(ref, tst, p.relative_epsilon, mask);
   }
+  clock.Lap(&MetricsSeconds::maps);
   return r;
 }
 

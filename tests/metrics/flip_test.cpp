@@ -244,6 +244,53 @@ TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
   EXPECT_LT(tiny.stats().bytes, std::size_t{48} * 40 * 24);
 }
 
+// Without a map to return, FLIP computes only what the masked pixels read (the filters' supports
+// around them): every pooled statistic has the same bits as the whole frame's map pooled over the
+// same mask. The mask has a disc, lone pixels, pixels on the frame's edges and empty rows.
+TEST(FlipTest, MaskedPixelsOnlyGiveTheWholeFramesBits) {
+  const int w = 96, h = 80;
+  const Image ref = testing::HdrScene(w, h);
+  const Image test = testing::HdrDistorted(ref, 0.2f, 5);
+  Image mask(w, h, 1, 0.0f);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float dx = x - 40.0f, dy = y - 38.0f;
+      if (dx * dx + dy * dy < 22.0f * 22.0f) mask.at(x, y, 0) = 1.0f;
+    }
+  }
+  for (const auto& [x, y] : {std::pair{0, 0}, {95, 3}, {90, 79}, {70, 70}, {3, 60}, {88, 40}}) {
+    mask.at(x, y, 0) = 1.0f;
+  }
+  FlipParameters p;
+  p.mask = &mask;
+  const auto expect_same = [](const FlipResult& a, const FlipResult& b, const char* what) {
+    EXPECT_EQ(a.mean, b.mean) << what;
+    EXPECT_EQ(a.median, b.median) << what;
+    EXPECT_EQ(a.p95, b.p95) << what;
+    EXPECT_EQ(a.p99, b.p99) << what;
+    EXPECT_EQ(a.max, b.max) << what;
+    EXPECT_EQ(a.weighted_median, b.weighted_median) << what;
+    EXPECT_EQ(a.weighted_q1, b.weighted_q1) << what;
+    EXPECT_EQ(a.weighted_q3, b.weighted_q3) << what;
+    EXPECT_EQ(a.histogram, b.histogram) << what;
+  };
+  Image map;
+  expect_same(FlipLdr(Clamped(ref), Clamped(test), p, &map),
+              FlipLdr(Clamped(ref), Clamped(test), p), "LDR");
+  const FlipResult hdr_whole = FlipHdr(ref, test, p, &map);
+  const FlipResult hdr_masked = FlipHdr(ref, test, p);
+  expect_same(hdr_whole, hdr_masked, "HDR");
+  EXPECT_GE(hdr_masked.num_exposures, 3);
+  EXPECT_GT(hdr_masked.mean, 0.01);
+  // The reference cache keeps halves per wanted pixels: a whole frame's half is not handed to a
+  // masked call, nor the other way round.
+  FlipReferenceCache cache(std::size_t{64} << 20);
+  FlipParameters cached = p;
+  cached.reference_cache = &cache;
+  expect_same(FlipHdr(ref, test, cached, &map), hdr_whole, "HDR, cache cold");
+  expect_same(FlipHdr(ref, test, cached), hdr_masked, "HDR, cache warm with the whole frame");
+}
+
 TEST(FlipTest, PercentilesAreOrdered) {
   const Image ref = testing::LdrScene(64, 64);
   const FlipResult r = FlipLdr(ref, testing::LdrDistorted(ref, 0.05f, 1));

@@ -334,6 +334,9 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   mp.ppd = spec.metrics_ppd;
   mp.flip_reference_cache = context.flip_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
+  mp.maps_wanted = metrics::kAbsoluteErrorMap;  // The previews' error map; no other is read.
+  metrics::MetricsSeconds metric_seconds;
+  mp.seconds = &metric_seconds;
   metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.
   const Image ref_rgb = ref.image.Channels(0, 3), fit_rgb = prediction.Channels(0, 3);
   const MetricsPass all = RunMetrics(ref_rgb, fit_rgb, covered, mp, true, &maps);
@@ -351,6 +354,13 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
                       false, nullptr);
   }
   clock->Lap("metrics");
+  for (const auto& [stage, seconds] :
+       {std::pair{"metric_pixel", metric_seconds.pixel}, {"metric_ssim", metric_seconds.ssim},
+        {"metric_ciede2000", metric_seconds.ciede2000}, {"metric_itp", metric_seconds.delta_e_itp},
+        {"metric_flip_ldr", metric_seconds.flip_ldr}, {"metric_flip_hdr", metric_seconds.flip_hdr},
+        {"metric_maps", metric_seconds.maps}}) {
+    clock->Move("metrics", stage, seconds);
+  }
   EvaluationRecord record;
   record.reference = rs.name;
   record.lighting = rs.lighting;

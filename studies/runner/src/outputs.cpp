@@ -221,7 +221,7 @@ std::string StageTable(const std::vector<double>& totals) {
   std::string out = fmt::format("where the jobs' {:.1f} s went (summed over workers):", sum);
   for (std::size_t i = 0; i < kStageNames.size(); ++i) {
     if (totals[i] <= 0) continue;
-    out += fmt::format("\n  {:<10} {:8.1f} s  {:5.1f}%", kStageNames[i], totals[i],
+    out += fmt::format("\n  {:<16} {:8.1f} s  {:5.1f}%", kStageNames[i], totals[i],
                        100.0 * totals[i] / sum);
   }
   return out;

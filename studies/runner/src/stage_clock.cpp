@@ -21,6 +21,11 @@ void StageClock::Lap(const std::string& stage) {
   last_ = now;
 }
 
+void StageClock::Move(const std::string& from, const std::string& to, double seconds) {
+  seconds_[IndexOf(from)] -= seconds;
+  seconds_[IndexOf(to)] += seconds;
+}
+
 double StageClock::Seconds(const std::string& stage) const { return seconds_[IndexOf(stage)]; }
 
 }  // namespace shadefit::studies::internal

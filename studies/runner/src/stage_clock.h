@@ -15,7 +15,17 @@ inline const std::vector<std::string> kStageNames = {
     "brdf_start",  // the BRDF-space start of an image fit ([fit] start = "brdf")
     "fit",         // fit::Fit: preparing the G-buffers and the solve (solver_seconds: its solve)
     "render",      // the fit rendered under every lighting of the material
-    "metrics",     // every image metric, over the measured and over all covered pixels
+    // Every image metric, over the measured and over all covered pixels, one stage per family
+    // (metrics::MetricsSeconds) and "metrics" for the rest (masks, pixel counts, the patched
+    // reference).
+    "metric_pixel",     // RMSE, relative RMSE, log RMSE, MAE, PSNR
+    "metric_ssim",      // SSIM and MS-SSIM
+    "metric_ciede2000",
+    "metric_itp",       // Delta E_ITP
+    "metric_flip_ldr",
+    "metric_flip_hdr",
+    "metric_maps",      // the error map the previews show
+    "metrics",
     "regions",     // where the error lies (a G-buffer per lighting, region_errors.h)
     "previews",    // the reference, fit and error PNGs
     "write",       // the job's record
@@ -27,6 +37,8 @@ class StageClock {
   StageClock() : last_(Clock::now()), start_(last_) {}
   // Adds the time since the previous lap (or the clock's start) to `stage`, one of kStageNames.
   void Lap(const std::string& stage);
+  // Moves `seconds` of what was lapped to `from` over to `to` (a stage timed inside another).
+  void Move(const std::string& from, const std::string& to, double seconds);
   double Seconds(const std::string& stage) const;
   double Total() const { return std::chrono::duration<double>(last_ - start_).count(); }
 

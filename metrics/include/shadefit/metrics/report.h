@@ -14,6 +14,31 @@
 
 namespace shadefit::metrics {
 
+// Seconds ComputeMetrics spent on each family of metrics, added to (one struct sums many calls):
+// for a caller's stage table (the study's timings.csv).
+struct MetricsSeconds {
+  double pixel = 0.0;        // RMSE, relative RMSE, log RMSE, MAE, PSNR
+  double ssim = 0.0;         // SSIM (luminance and RGB) and MS-SSIM, with their display encoding
+  double ciede2000 = 0.0;    // CIEDE2000
+  double delta_e_itp = 0.0;  // Delta E_ITP
+  double flip_ldr = 0.0;     // LDR-FLIP, with its exposure and clip
+  double flip_hdr = 0.0;     // HDR-FLIP
+  double maps = 0.0;         // the absolute and relative error maps
+  double Total() const { return pixel + ssim + ciede2000 + delta_e_itp + flip_ldr + flip_hdr + maps; }
+};
+
+// The maps ComputeMetrics fills when given a MetricsMaps: a set of these bits.
+enum MetricMap : unsigned {
+  kAbsoluteErrorMap = 1u << 0,
+  kRelativeErrorMap = 1u << 1,
+  kSsimMap = 1u << 2,
+  kCiede2000Map = 1u << 3,
+  kDeltaEItpMap = 1u << 4,
+  kFlipLdrMap = 1u << 5,
+  kFlipHdrMap = 1u << 6,
+  kAllMaps = (1u << 7) - 1,
+};
+
 struct MetricsParameters {
   // Exposure (stops) of the display transform used by PSNR, SSIM, MS-SSIM, CIEDE2000, LDR-FLIP.
   float exposure_stops = 0.0f;
@@ -29,6 +54,10 @@ struct MetricsParameters {
   // Optional: keeps the reference's half of LDR- and HDR-FLIP for the next call with the same
   // reference (FlipReferenceCache); the results are the same without it.
   FlipReferenceCache* flip_reference_cache = nullptr;
+  // Which maps a MetricsMaps receives (MetricMap bits); the others stay empty and cost nothing.
+  unsigned maps_wanted = kAllMaps;
+  // Optional: receives the seconds spent per metric (added to).
+  MetricsSeconds* seconds = nullptr;
 };
 
 struct MetricsReport {
@@ -56,7 +85,8 @@ struct MetricsReport {
   FlipResult flip_hdr;  // On the linear HDR images.
 };
 
-// One-channel maps, same size as the inputs (NaN where masked out for the point-wise ones).
+// One-channel maps, same size as the inputs (NaN where masked out for the point-wise ones); those
+// not in MetricsParameters::maps_wanted are left empty.
 struct MetricsMaps {
   Image absolute_error;  // Mean over RGB of |t - r|, linear units.
   Image relative_error;  // Mean over RGB of |t - r| / (|r| + eps).
