@@ -200,6 +200,34 @@ TEST(SsimTest, MaskErodedByTheWindow) {
   EXPECT_LT(Ssim(a, b).mean, 0.9);
 }
 
+// Without a map, SSIM computes only the pooled pixels' windows: the same bits as the whole frame's
+// map pooled over the same mask (a disc, lone pixels that pool nothing, and pooled pixels whose
+// windows reach the frame's mirrored edges).
+TEST(SsimTest, PooledPixelsOnlyGiveTheWholeFramesBits) {
+  const int w = 90, h = 70;
+  const Image ref = testing::LdrScene(w, h);
+  const Image test = testing::LdrDistorted(ref, 0.08f, 9);
+  Image mask(w, h, 1, 0.0f);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float dx = x - 40.0f, dy = y - 33.0f;
+      if (dx * dx + dy * dy < 25.0f * 25.0f || (x >= 70 && y >= 55) || (x < 14 && y < 12)) {
+        mask.at(x, y, 0) = 1.0f;
+      }
+    }
+  }
+  mask.at(85, 5, 0) = 1.0f;
+  SsimParameters p;
+  p.mask = &mask;
+  Image map;
+  const SsimResult whole = Ssim(ref, test, p, &map);
+  const SsimResult pooled = Ssim(ref, test, p);
+  EXPECT_EQ(whole.mean, pooled.mean);
+  EXPECT_EQ(whole.channel_means, pooled.channel_means);
+  EXPECT_EQ(whole.pooled_pixels, pooled.pooled_pixels);
+  EXPECT_LT(pooled.mean, 0.99);
+}
+
 TEST(SsimTest, TooSmallOrEmptyIsAnError) {
   const Image small(10, 30, 1, 0.5f);
   try {
