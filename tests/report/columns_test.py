@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Python's results.csv columns (report/results_csv.py) against the C++ side that owns them: the
-metric and region lists against studies/runner/src/metric_columns.h (kMetricColumns,
+metric and region lists against studies/runner/src/metric_columns.h (kMetrics,
 kRegionNames, kRegionColumns), the whole header against the one WriteResultsCsv
 (studies/runner/src/outputs.cpp) writes and, where given, against a real results.csv's first
 line. A column added or removed on one side and not the other fails here. The metric names the
@@ -23,6 +23,29 @@ def cpp_list(text, name, path):
     if not m:
         raise SystemExit(f"FAIL: {path}: {name}: not found")
     return re.findall(r'"([^"]*)"', m.group(1))
+
+
+def cpp_table_names(text, name, path):
+    """The names of `inline const std::vector<...> name = { {"a", ...}, {"b", ...}, };`: the
+    first string literal of each entry (entries may hold braces of their own)."""
+    m = re.search(r"\b" + name + r"\s*=\s*\{", text)
+    if not m:
+        raise SystemExit(f"FAIL: {path}: {name}: not found")
+    depth, i, entries, start = 1, m.end(), [], None
+    while depth > 0 and i < len(text):
+        if text[i] == "{":
+            depth += 1
+            if depth == 2:
+                start = i
+        elif text[i] == "}":
+            depth -= 1
+            if depth == 1:
+                entries.append(text[start:i + 1])
+        i += 1
+    names = [re.search(r'"([^"]*)"', e) for e in entries]
+    if not all(names):
+        raise SystemExit(f"FAIL: {path}: {name}: an entry without a name")
+    return [n.group(1) for n in names]
 
 
 def writer_header(text, metrics, regions, quantities, path):
@@ -74,7 +97,7 @@ def main(argv):
     failures = []
     header_path = os.path.join(src, "studies", "runner", "src", "metric_columns.h")
     h = open(header_path, encoding="utf-8").read()
-    metrics = cpp_list(h, "kMetricColumns", header_path)
+    metrics = cpp_table_names(h, "kMetrics", header_path)
     regions = cpp_list(h, "kRegionNames", header_path)
     quantities = cpp_list(h, "kRegionColumns", header_path)
     for name, cpp, py in (("kMetricColumns", metrics, rc.METRIC_COLUMNS),

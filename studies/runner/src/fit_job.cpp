@@ -12,6 +12,7 @@
 
 #include "job_kinds.h"
 #include "job_records.h"
+#include "metric_columns.h"
 #include "outputs.h"
 #include "region_errors.h"
 #include "stage_clock.h"
@@ -187,18 +188,11 @@ struct MetricsPass {
   std::string why_none;
 };
 
+// Every metric of kMetrics by its name.
 json MetricsSummary(const metrics::MetricsReport& m) {
-  return {{"rmse", Num(m.rmse)},
-          {"relative_rmse", Num(m.relative_rmse)},
-          {"log_rmse", Num(m.log_rmse)},
-          {"mae", Num(m.mae)},
-          {"psnr", Num(m.psnr)},
-          {"ssim", Num(m.ssim_rgb.mean)},
-          {"ms_ssim", Num(m.ms_ssim.value)},
-          {"ciede2000_mean", Num(m.ciede2000.mean)},
-          {"flip_ldr_mean", Num(m.flip_ldr.mean)},
-          {"flip_hdr_mean", Num(m.flip_hdr.mean)},
-          {"delta_e_itp_mean", Num(m.delta_e_itp.mean)}};
+  json j = json::object();
+  for (const MetricColumn& c : kMetrics) j[c.name] = Num(c.value(m));
+  return j;
 }
 
 // The same keys as MetricsSummary, every value null: a pass without numbers.
