@@ -31,6 +31,7 @@ test_packages=(
   slurm-wlm munge  # slurm_cluster_test: a one-node Slurm cluster on localhost (docs/cluster.md)
   clang libclang-rt-dev  # scripts/fuzz-check.sh: libFuzzer harnesses of tests/fuzz (docs/inputs.md)
   python3-pytest python3-nbclient python3-nbformat python3-ipykernel  # tests/python, the notebook
+  python3-mypy  # stubtest of python/shadefit/__init__.pyi (tests/python/test_stubs.py)
 )
 [ "$mode" = test ] && packages+=("${test_packages[@]}")
 sudo=""

@@ -83,6 +83,8 @@ class FitResult:
     covariance_status: str
     references: list[dict[str, Any]]  # name, pixels, rmse, prediction, abs_error
     json: dict[str, Any]  # the CLI's fit.json
+    def __init__(self, raw: Mapping[str, Any]) -> None:
+        """Made by fit() and fit_brdf() from the bindings' record, not by hand."""
     @property
     def params(self) -> dict[str, Union[float, list[float]]]: ...
 
@@ -111,8 +113,11 @@ def fit_brdf(path: PathLike, model: str, *,
     """Fits model to a measured BRDF in BRDF space (Ngan et al. 2005)."""
 
 class MeasuredBrdf:
-    format: str  # "merl-binary" or "neural-brdf"
-    files: list[str]
+    @property
+    def format(self) -> str:
+        """'merl-binary' or 'neural-brdf'."""
+    @property
+    def files(self) -> list[str]: ...
     def eval(self, wi: npt.ArrayLike, wo: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """f(wi, wo) in 1/sr, (..., 3); directions (..., 3) in the local frame, normal +z."""
 
