@@ -11,7 +11,8 @@ grid of H_BINS x D_BINS nodes: theta_h in [0, pi/2] on square-root spacing (node
     I_c = coverage sum_lights E_c (n.l) sum_k w_k(theta_h, theta_d) f_k,c
 
 with the geometry the runner wrote (geometry/<reference>.npy: studies/runner/src/
-geometry_outputs.cpp). A free exposure is absorbed into f (the floor is then relative, like the
+geometry_outputs.cpp), read by report/floor_inputs.py; this module computes only (no file
+opened, no word written: the floor's sentences and table are in section_words.py). A free exposure is absorbed into f (the floor is then relative, like the
 free-exposure fits); with a fixed exposure it is absolute. The table is the non-negative
 least-squares solution over the training photographs with a smoothness penalty,
 
@@ -29,9 +30,7 @@ training and test lightings alike; the floor of a training set is the mean over 
 lightings, compared with each fit's mean over the same lightings.
 """
 
-import json
 import math
-import os
 
 import numpy as np
 from scipy import sparse
@@ -39,12 +38,9 @@ from scipy import sparse
 H_BINS, D_BINS = 32, 16
 LAMBDAS = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
 RELATIVE_EPSILON = 0.01  # metrics::PixelMetricParameters::relative_epsilon
-FIXED_COLUMNS = 13       # x y coverage train r g b nx ny nz vx vy vz (geometry/index.json)
-LIGHT_COLUMNS = 6        # lx ly lz Er Eg Eb
-
-
-class FloorInputError(Exception):
-    """A geometry file the floor cannot use; the message names it."""
+# A geometry row (geometry/index.json; floor_inputs checks each file against these).
+FIXED_COLUMNS = 13       # x y coverage train r g b nx ny nz vx vy vz
+LIGHT_COLUMNS = 6        # lx ly lz Er Eg Eb, per light slot
 
 
 def srgb_oetf(x):
@@ -105,20 +101,13 @@ def table_weights(n, v, l):
 
 class Reference:
     """One reference's rows: values (P, 3), train flags (P,), and its design matrix (P, K) per
-    channel, K = H_BINS * D_BINS."""
+    channel, K = H_BINS * D_BINS. `geometry`: a floor_inputs.GeometryReference."""
 
-    def __init__(self, path, entry, decoding=None):
-        try:
-            data = np.load(path)
-        except (OSError, ValueError) as e:
-            raise FloorInputError(f"{path}: cannot read ({e})")
-        slots = int(entry.get("light_slots", 0))
-        if data.ndim != 2 or data.shape[1] != FIXED_COLUMNS + LIGHT_COLUMNS * slots:
-            raise FloorInputError(f"{path}: shape {data.shape}, want (rows, "
-                                  f"{FIXED_COLUMNS + LIGHT_COLUMNS * slots})")
-        data = data.astype(np.float64)
-        self.lighting = entry["lighting"]
-        self.values = redecode(data[:, 4:7], entry.get("decoded_from", "linear"), decoding)
+    def __init__(self, geometry, decoding=None):
+        data = np.asarray(geometry.rows, dtype=np.float64)
+        slots = geometry.light_slots
+        self.lighting = geometry.lighting
+        self.values = redecode(data[:, 4:7], geometry.decoded_from, decoding)
         self.train = data[:, 3] > 0.5
         coverage = data[:, 2]
         n, v = data[:, 7:10], data[:, 10:13]
@@ -246,49 +235,40 @@ def fit_test_error(fit, lightings):
     return mean(vals)
 
 
-def compute_floor(study_dir, study, fits):
-    """floor.json's content, or None when the study wrote no geometry. `fits`: make_report's
-    {(material, label): job JSON}."""
-    index_path = os.path.join(study_dir, "geometry", "index.json")
-    if not os.path.exists(index_path):
+def compute_floor(geometry, study, fits):
+    """floor.json's content, or None when the study wrote no geometry. `geometry`:
+    floor_inputs.read_geometry's; `fits`: make_report's {(material, label): job JSON}."""
+    if geometry is None:
         return None
-    with open(index_path) as f:
-        index = json.load(f)
     dtd = smoothness_matrix()
     test_only = set(study["test_lightings"])
     out = {"schema": "shadefit.report.floor/1", "bins": [H_BINS, D_BINS],
            "theta_h_spacing": "square root", "lambdas": list(LAMBDAS),
            "relative_epsilon": RELATIVE_EPSILON, "materials": []}
     by_material = {}
-    skipped = []
-    for e in index.get("references", []):
-        if "skipped" in e:
-            skipped.append({"reference": e["reference"], "why": e["skipped"]})
-            continue
+    for e in geometry.references:
         # Per material and object: a data set of several objects has a floor per object.
-        by_material.setdefault((e["material"], e.get("object", "")), []).append(e)
-    out["skipped"] = skipped
+        by_material.setdefault((e.material, e.object), []).append(e)
+    out["skipped"] = [dict(s) for s in geometry.skipped]
     for material, obj in sorted(by_material):
         entries = by_material[(material, obj)]
 
         for train in study["training_sets"]:
             decoding = chosen_decoding(study, fits, material, train)
 
-            def load(e):
-                return Reference(os.path.join(study_dir, e["file"]), e, decoding)
-            # The training references stay in memory; every other one is read, scored and
-            # dropped (a 612 x 512 photograph's design matrices take ~25 MB).
-            train_refs = [load(e) for e in entries if e["lighting"] in train]
-            test_lightings = [e["lighting"] for e in entries if e["lighting"] not in train
-                              and (not test_only or e["lighting"] in test_only)]
+            # The training references' design matrices stay in memory; every other one is made,
+            # scored and dropped (a 612 x 512 photograph's take ~25 MB).
+            train_refs = [Reference(e, decoding) for e in entries if e.lighting in train]
+            test_lightings = [e.lighting for e in entries if e.lighting not in train
+                              and (not test_only or e.lighting in test_only)]
             if not train_refs or not any(r.train.any() for r in train_refs):
                 continue
             lam, scores = choose_lambda(train_refs, dtd)
             tables = fit_tables(train_refs, dtd, lam)
             per = {r.lighting: r.relative_rmse(tables) for r in train_refs}
             for e in entries:
-                if e["lighting"] not in per:
-                    per[e["lighting"]] = load(e).relative_rmse(tables)
+                if e.lighting not in per:
+                    per[e.lighting] = Reference(e, decoding).relative_rmse(tables)
             rec = {"material": material, **({"object": obj} if obj else {}),
                    "train": list(train), "lambda": lam,
                    "decoding": decoding,
@@ -308,58 +288,3 @@ def compute_floor(study_dir, study, fits):
                                            if err is not None and floor is not None else None)})
             out["materials"].append(rec)
     return out
-
-
-def pct(x):
-    return "n/a" if x is None else f"{100.0 * x:.2f} %"
-
-
-def floor_sentences(floor):
-    """summary.md's and index.html's lines: one per material and training set, each fit's test
-    error against the floor's."""
-    lines = []
-    for rec in floor["materials"]:
-        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
-        head = (f"{name} (trained on {'+'.join(rec['train'])}): the best isotropic "
-                f"BRDF these photographs support (tabulated f(theta_h, theta_d), no model) has "
-                f"a test relative RMSE of {pct(rec['test_relative_rmse'])} "
-                f"(training {pct(rec['train_relative_rmse'])})")
-        dec = rec.get("decoding")
-        if dec:
-            how = dec["chosen"] + (f" {dec['gamma']:.3f}" if dec.get("gamma") else "")
-            head += f", in the decoding {dec['label']} chose ({how})"
-        head += "."
-        parts = []
-        for f in rec["fits"]:
-            d = f["points_above_floor"]
-            if d is None:
-                parts.append(f"{f['label']}: no test error")
-            elif d >= 0:
-                parts.append(f"{f['label']} is {d:.2f} points above what any isotropic BRDF "
-                             f"reaches on these photographs ({pct(f['test_relative_rmse'])})")
-            else:
-                parts.append(f"{f['label']} is {-d:.2f} points below the floor "
-                             f"({pct(f['test_relative_rmse'])}; the table's grid and smoothing "
-                             f"cost more than the model's error)")
-        above = any(f["points_above_floor"] is not None and f["points_above_floor"] >= 0
-                    for f in rec["fits"])
-        tail = "; the rest is the setup." if above else "."
-        lines.append(head + (" " + "; ".join(parts) + tail if parts else ""))
-    for s in floor.get("skipped", []):
-        lines.append(f"{s['reference']}: not in the floor ({s['why']}).")
-    return lines
-
-
-def floor_table(floor):
-    cols = ["material", "training", "fit", "test rel. RMSE", "floor", "points above"]
-    rows = []
-    for rec in floor["materials"]:
-        train = "+".join(rec["train"])
-        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
-        rows.append([name, train, "floor (tabulated, no model)",
-                     pct(rec["test_relative_rmse"]), pct(rec["test_relative_rmse"]), "0.00"])
-        for f in rec["fits"]:
-            d = f["points_above_floor"]
-            rows.append([name, train, f["label"], pct(f["test_relative_rmse"]),
-                         pct(rec["test_relative_rmse"]), "n/a" if d is None else f"{d:.2f}"])
-    return cols, rows

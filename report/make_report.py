@@ -22,6 +22,7 @@ import answer_rules  # noqa: E402
 import answer_words  # noqa: E402
 import data_floor  # noqa: E402
 import figure_cache  # noqa: E402
+import floor_inputs  # noqa: E402
 import report_charts  # noqa: E402
 import report_figures  # noqa: E402
 import report_grids  # noqa: E402
@@ -34,7 +35,9 @@ import report_sections  # noqa: E402
 import report_summary  # noqa: E402
 import report_tables  # noqa: E402
 import report_verdicts  # noqa: E402
+import study_answers  # noqa: E402
 import report_inputs  # noqa: E402
+import section_words  # noqa: E402
 from report_inputs import ReportInputError, load_study  # noqa: E402
 from progress import Progress  # noqa: E402
 from report_util import flatten, fmt, materials_of, to_float, write_text  # noqa: E402
@@ -109,6 +112,15 @@ class MaterialFigures:
         self.drawn = (self.pool.imap(material_figures, self.todo, chunksize=1)
                       if self.pool is not None else None)
 
+    def abandon(self):
+        """Stops the workers (the report failed before it collected them)."""
+        global _FIGURE_INPUTS
+        if self.pool is not None:
+            self.pool.terminate()
+            self.pool.join()
+            self.pool = None
+        _FIGURE_INPUTS = None
+
     def finish(self):
         """The records, in figures.json's order, once every material is drawn."""
         global _FIGURE_INPUTS
@@ -166,16 +178,16 @@ class Inputs:
          self.provenance) = load_study(study_dir)
         self.charts = report_charts.load_charts(study_dir)
         self.ngan = report_ngan.ngan_comparison(self.study, self.fits)
-        # The data floor (report/data_floor.py), where the runner wrote geometry/ (photographs).
-        self.data_floor = data_floor.compute_floor(study_dir, self.study, self.fits)
+        # The photographs' geometry, where the runner wrote geometry/ (the data floor's input).
+        self.geometry = floor_inputs.read_geometry(study_dir)
         # The material classes' tables (report_classes: beside the measured folder, and ours).
         self.classified = report_inputs.classifications(self.study, study_dir)
 
 
-def study_tables(inp, summary, detail, answers):
+def study_tables(inp, summary, detail, answers, floor):
     """({key: (columns, rows)} of every table the study has, in report.tex's order of keys,
     the answers' tables first; {key: caption})."""
-    verdicts, verdict_details, matrix = report_verdicts.verdict_tables(inp.study, summary, detail)
+    verdicts, verdict_details, matrix = report_tables.verdict_tables(inp.study, summary, detail)
     captions = dict(CAPTIONS)
     tables = {}
     for key, (caption, t) in answers.tables().items():
@@ -189,8 +201,8 @@ def study_tables(inp, summary, detail, answers):
     if inp.ngan is not None:
         tables["ngan2005"] = report_ngan.ngan_table(inp.ngan)
         tables["ngan2005_spearman"] = report_ngan.spearman_table(inp.ngan)
-    if inp.data_floor is not None:
-        tables["floor"] = data_floor.floor_table(inp.data_floor)
+    if floor is not None:
+        tables["floor"] = section_words.data_floor_table(floor)
     tables["encoding"] = report_tables.encoding_table(inp.fits)
     # No empty table anywhere: one without rows (no verdicts, no encoding search) is left out of
     # tables/, summary.md, index.html and report.tex.
@@ -214,10 +226,11 @@ def write_json(report_dir, name, value):
                json.dumps(value, indent=1, default=answer_rules.to_jsonable))
 
 
-def draw_figures(inp, answers, fig_dir, progress=None):
+def draw_figures(inp, answers, fig_dir, materials, progress=None):
     """(figures, charts): the records of figures.json, in the page's order: the findings'
-    forest plot first. Each group of figures is drawn only where a hash of its inputs differs
-    from the last report's (figure_cache)."""
+    forest plot first. `materials`: the per-material figures (MaterialFigures), drawing in
+    their workers since the inputs were read. Each group of figures is drawn only where a hash
+    of its inputs differs from the last report's (figure_cache)."""
     code = figure_cache.code_fingerprint()
     labels = [f["label"] for f in inp.study["fits"]]
     answers_json = answers.json()
@@ -236,9 +249,6 @@ def draw_figures(inp, answers, fig_dir, progress=None):
                 rec, inp.study, fig_dir, manifest, answer_words.question_title(rec),
                 answer_words.error_label(rec))
 
-    # The per-material figures in worker processes; the study-level groups here meanwhile.
-    materials = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
-                                inp.jobs, progress)
     figures = group("answers", answers_json, answer_figures)
     bars = group("metric-bars", inp.rows, lambda manifest: report_metric_figures.metric_bars(
         inp.study, inp.rows, fig_dir, manifest, to_float))
@@ -263,25 +273,40 @@ def make_report(study_dir, quiet=True):
     report_dir = os.path.join(study_dir, "report")
     fig_dir = os.path.join(report_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
+    # The per-material figures (most of the report's time) need the inputs only: their workers
+    # start now, and this process computes the answers, writes the tables and draws the
+    # study-level figures meanwhile.
+    material_figs = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
+                                    inp.jobs, progress.step)
+    try:
+        return _write_report(inp, report_dir, fig_dir, material_figs, progress)
+    except BaseException:
+        material_figs.abandon()
+        raise
 
+
+def _write_report(inp, report_dir, fig_dir, material_figs, progress):
     summary, detail = report_verdicts.compute_verdicts(inp.study, inp.rows, inp.probes)
-    answers = report_sections.Answers(inp.study, inp.rows, summary, to_float,
-                                      inp.classified)
-    tables, captions = study_tables(inp, summary, detail, answers)
+    # Computed (study_answers: no file, no word), then formatted once for every page.
+    answers = report_sections.AnswerSections(study_answers.compute_answers(
+        inp.study, inp.rows, summary, to_float, inp.classified))
+    # The data floor (data_floor.py) from the photographs' geometry (None without photographs).
+    floor = data_floor.compute_floor(inp.geometry, inp.study, inp.fits)
+    tables, captions = study_tables(inp, summary, detail, answers, floor)
     write_tables(os.path.join(report_dir, "tables"), tables, captions)
     # The verdicts also as JSON for tools and tests.
     write_json(report_dir, "verdicts.json", {"summary": summary, "detail": detail})
     write_json(report_dir, "comparisons.json", answers.json())
     progress.step("answers and tables")
-    figures, charts = draw_figures(inp, answers, fig_dir, progress.step)
+    figures, charts = draw_figures(inp, answers, fig_dir, material_figs, progress.step)
     write_json(report_dir, "figures.json", figures + charts)
     if inp.ngan is not None:
         write_json(report_dir, "ngan2005.json", inp.ngan)
     # Right after the comparative answers, each fit's test error next to the floor's.
     data_floor_lines = []
-    if inp.data_floor is not None:
-        write_json(report_dir, "floor.json", inp.data_floor)
-        data_floor_lines = data_floor.floor_sentences(inp.data_floor)
+    if floor is not None:
+        write_json(report_dir, "floor.json", floor)
+        data_floor_lines = section_words.data_floor_sentences(floor)
     write_text(os.path.join(report_dir, "summary.md"), report_summary.summary_markdown(
         inp.study, summary, tables.get("matrix"), inp.provenance, answers, data_floor_lines,
         inp.fits, inp.ngan, figures))
@@ -310,7 +335,7 @@ def main(argv):
             return 1
     try:
         print(make_report(study_dir, quiet=quiet))
-    except (ReportInputError, report_charts.ChartInputError, data_floor.FloorInputError) as e:
+    except (ReportInputError, report_charts.ChartInputError, floor_inputs.FloorInputError) as e:
         print(f"make_report: error: {e}", file=sys.stderr)
         return 1
     return 0

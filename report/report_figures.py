@@ -10,6 +10,8 @@ with its text checks, image reading and bar fills. The figures themselves: repor
 (metric bars and comparative answers), report_charts.py (parameter charts).
 """
 
+import functools
+import io
 import os
 import re
 
@@ -18,6 +20,7 @@ import matplotlib
 matplotlib.use("Agg")  # Files only: no display.
 import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.backends import _backend_pdf_ps  # noqa: E402
 import numpy as np  # noqa: E402
 
 DPI = 200
@@ -63,11 +66,16 @@ def style_of(label, labels):
 
 def text_width_in(text, fontsize):
     """Width in inches of one line (the widest line of a multi-line text) in the figure font."""
-    props = matplotlib.font_manager.FontProperties(family=plt.rcParams["font.family"],
-                                                   size=fontsize)
+    return _line_widths_in(str(text), fontsize, tuple(plt.rcParams["font.family"]))
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def _line_widths_in(text, fontsize, family):
+    # Remembered: wrapping a grid's column titles measures the same label at every width tried.
+    props = matplotlib.font_manager.FontProperties(family=list(family), size=fontsize)
     renderer = _measuring_renderer()
     return max(renderer.get_text_width_height_descent(line, props, ismath=False)[0]
-               for line in str(text).split("\n")) / 72.0
+               for line in text.split("\n")) / 72.0
 
 
 def _measuring_renderer():
@@ -154,12 +162,32 @@ def warm_up():
     """Loads what every figure needs once (the font and its glyphs, the Agg and PDF backends) by
     drawing a small figure with text to memory, so that worker processes forked after it share
     it instead of each loading it again."""
-    import io
     fig = plt.figure(figsize=(1, 1))
     fig.text(0.1, 0.5, "Warm-up 0123456789 abcdefghijklmnopqrstuvwxyz", fontsize=FONT_PT)
     fig.canvas.draw()
     fig.savefig(io.BytesIO(), format="pdf")
     plt.close(fig)
+
+
+# --- The PDF's embedded font ----------------------------------------------------------------------
+# matplotlib subsets the TrueType font (fontTools) for every PDF it writes: 60 ms per figure, a
+# tenth of the report's drawing time, and the figures of a study use a few sets of characters
+# over and over (the same labels, digits and units). The subset is a pure function of the font
+# file and the characters, so a subset made once per process and set is the same bytes.
+_FONT_SUBSETS = {}
+_SUBSET_FONT = _backend_pdf_ps.get_glyphs_subset
+
+
+def _font_subset(fontfile, characters):
+    """matplotlib's get_glyphs_subset, remembered per (font file, characters): the same bytes."""
+    key = (fontfile, characters)
+    data = _FONT_SUBSETS.get(key)
+    if data is None:
+        data = _FONT_SUBSETS[key] = _SUBSET_FONT(fontfile, characters).getvalue()
+    return io.BytesIO(data)
+
+
+_backend_pdf_ps.get_glyphs_subset = _font_subset
 
 
 def save_figure(fig, fig_dir, name, manifest, caption, extra=None):

@@ -1,6 +1,7 @@
 """Image grids: per material, the reference, each fit and its error map per lighting, cropped
 to the object (docs/studies.md, "Figures")."""
 
+import functools
 import math
 import os
 import types
@@ -144,7 +145,7 @@ def object_box(images, threshold=1.5 / 255):
     return max(0, x0 - pad), max(0, y0 - pad), min(w, x1 + pad), min(h, y1 + pad)
 
 
-def grid_crop(study_dir, evals, labels, rows):
+def grid_crop(study_dir, evals, labels, rows, read=read_rgb):
     """The crop box of a grid (object_box over every fit preview of its rows; the reference
     previews when there is no fit preview) and the frame's size (w, h); (None, None) when no
     preview can be read."""
@@ -153,7 +154,7 @@ def grid_crop(study_dir, evals, labels, rows):
             for l in only_labels:
                 rel = evals[l].get(light, {}).get("images", {}).get(key)
                 if rel and os.path.exists(os.path.join(study_dir, rel)):
-                    yield read_rgb(os.path.join(study_dir, rel))
+                    yield read(os.path.join(study_dir, rel))
 
     for key, ls in (("fit", labels), ("reference", labels[:1])):
         frame, lit = None, []
@@ -259,13 +260,14 @@ def row_colour_bar(fig, g, y0, error_scale, first_row):
                  ha="left", va="bottom", fontsize=FONT_PT - 2)
 
 
-def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame):
+def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, read=read_rgb):
     """Row i of the grid: the reference, each fit and each fit's error map under `light`, its
-    label, and its colour bar. Returns the whole stops the row's images were brightened by."""
+    label, and its colour bar. Returns the whole stops the row's images were brightened by.
+    `read`: reads a preview (read_rgb, or a cache of it)."""
     y0 = g.height - g.top_in - (i + 1) * (g.cell_h + GRID_GAP_IN) + GRID_GAP_IN
     first = evals[labels[0]].get(light, {}).get("images", {})
     ref_path = os.path.join(study_dir, first["reference"]) if first.get("reference") else None
-    ref = read_rgb(ref_path) if ref_path and os.path.exists(ref_path) else None
+    ref = read(ref_path) if ref_path and os.path.exists(ref_path) else None
     stops = row_exposure(cropped(ref)) if ref is not None else 0
     panels = [("reference", first.get("reference"), False)]
     panels += [(l, evals[l].get(light, {}).get("images", {}).get("fit"), False) for l in labels]
@@ -281,7 +283,7 @@ def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame):
             tiles.text(x0 + g.cell_w / 2, y0 + g.cell_h / 2, "missing", ha="center",
                        va="center")
             continue
-        img = ref if j == 0 and ref is not None else read_rgb(os.path.join(study_dir, rel))
+        img = ref if j == 0 and ref is not None else read(os.path.join(study_dir, rel))
         if is_error:
             if frame is None:  # No preview to size it: keep the square image part.
                 img = img[:, :img.shape[0]]
@@ -324,7 +326,10 @@ def grid_figure(study_dir, study, fits, material, labels, heading):
     all_lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
                      for r in g["references"]]
     lightings, rows_note = grid_lightings(evals, labels, all_lightings)
-    box, frame = grid_crop(study_dir, evals, labels, lightings)
+    # Each preview read once per figure: the crop reads the fits' previews and the rows read them
+    # again (a figure's ~80 previews of 256^2 are ~60 MB; a material's ~300 would be 4x that).
+    read = functools.lru_cache(maxsize=None)(read_rgb)
+    box, frame = grid_crop(study_dir, evals, labels, lightings, read)
     aspect = (box[3] - box[1]) / (box[2] - box[0]) if box else 1.0  # tile height / width
     g = grid_layout(study, labels, heading, aspect, len(lightings))
     fig = plt.figure(figsize=(PAGE_IN, g.height))
@@ -339,7 +344,7 @@ def grid_figure(study_dir, study, fits, material, labels, heading):
                  f"{material}, {g.heading}", ha="left", va="top", fontsize=FONT_PT)
     cropped = cropper(box, frame)
     exposures = [(light, grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped,
-                                  frame)) for i, light in enumerate(lightings)]
+                                  frame, read)) for i, light in enumerate(lightings)]
     tiles.set_xlim(0, PAGE_IN)  # imshow widened the limits to its extents; inches again.
     tiles.set_ylim(0, g.height)
     return fig, grid_caption(material, g.heading, exposures, box, frame, rows_note), lightings

@@ -228,7 +228,7 @@ def folded(summary, inner):
 def answers_html(answers, figures, data_floor_lines=()):
     """The comparative answers after the findings: how they are computed, then per question its
     sentences (folded) and its figure; the floors, regions and classes (folded); then the data
-    floor's sentences (report/data_floor.py), if any."""
+    floor's sentences (section_words.data_floor_sentences), if any."""
     comparisons = answers.records
     out = ["<section id='answers'><h2>Answers</h2>",
            f"<p class='method'>{esc(answer_words.method_text(comparisons))}</p>"]

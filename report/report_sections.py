@@ -1,32 +1,30 @@
-"""The study's answers, computed once and handed to every page: the image and probe questions
-(answer_rules), per object where the references show several, the findings tables and forest
-plot (report_findings), the model's floor (model_floor: the joint fit to every floor lighting),
-the regions (report_regions) and the material classes (report_classes). summary.md, index.html
-and report.tex print the same sections from here."""
+"""The study's answers (study_answers.Answers) as every page prints them: the findings tables
+and forest plot (report_findings), the every-metric table, the sections after the comparisons
+(floors, regions, objects, classes), the answers' tables, figures and comparisons.json's
+record. summary.md, index.html and report.tex print the same sections from here. Formats only:
+the answers are computed before (study_answers.compute_answers)."""
 
-import answer_rules
 import answer_words
-import report_classes
 import report_findings
-import model_floor
 import report_metric_figures
-import report_regions
 import section_words
-from results_csv import METRIC_COLUMNS
 
 
-class Answers:
-    def __init__(self, study, rows, summary, to_float, classified):
-        self.study = study
-        self.records = answer_rules.compare_study(study, rows, summary, to_float)
-        self.model_floors = model_floor.model_floors(study, rows, self.records, to_float)
-        self.regions = report_regions.region_means(rows, to_float)
-        self.objects = answer_rules.object_answers(study, rows, summary, to_float)
-        self.classes = report_classes.class_answers(study, rows, summary, to_float, classified)
-        self.findings = report_findings.findings_tables(study, self.records)
-        self.every_metric = answer_words.every_metric_table(
-            self.records, *answer_rules.every_metric_cells(study, rows, self.records, to_float,
-                                                           METRIC_COLUMNS))
+class AnswerSections:
+    """The answers' words, tables and figures, each made once from `answers`
+    (study_answers.Answers); `records`: the questions' records, as the pages read them."""
+
+    def __init__(self, answers):
+        self.answers = answers
+        self.study = answers.study
+        self.records = answers.records
+        self.model_floors = answers.model_floors
+        self.regions = answers.regions
+        self.objects = answers.objects
+        self.classes = answers.classes
+        self.findings = report_findings.findings_tables(answers.study, answers.records)
+        self.every_metric = answer_words.every_metric_table(answers.records,
+                                                            *answers.every_metric_cells)
 
     def sections(self):
         """[(anchor, title, list items (depth, text))] after the per-question sentences: floors,

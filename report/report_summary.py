@@ -20,7 +20,7 @@ def not_valid_reasons(summary, name):
 def summary_markdown(study, summary, matrix, provenance, answers, data_floor_lines, fits, ngan,
                      figures=()):
     """summary.md's text: the findings first (a table per training set, the forest plot),
-    then the sentences. `answers`: report_sections.Answers; `data_floor_lines`: the data floor's
+    then the sentences. `answers`: report_sections.AnswerSections; `data_floor_lines`: the data floor's
     sentences (none without photographs); `ngan`: report_ngan.ngan_comparison's record, or
     None; `figures`: figures.json's records (the forest plot's is linked)."""
     labels = labels_of(study)

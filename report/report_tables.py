@@ -1,7 +1,7 @@
-"""The report's tables as (columns, rows of strings): metrics, fitted parameters, probe numbers
-and the encoding search. report_latex writes them out."""
+"""The report's tables as (columns, rows of strings): metrics, fitted parameters, probe numbers,
+the verdicts (report_verdicts' records) and the encoding search. report_latex writes them out."""
 
-from report_util import flatten, fmt, labels_of, materials_of, to_float
+from report_util import flatten, fmt, labels_of, materials_of, probe_numbers, to_float
 
 METRIC_COLUMNS = [
     ("rmse", "RMSE", "{:.4g}"),
@@ -51,13 +51,6 @@ def parameters_table(study, fits):
     return cols, out
 
 
-def probe_numbers(probes, material, probe):
-    job = probes.get(material)
-    if job is None or probe not in job["probes"]:
-        return None
-    return job["probes"][probe]["numbers"]
-
-
 def probes_table(study, probes):
     labels = labels_of(study)
     cols = ["material", "probe", "quantity", "reference"] + labels
@@ -89,3 +82,39 @@ def encoding_table(fits):
             rows.append([material, label, c["name"], fmt(c["gamma"]), fmt(255 * c["stored_rmse"]),
                          "yes" if c["chosen"] else ""])
     return cols, rows
+
+
+def yes_no(ok):
+    return "n/a" if ok is None else ("yes" if ok else "no")
+
+
+def verdict_tables(study, summary, detail):
+    """(verdicts, verdict details, matrix) tables from report_verdicts.compute_verdicts' records:
+    the worst quantity per phenomenon, material and fit; every quantity; and per phenomenon
+    and fit, the materials reproduced of those judged."""
+    cols = ["phenomenon", "material", "fit", "quantity (worst)", "reference", "model",
+            "error", "tolerance", "reproduced"]
+    rows = []
+    for s in summary:
+        err_name = {"relative": "rel.", "absolute": "abs.", "max": "value"}[s["kind"]]
+        rows.append([s["phenomenon"], s["material"], s["fit"], s["quantity"], fmt(s["reference"]),
+                     fmt(s["model"]), fmt(s["error"], "{:.3g}"),
+                     f"{err_name} <= {s['tolerance']:g}", yes_no(s["reproduced"])])
+    dcols = ["phenomenon", "material", "fit", "quantity", "reference", "model", "error",
+             "tolerance", "reproduced"]
+    drows = [[d["phenomenon"], d["material"], d["fit"], d["quantity"], fmt(d["reference"]),
+              fmt(d["model"]), fmt(d["error"], "{:.3g}"), f"{d['kind']} {d['tolerance']:g}",
+              yes_no(d["reproduced"])] for d in detail]
+    # The matrix: phenomenon x fit -> materials reproduced / materials judged.
+    labels = labels_of(study)
+    mcols = ["phenomenon", "question"] + labels
+    mrows = []
+    for name, v in study["verdicts"].items():
+        row = [name, v["question"]]
+        for label in labels:
+            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
+                      and s["reproduced"] is not None]
+            good = sum(1 for s in judged if s["reproduced"])
+            row.append(f"{good}/{len(judged)}" if judged else "n/a")
+        mrows.append(row)
+    return (cols, rows), (dcols, drows), (mcols, mrows)

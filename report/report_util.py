@@ -52,3 +52,11 @@ def fmt(v, spec="{:.4g}"):
 
 def md_escape(s):
     return str(s).replace("|", "\\|")
+
+
+def probe_numbers(probes, material, probe):
+    """The numbers `probe` measured on `material` (its probe job's record); None without."""
+    job = probes.get(material)
+    if job is None or probe not in job["probes"]:
+        return None
+    return job["probes"][probe]["numbers"]

@@ -1,13 +1,13 @@
 """Verdicts: each phenomenon x material x fit judged from the numbers with the study's
-tolerances (docs/studies.md, "Verdicts"), never written by hand; and their tables."""
+tolerances (docs/studies.md, "Verdicts"), never written by hand. Computes only: their tables are
+report_tables.verdict_tables."""
 
 import fnmatch
 
 import numpy as np
 
 import answer_rules
-from report_tables import probe_numbers
-from report_util import flatten, fmt, labels_of, materials_of, to_float
+from report_util import flatten, labels_of, materials_of, probe_numbers, to_float
 
 
 def judge(kind, tol, ref, val, floor=0.0):
@@ -94,36 +94,3 @@ def compute_verdicts(study, rows, probes):
                                 "kind": kind, "tolerance": tol,
                                 "reproduced": all(c[4] for c in judged), "quantities": len(judged)})
     return summary, detail
-
-
-def yes_no(ok):
-    return "n/a" if ok is None else ("yes" if ok else "no")
-
-
-def verdict_tables(study, summary, detail):
-    cols = ["phenomenon", "material", "fit", "quantity (worst)", "reference", "model",
-            "error", "tolerance", "reproduced"]
-    rows = []
-    for s in summary:
-        err_name = {"relative": "rel.", "absolute": "abs.", "max": "value"}[s["kind"]]
-        rows.append([s["phenomenon"], s["material"], s["fit"], s["quantity"], fmt(s["reference"]),
-                     fmt(s["model"]), fmt(s["error"], "{:.3g}"),
-                     f"{err_name} <= {s['tolerance']:g}", yes_no(s["reproduced"])])
-    dcols = ["phenomenon", "material", "fit", "quantity", "reference", "model", "error",
-             "tolerance", "reproduced"]
-    drows = [[d["phenomenon"], d["material"], d["fit"], d["quantity"], fmt(d["reference"]),
-              fmt(d["model"]), fmt(d["error"], "{:.3g}"), f"{d['kind']} {d['tolerance']:g}",
-              yes_no(d["reproduced"])] for d in detail]
-    # The matrix: phenomenon x fit -> materials reproduced / materials judged.
-    labels = labels_of(study)
-    mcols = ["phenomenon", "question"] + labels
-    mrows = []
-    for name, v in study["verdicts"].items():
-        row = [name, v["question"]]
-        for label in labels:
-            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
-                      and s["reproduced"] is not None]
-            good = sum(1 for s in judged if s["reproduced"])
-            row.append(f"{good}/{len(judged)}" if judged else "n/a")
-        mrows.append(row)
-    return (cols, rows), (dcols, drows), (mcols, mrows)

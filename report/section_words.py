@@ -1,7 +1,7 @@
 """The answer sections after the comparisons, in words and tables: the model's floor
-(model_floor's ratios and the orderings they reverse), where the difference lies
-(report_regions' means) and the material classes (report_classes' verdicts). Formats what those
-modules computed; computes no statistic and reads no file."""
+(model_floor's ratios and the orderings they reverse), the data floor (data_floor's record),
+where the difference lies (report_regions' means) and the material classes (report_classes'
+verdicts). Formats what those modules computed; computes no statistic and reads no file."""
 
 import judging
 from answer_words import fmt_range
@@ -124,3 +124,63 @@ def class_lines(answers):
                 lines.append((2, f"{p['fit']} vs {p['baseline']}: {p['verdict'].word}{r}"))
     lines += [(0, f"Left out: {s}.") for s in answers["skipped"]]
     return lines
+
+
+# --- The data floor (data_floor.compute_floor) ------------------------------------------------
+
+
+def pct(x):
+    return "n/a" if x is None else f"{100.0 * x:.2f} %"
+
+
+def data_floor_sentences(floor):
+    """The data floor (data_floor.compute_floor's record) in summary.md's and index.html's lines:
+    one per material and training set, each fit's test error against the floor's."""
+    lines = []
+    for rec in floor["materials"]:
+        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
+        head = (f"{name} (trained on {'+'.join(rec['train'])}): the best isotropic "
+                f"BRDF these photographs support (tabulated f(theta_h, theta_d), no model) has "
+                f"a test relative RMSE of {pct(rec['test_relative_rmse'])} "
+                f"(training {pct(rec['train_relative_rmse'])})")
+        dec = rec.get("decoding")
+        if dec:
+            how = dec["chosen"] + (f" {dec['gamma']:.3f}" if dec.get("gamma") else "")
+            head += f", in the decoding {dec['label']} chose ({how})"
+        head += "."
+        parts = []
+        for f in rec["fits"]:
+            d = f["points_above_floor"]
+            if d is None:
+                parts.append(f"{f['label']}: no test error")
+            elif d >= 0:
+                parts.append(f"{f['label']} is {d:.2f} points above what any isotropic BRDF "
+                             f"reaches on these photographs ({pct(f['test_relative_rmse'])})")
+            else:
+                parts.append(f"{f['label']} is {-d:.2f} points below the floor "
+                             f"({pct(f['test_relative_rmse'])}; the table's grid and smoothing "
+                             f"cost more than the model's error)")
+        above = any(f["points_above_floor"] is not None and f["points_above_floor"] >= 0
+                    for f in rec["fits"])
+        tail = "; the rest is the setup." if above else "."
+        lines.append(head + (" " + "; ".join(parts) + tail if parts else ""))
+    for s in floor.get("skipped", []):
+        lines.append(f"{s['reference']}: not in the floor ({s['why']}).")
+    return lines
+
+
+def data_floor_table(floor):
+    """The data floor's table: each fit's test error next to the floor's, per material and
+    training set."""
+    cols = ["material", "training", "fit", "test rel. RMSE", "floor", "points above"]
+    rows = []
+    for rec in floor["materials"]:
+        train = "+".join(rec["train"])
+        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
+        rows.append([name, train, "floor (tabulated, no model)",
+                     pct(rec["test_relative_rmse"]), pct(rec["test_relative_rmse"]), "0.00"])
+        for f in rec["fits"]:
+            d = f["points_above_floor"]
+            rows.append([name, train, f["label"], pct(f["test_relative_rmse"]),
+                         pct(rec["test_relative_rmse"]), "n/a" if d is None else f"{d:.2f}"])
+    return cols, rows

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """The report reads, computes, then writes (docs/architecture.md, "report/"): the modules that
-compute the answers (the rules, statistics, judging set, model's floor, regions and classes)
-import no file reader and no writer of words, tables, figures or pages, and open no file; every metric the report's own tables and words name is one of results.csv's
-metric columns (report/results_csv.py, the one list).
+compute the answers (the rules, statistics, judging set, model's floor, regions, classes,
+verdicts, the data floor and the study's answer set) import no file reader and no writer of
+words, tables, figures or pages, and open no file; every metric the report's own tables and
+words name is one of results.csv's metric columns (report/results_csv.py, the one list).
 
     layers_test.py REPORT_DIR      exit 0 pass, 1 fail
 """
@@ -13,15 +14,19 @@ import sys
 
 # The compute core: the rules that decide an answer, their statistics, the judging set.
 COMPUTE = ["answer_rules.py", "answer_stats.py", "judging.py", "model_floor.py",
-           "report_regions.py", "report_classes.py"]
+           "report_regions.py", "report_classes.py", "report_verdicts.py", "data_floor.py",
+           "study_answers.py"]
 # What a compute module must not import: readers, writers and drawing (results_csv's column
 # names may be imported; its reader may not be called).
-FORBIDDEN = {"report_inputs", "data_floor", "section_words", "figure_cache", "report_figures",
-             "report_page", "report_latex", "report_summary", "answer_words", "report_findings",
-             "report_grids", "report_probe_figures", "report_metric_figures", "report_charts",
-             "report_tables", "make_report", "matplotlib", "csv", "glob", "progress"}
+FORBIDDEN = {"report_inputs", "floor_inputs", "report_ngan", "section_words", "figure_cache",
+             "report_figures", "report_page", "report_latex", "report_summary", "answer_words",
+             "report_findings", "report_sections", "report_grids", "report_probe_figures",
+             "report_metric_figures", "report_charts", "report_tables", "make_report",
+             "matplotlib", "csv", "glob", "json", "os", "shutil", "pathlib", "progress"}
 # Calls that read or write files.
-FILE_CALLS = {"open", "write_text", "load_json", "read_checked", "read_rows", "read_results"}
+FILE_CALLS = {"open", "write_text", "load_json", "read_checked", "read_rows", "read_results",
+              "load", "loadtxt", "genfromtxt", "fromfile", "save", "imread", "read_rgb",
+              "read_geometry", "load_study", "load_charts", "classifications"}
 
 
 def imports(tree):
