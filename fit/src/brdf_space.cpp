@@ -1,6 +1,7 @@
 // BRDF-space fits (brdf_space.h): the measured BRDF on MERL's cells as shading points, then the
 // stages every fit runs (solve.h).
 #include "shadefit/fit/brdf_space.h"
+#include "shadefit/fit/option_checks.h"
 
 #include <fmt/format.h>
 
@@ -89,15 +90,16 @@ void ValidateBrdfSpaceSampling(const BrdfSpaceSampling& s, const std::string& fi
 
 void CheckBrdfSpaceOptions(const FitOptions& options) {
   if (options.loss != Loss::kL2) {
-    throw Error("", "--loss",
+    throw FitOptionError(FitField::kLoss,
                 fmt::format("a BRDF-space fit is an L2 fit of the cosine-weighted BRDF (Ngan et "
                             "al. 2005); got '{}'",
                             LossName(options.loss)));
   }
   if (options.exposure != Exposure::kFixed) {
-    throw Error("", "--exposure", "a measured BRDF has no unknown scale: the exposure is fixed");
+    throw FitOptionError(FitField::kExposure,
+                         "a measured BRDF has no unknown scale: the exposure is fixed");
   }
-  if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+  if (options.starts < 1) throw FitOptionError(FitField::kStarts, "must be >= 1");
 }
 
 BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
@@ -164,7 +166,9 @@ FitResult FitBrdfSpace(const ModelInfo& model, const std::vector<FixedValue>& fi
   const auto t0 = std::chrono::steady_clock::now();
   const Parametrization param(model, fixed);
   CheckBrdfSpaceOptions(given);
-  if (param.FreeCount() == 0) throw Error("", "--fix", "every parameter is fixed: nothing to fit");
+  if (param.FreeCount() == 0) {
+    throw FitOptionError(FitField::kFixed, "every parameter is fixed: nothing to fit");
+  }
   if (data.points.empty() || data.targets.size() != 3 * data.points.size()) {
     throw Error(data.label, "brdf_space", "no sampled cells (SampleBrdfSpace first)");
   }

@@ -109,7 +109,7 @@ std::string StoredEncoding::Name() const {
 }
 
 std::string EncodingModeName(EncodingMode mode) {
-  return mode == EncodingMode::kFit ? "fit" : "as-imported";
+  return std::string(NameOf(kEncodingModeNames, mode));
 }
 
 reference_images::Reference Redecode(const reference_images::Reference& ref,

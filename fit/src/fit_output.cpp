@@ -113,7 +113,7 @@ nlohmann::json FitResultToJson(const FitResult& r) {
   j["derivative_path"] = PathName(r.path);
   j["parameters"] = ParametersJson(r);
   j["values"] = ValuesJson(r);
-  j["exposure"] = {{"mode", r.exposure_free ? "free" : "fixed"},
+  j["exposure"] = {{"mode", ExposureName(r.exposure_free ? Exposure::kFree : Exposure::kFixed)},
                    {"value", Num(r.exposure)},
                    {"std_error", Num(r.exposure_std_error)}};
   if (r.exposure_free) j["exposure"]["pinned"] = r.exposure_pin.text;

@@ -88,10 +88,12 @@ void RecordStarts(const Parametrization& param, const CeresProblems& problems,
   result->termination = winner.termination;
   result->converged = winner.converged && std::isfinite(winner.final_cost);
   result->solver_message = multistart.solver_message;
-  result->solver_name = !problems.Native() ? "ceres"
-                        : ProjectionApplies(problems.native_full.loss, problems.exposure_free)
-                            ? "bounded-lm (variable projection)"
-                            : "bounded-lm";
+  const std::string solver(NameOf(kSolverNames, problems.Native() ? Solver::kBoundedLm
+                                                                   : Solver::kCeres));
+  result->solver_name =
+      problems.Native() && ProjectionApplies(problems.native_full.loss, problems.exposure_free)
+          ? solver + " (variable projection)"
+          : solver;
 
   // Starts that reached the best cost: relative 1e-6, plus an absolute floor of 1e-12 times the
   // cost of predicting black (exact synthetic fits end at costs ~1e-25 that differ relatively).

@@ -29,12 +29,7 @@ using internal::PreparedReference;
 using internal::RendererHolder;
 
 std::string TerminationName(Termination termination) {
-  switch (termination) {
-    case Termination::kConvergence: return "CONVERGENCE";
-    case Termination::kNoConvergence: return "NO_CONVERGENCE";
-    case Termination::kFailure: return "FAILURE";
-  }
-  return "FAILURE";
+  return std::string(NameOf(kTerminationNames, termination));
 }
 
 std::string FitResult::CovarianceStatusText() const {
@@ -47,34 +42,12 @@ std::string FitResult::CovarianceStatusText() const {
   return "skipped";
 }
 
-std::string LossName(Loss loss) {
-  switch (loss) {
-    case Loss::kL2:
-      return "l2";
-    case Loss::kLog:
-      return "log";
-    case Loss::kCubeRoot:
-      return "cuberoot";
-    case Loss::kHuber:
-      return "huber";
-    case Loss::kCauchy:
-      return "cauchy";
-    case Loss::kRelative:
-      return "relative";
-  }
-  return "?";
-}
+std::string LossName(Loss loss) { return std::string(NameOf(kLossNames, loss)); }
 
-std::string PathName(DerivativePath path) {
-  switch (path) {
-    case DerivativePath::kAuto:
-      return "auto";
-    case DerivativePath::kGBuffer:
-      return "gbuffer";
-    case DerivativePath::kGl:
-      return "gl";
-  }
-  return "?";
+std::string PathName(DerivativePath path) { return std::string(NameOf(kPathNames, path)); }
+
+std::string ExposureName(Exposure exposure) {
+  return std::string(NameOf(kExposureNames, exposure));
 }
 
 namespace {
@@ -136,15 +109,15 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
 
 FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (!problem.model) throw Error("", "--model", "no model given");
+  if (!problem.model) throw FitOptionError(FitField::kModel, "no model given");
   const ModelInfo& model = *problem.model;
   Parametrization param(model, problem.fixed);
-  if (problem.references.empty()) throw Error("", "--ref", "no reference given");
-  if (options.starts < 1) throw Error("", "--starts", "must be >= 1");
+  if (problem.references.empty()) throw FitOptionError(FitField::kReferences, "no reference given");
+  if (options.starts < 1) throw FitOptionError(FitField::kStarts, "must be >= 1");
   FitResult result;
   const std::vector<int> held = HoldWithoutAmbient(problem, &param, &result);
   if (param.FreeCount() == 0 && options.exposure == Exposure::kFixed) {
-    throw Error("", "--fix",
+    throw FitOptionError(FitField::kFixed,
                 result.held.empty()
                     ? "every parameter is fixed (and the exposure): nothing to fit"
                     : "every parameter is fixed (and the exposure; " + result.held.front() +

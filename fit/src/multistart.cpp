@@ -79,10 +79,11 @@ constexpr int kStageRounds = 12;
 constexpr double kSnap = 1e-3;
 constexpr double kSnapWide = 2e-2;  // 1% of the box.
 
-// One solve's record, from the bounded LM or from Ceres.
+// One solve's record, from the bounded LM or from Ceres (its termination type read once, by
+// TerminationOf, where the Ceres solve returns).
 struct Outcome {
   double initial_cost = 0, final_cost = 0;
-  ceres::TerminationType termination = ceres::FAILURE;
+  Termination termination = Termination::kFailure;
   std::string message;
   int iterations = 0;
   double final_radius = 0;  // The bounded LM's trust radius at the end; 0 from Ceres.
@@ -198,9 +199,9 @@ Outcome MultiStart::SolveFrom(bool coarse, double initial_radius) {
     p_.log_exposure[0] = e;
     o.initial_cost = s.initial_cost;
     o.final_cost = s.final_cost;
-    o.termination = s.failed()      ? ceres::FAILURE
-                    : s.converged() ? ceres::CONVERGENCE
-                                    : ceres::NO_CONVERGENCE;
+    o.termination = s.failed()      ? Termination::kFailure
+                    : s.converged() ? Termination::kConvergence
+                                    : Termination::kNoConvergence;
     o.message = std::string(LmTerminationMessage(s.termination));
     o.iterations = s.iterations;
     return o;
@@ -209,7 +210,7 @@ Outcome MultiStart::SolveFrom(bool coarse, double initial_radius) {
       StagedSolve(coarse ? p_.coarse_problem : p_.full, &o.iterations);
   o.initial_cost = summary.initial_cost;
   o.final_cost = summary.final_cost;
-  o.termination = summary.termination_type;
+  o.termination = TerminationOf(summary.termination_type);
   o.message = summary.message;
   return o;
 }
@@ -331,11 +332,12 @@ void MultiStart::SolveFull(int s, double initial_radius) {
   if (!p_.coarse) start.initial_cost = summary.initial_cost;
   start.final_cost = summary.final_cost;
   start.iterations = coarse_iterations_[s] + used;
-  start.termination = TerminationOf(summary.termination);
-  start.converged = summary.termination == ceres::CONVERGENCE;
+  start.termination = summary.termination;
+  start.converged = summary.termination == Termination::kConvergence;
   end_u_[s] = p_.u;
   end_e_[s] = p_.log_exposure[0];
-  const bool usable = summary.termination != ceres::FAILURE && std::isfinite(summary.final_cost);
+  const bool usable =
+      summary.termination != Termination::kFailure && std::isfinite(summary.final_cost);
   if (usable && (best_ < 0 || summary.final_cost < out_.starts[best_].final_cost)) {
     best_ = s;
     best_message_ = summary.message;
@@ -347,7 +349,7 @@ void MultiStart::SolveCoarse(int s) {
   const Outcome summary = SolveFrom(true);
   coarse_iterations_[s] = summary.iterations;
   coarse_radius_[s] = summary.final_radius;
-  coarse_cost_[s] = summary.termination == ceres::FAILURE
+  coarse_cost_[s] = summary.termination == Termination::kFailure
                         ? std::numeric_limits<double>::quiet_NaN()
                         : summary.final_cost;
   end_u_[s] = p_.u;
@@ -357,7 +359,7 @@ void MultiStart::SolveCoarse(int s) {
   sr.params = param_.ToNatural(p_.u);
   sr.exposure = std::exp(p_.log_exposure[0]);
   sr.iterations = coarse_iterations_[s];
-  sr.termination = TerminationOf(summary.termination);
+  sr.termination = summary.termination;
   sr.final_cost = std::numeric_limits<double>::quiet_NaN();
 }
 

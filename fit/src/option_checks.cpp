@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "shadefit/fit/encoding_search.h"
@@ -11,15 +12,13 @@
 namespace shadefit::fit {
 namespace {
 
-// The value among `known` spelled `name`, or FitOptionError naming them (and the likely one).
-template <typename T>
+// The value of the enum table `known` spelled `name`, or FitOptionError naming them (and the
+// likely one).
+template <typename T, std::size_t N>
 T Choose(FitField field, const char* what, const std::string& name,
-         const std::vector<std::pair<std::string, T>>& known) {
-  std::vector<std::string> names;
-  for (const auto& [n, value] : known) {
-    if (n == name) return value;
-    names.push_back(n);
-  }
+         const EnumName<T> (&known)[N]) {
+  if (const std::optional<T> value = ValueOf(known, name)) return *value;
+  const std::vector<std::string> names = NamesOf(known);
   throw FitOptionError(field, fmt::format("unknown {} '{}'{} (known: {})", what, name,
                                           DidYouMean(name, names), fmt::join(names, ", ")));
 }
@@ -39,80 +38,49 @@ void AtMost(FitField field, long long value, long long max) {
 }  // namespace
 
 FitOptionError::FitOptionError(FitField f, const std::string& p)
-    : Error("", FitFlag(f), p), field(f), problem(p) {}
+    : Error("", FitKeyword(f), p), field(f), problem(p) {}
 
-std::string FitFlag(FitField field) {
+std::string FitKeyword(FitField field) {
   switch (field) {
-    case FitField::kLoss:
-      return "--loss";
-    case FitField::kLossScale:
-      return "--loss-scale";
-    case FitField::kStarts:
-      return "--starts";
-    case FitField::kSeed:
-      return "--seed";
-    case FitField::kExposure:
-      return "--exposure";
-    case FitField::kPath:
-      return "--path";
-    case FitField::kMaxIterations:
-      return "--max-iterations";
-    case FitField::kThreads:
-      return "--threads";
-    case FitField::kEnvironmentSamples:
-      return "--env-samples";
-    case FitField::kEnvironmentPixels:
-      return "--env-pixels";
-    case FitField::kEnvironmentTwinSamples:
-      return "--env-twin-samples";
-    case FitField::kEnvironmentRounds:
-      return "--env-rounds";
-    case FitField::kSolver:
-      return "--solver";
-    case FitField::kEncoding:
-      return "--encoding";
+    case FitField::kLoss: return "loss";
+    case FitField::kLossScale: return "loss_scale";
+    case FitField::kStarts: return "starts";
+    case FitField::kSeed: return "seed";
+    case FitField::kExposure: return "exposure";
+    case FitField::kPath: return "path";
+    case FitField::kMaxIterations: return "max_iterations";
+    case FitField::kThreads: return "threads";
+    case FitField::kEnvironmentSamples: return "env_samples";
+    case FitField::kEnvironmentPixels: return "env_pixels";
+    case FitField::kEnvironmentTwinSamples: return "env_twin_samples";
+    case FitField::kEnvironmentRounds: return "env_rounds";
+    case FitField::kSolver: return "solver";
+    case FitField::kEncoding: return "encoding";
+    case FitField::kModel: return "model";
+    case FitField::kReferences: return "references";
+    case FitField::kFixed: return "fixed";
   }
   return "?";
 }
 
-std::string FitKeyword(FitField field) {
-  std::string k = FitFlag(field).substr(2);
-  for (char& c : k) c = c == '-' ? '_' : c;
-  return k;
-}
-
 Loss ParseLoss(const std::string& name) {
-  return Choose<Loss>(FitField::kLoss, "loss", name,
-                      {{"l2", Loss::kL2},
-                       {"log", Loss::kLog},
-                       {"cuberoot", Loss::kCubeRoot},
-                       {"huber", Loss::kHuber},
-                       {"cauchy", Loss::kCauchy},
-                       {"relative", Loss::kRelative}});
+  return Choose(FitField::kLoss, "loss", name, kLossNames);
 }
 
 DerivativePath ParsePath(const std::string& name) {
-  return Choose<DerivativePath>(FitField::kPath, "path", name,
-                                {{"auto", DerivativePath::kAuto},
-                                 {"gbuffer", DerivativePath::kGBuffer},
-                                 {"gl", DerivativePath::kGl}});
+  return Choose(FitField::kPath, "path", name, kPathNames);
 }
 
 Exposure ParseExposure(const std::string& name) {
-  return Choose<Exposure>(FitField::kExposure, "exposure", name,
-                          {{"fixed", Exposure::kFixed}, {"free", Exposure::kFree}});
+  return Choose(FitField::kExposure, "exposure", name, kExposureNames);
 }
 
 Solver ParseSolver(const std::string& name) {
-  return Choose<Solver>(
-      FitField::kSolver, "solver", name,
-      {{"auto", Solver::kAuto}, {"bounded-lm", Solver::kBoundedLm}, {"ceres", Solver::kCeres}});
+  return Choose(FitField::kSolver, "solver", name, kSolverNames);
 }
 
 EncodingMode ParseEncodingMode(const std::string& name) {
-  return Choose<EncodingMode>(
-      FitField::kEncoding, "encoding", name,
-      {{"as-imported", EncodingMode::kAsImported}, {"fit", EncodingMode::kFit}});
+  return Choose(FitField::kEncoding, "encoding", name, kEncodingModeNames);
 }
 
 void CheckFitOptions(const FitOptions& o, EncodingMode encoding) {

@@ -1,4 +1,5 @@
 #include "shadefit/fit/residuals.h"
+#include "shadefit/fit/option_checks.h"
 
 #include <fmt/format.h>
 
@@ -87,7 +88,8 @@ Parametrization::Parametrization(const ModelInfo& model, const std::vector<Fixed
   for (const FixedValue& f : fixed) {
     const int offset = f.param != nullptr ? model.Offset(f.param->name) : -1;
     if (offset < 0 || model.Find(f.param->name) != f.param) {
-      throw Error("", "--fix", fmt::format("'{}' was not made for model {}", f.given, model.name));
+      throw FitOptionError(FitField::kFixed,
+                           fmt::format("'{}' was not made for model {}", f.given, model.name));
     }
     for (int c = 0; c < f.param->size; ++c) {
       fixed_values[offset + c] = f.values[c];

@@ -24,6 +24,18 @@ namespace shadefit::cli {
 
 namespace {
 
+// The command's flag for a fit setting the library names by FitKeyword.
+std::string FitFlag(fit::FitField field) {
+  switch (field) {
+    case fit::FitField::kReferences: return "--ref";
+    case fit::FitField::kFixed: return "--fix";
+    default: break;
+  }
+  std::string flag = "--" + fit::FitKeyword(field);
+  for (char& c : flag) c = c == '_' ? '-' : c;
+  return flag;
+}
+
 // Loads the --ref images and fits them (with the encoding search when asked).
 fit::FitResult FitImages(fit::FitProblem& problem, const std::vector<std::string>& refs,
                          const std::string& scene, const std::vector<std::string>& masks,
@@ -241,7 +253,7 @@ fit::FitResult FitBrdf(const FitCommandOptions& opt, const fit::FitProblem& prob
 }
 
 // Runs the command: checks, fits and writes.
-void RunFitCommand(const FitCommandOptions& opt) {
+void FitAndWrite(const FitCommandOptions& opt) {
   CheckInputs(opt);
   fit::EncodingMode encoding;
   const fit::FitOptions options = ParseFitOptions(opt, &encoding);
@@ -261,6 +273,15 @@ void RunFitCommand(const FitCommandOptions& opt) {
   }
   fit::WriteFitOutputs(result, opt.output, extra);
   PrintFit(result, opt.output);
+}
+
+// The command, its settings' errors named by their flags (the library names them by FitKeyword).
+void RunFitCommand(const FitCommandOptions& opt) {
+  try {
+    FitAndWrite(opt);
+  } catch (const fit::FitOptionError& e) {
+    throw Error("", FitFlag(e.field), e.problem);
+  }
 }
 
 }  // namespace

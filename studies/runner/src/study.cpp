@@ -19,7 +19,7 @@ nlohmann::json FitSettings::ToJson() const {
                       {"loss_scale", loss_scale},
                       {"starts", starts},
                       {"seed", seed},
-                      {"exposure", exposure == fit::Exposure::kFree ? "free" : "fixed"},
+                      {"exposure", fit::ExposureName(exposure)},
                       {"path", fit::PathName(path)},
                       {"max_iterations", max_iterations},
                       {"pixel_stride", pixel_stride},

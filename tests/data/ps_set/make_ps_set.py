@@ -9,6 +9,13 @@ from a spread of directions toward the camera with coloured strengths, direct li
 per object: 001.png ... 012.png (16-bit PNG, linear: display device None), light_directions.txt
 and light_intensities.txt in the camera frame (x right, y up, z toward the camera), mask.png,
 normal.npy (the normal pass turned into the camera frame; float32, H x W x 3).
+
+The benchmark's larger set (BENCHMARKS.md, photo jobs; not shipped) comes from the same script:
+
+  PS_SET_OUT=/tmp/ps96 PS_SET_WIDTH=612 PS_SET_HEIGHT=512 PS_SET_LIGHTS=96 PS_SET_OBJECTS=suzanne \
+    blender -b --factory-startup --python tests/data/ps_set/make_ps_set.py
+
+96 lights are 8 elevations (20 to 76 degrees) x 12 azimuths.
 """
 import math
 import os
@@ -19,9 +26,18 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MESHES = os.path.join(HERE, "..", "..", "..", "reference_images", "meshes")
-SIZE = 96
+WIDTH = int(os.environ.get("PS_SET_WIDTH", "96"))
+HEIGHT = int(os.environ.get("PS_SET_HEIGHT", "96"))
+OUT = os.environ.get("PS_SET_OUT", HERE)
+OBJECTS = os.environ.get("PS_SET_OBJECTS", "suzanne,torus").split(",")
 # (azimuth about the view axis, elevation from the image plane toward the camera), strength RGB.
-LIGHTS = [(a, e) for e in (35, 60) for a in range(0, 360, 60)]
+LIGHT_COUNT = int(os.environ.get("PS_SET_LIGHTS", "12"))
+if LIGHT_COUNT == 12:
+  LIGHTS = [(a, e) for e in (35, 60) for a in range(0, 360, 60)]
+else:
+  assert LIGHT_COUNT % 12 == 0, "PS_SET_LIGHTS: a multiple of 12"
+  LIGHTS = [(a + 15 * (i % 2), 20 + 8 * i) for i in range(LIGHT_COUNT // 12)
+            for a in range(0, 360, 30)]
 COLOURS = [(1.0, 1.0, 1.0), (1.0, 0.9, 0.8), (0.8, 0.9, 1.0)]
 
 
@@ -62,7 +78,8 @@ def Render(obj_name, out_dir):
   scene.cycles.max_bounces = 0
   scene.cycles.pixel_filter_type = "GAUSSIAN"
   scene.cycles.filter_width = 0.01
-  scene.render.resolution_x = scene.render.resolution_y = SIZE
+  scene.render.resolution_x = WIDTH
+  scene.render.resolution_y = HEIGHT
   scene.render.resolution_percentage = 100
   scene.render.film_transparent = True
   scene.display_settings.display_device = "None"  # linear values into the PNG
@@ -118,7 +135,7 @@ def Render(obj_name, out_dir):
   scene.render.filepath = tmp
   bpy.ops.render.render(write_still=True)
   img = bpy.data.images.load(tmp)
-  px = np.array(img.pixels[:], dtype=np.float32).reshape(SIZE, SIZE, 4)[::-1]  # top row first
+  px = np.array(img.pixels[:], dtype=np.float32).reshape(HEIGHT, WIDTH, 4)[::-1]  # top row first
   alpha = px[..., 3]
   world_n = px[..., :3]
   cam_n = np.stack([world_n[..., 0], world_n[..., 2], -world_n[..., 1]], axis=-1)
@@ -127,7 +144,7 @@ def Render(obj_name, out_dir):
   norm = np.linalg.norm(cam_n, axis=-1, keepdims=True)
   cam_n = np.where(norm > 0, cam_n / np.maximum(norm, 1e-12), 0).astype(np.float32)
   np.save(os.path.join(out_dir, "normal.npy"), cam_n)
-  mask_img = bpy.data.images.new("mask", SIZE, SIZE, alpha=False)
+  mask_img = bpy.data.images.new("mask", WIDTH, HEIGHT, alpha=False)
   m = np.repeat(mask[::-1, :, None].astype(np.float32), 4, axis=2)
   m[..., 3] = 1
   mask_img.pixels = m.ravel().tolist()
@@ -137,6 +154,6 @@ def Render(obj_name, out_dir):
   os.remove(tmp)
 
 
-for name in ("suzanne", "torus"):
-  Render(name, os.path.join(HERE, name))
+for name in OBJECTS:
+  Render(name, os.path.join(OUT, name))
 print("[ps_set] done")

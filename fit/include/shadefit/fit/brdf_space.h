@@ -67,7 +67,7 @@ void CheckBrdfSpaceOptions(const FitOptions& options);
 // Fits `model` to the sampled BRDF (taken by value: its cells become the fit's points; pass an
 // rvalue to avoid a copy). options as for Fit(); the loss must be l2 (the weights are
 // those of an L2 norm) and the exposure fixed (a BRDF has no unknown scale), else
-// shadefit::Error("--loss" / "--exposure"). No GL context is created or used (render_outputs
+// FitOptionError (loss, exposure). No GL context is created or used (render_outputs
 // and the renderer are ignored). The result's one reference is named "brdf-space"; its rmse is E
 // above and FitResult::inputs records the files, their SHA-256 and the sampling.
 FitResult FitBrdfSpace(const ModelInfo& model, const std::vector<FixedValue>& fixed,

@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "shadefit/base/enum_names.h"
 #include "shadefit/fit/fit_types.h"
 
 namespace shadefit::fit {
@@ -35,6 +36,8 @@ struct StoredEncoding {
 
 // "as-imported" (the encoding the import applied, recorded in the sidecar) or "fit" (search).
 enum class EncodingMode { kAsImported, kFit };
+inline constexpr EnumName<EncodingMode> kEncodingModeNames[] = {
+    {EncodingMode::kAsImported, "as-imported"}, {EncodingMode::kFit, "fit"}};
 EncodingMode ParseEncodingMode(const std::string& name);  // Throws FitOptionError.
 std::string EncodingModeName(EncodingMode mode);
 

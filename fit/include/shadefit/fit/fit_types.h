@@ -30,6 +30,7 @@
 #include "shadefit/fit/exposure_pin.h"
 #include "shadefit/fit/option_checks.h"
 #include "shadefit/reference_images/reference.h"
+#include "shadefit/base/enum_names.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
 #include "shadefit/render/image.h"
@@ -48,6 +49,10 @@ enum class Loss {
   kRelative,  // r = log(x + eps) - log(y + eps), eps = kRelativeEpsilon: relative error, the
               // loss relative RMSE (mean |x - y| / (y + 0.01)) and log RMSE judge by.
 };
+// Each enum's names (base/enum_names.h), the one table the Parse and Name functions read.
+inline constexpr EnumName<Loss> kLossNames[] = {
+    {Loss::kL2, "l2"},           {Loss::kLog, "log"},       {Loss::kCubeRoot, "cuberoot"},
+    {Loss::kHuber, "huber"},     {Loss::kCauchy, "cauchy"}, {Loss::kRelative, "relative"}};
 
 // Offset inside the cube root: keeps the Jet derivative 1 / (3 (x + eps)^(2/3)) finite at x = 0
 // (bounded by 155) while changing values above ~0.01 radiance by under 1%.
@@ -59,14 +64,20 @@ inline constexpr double kCubeRootEpsilon = 1e-4;
 inline constexpr double kRelativeEpsilon = 1e-2;
 
 enum class DerivativePath { kAuto, kGBuffer, kGl };
+inline constexpr EnumName<DerivativePath> kPathNames[] = {{DerivativePath::kAuto, "auto"},
+                                                          {DerivativePath::kGBuffer, "gbuffer"},
+                                                          {DerivativePath::kGl, "gl"}};
 enum class Exposure { kFixed, kFree };
+inline constexpr EnumName<Exposure> kExposureNames[] = {{Exposure::kFixed, "fixed"},
+                                                        {Exposure::kFree, "free"}};
 
 // The Parse functions throw FitOptionError (option_checks.h) on unknown names.
 Loss ParseLoss(const std::string& name);
-std::string LossName(Loss loss);                       // "l2", "log", "cuberoot", "relative", ...
-DerivativePath ParsePath(const std::string& name);     // "auto", "gbuffer", "gl".
+std::string LossName(Loss loss);
+DerivativePath ParsePath(const std::string& name);
 std::string PathName(DerivativePath path);
-Exposure ParseExposure(const std::string& name);       // "fixed", "free".
+Exposure ParseExposure(const std::string& name);
+std::string ExposureName(Exposure exposure);
 
 // The scale of the robust losses when FitOptions::loss_scale is 0, as a fraction of the
 // reference's 99th-percentile value over valid pixels (RGB norm): residual norms above
@@ -100,7 +111,9 @@ struct FitProblem {
 // loss: cost 28.9 against Ceres' 2.4e-5; a free-exposure photo fit at exposure 2.84 of 4:
 // docs/fitting.md), so kAuto leaves those fits to Ceres.
 enum class Solver { kAuto, kBoundedLm, kCeres };
-// "auto", "bounded-lm", "ceres"; throws FitOptionError on anything else.
+inline constexpr EnumName<Solver> kSolverNames[] = {
+    {Solver::kAuto, "auto"}, {Solver::kBoundedLm, "bounded-lm"}, {Solver::kCeres, "ceres"}};
+// Throws FitOptionError on a name kSolverNames lacks.
 Solver ParseSolver(const std::string& name);
 
 struct FitOptions {
@@ -166,7 +179,11 @@ struct ParameterEstimate {
 // How a solve ended: Ceres' three termination types, onto which the bounded LM's reasons map
 // (LmTermination). The fit JSON writes them by TerminationName.
 enum class Termination { kConvergence, kNoConvergence, kFailure };
-// "CONVERGENCE", "NO_CONVERGENCE", "FAILURE" (Ceres' words, as the JSON has always had them).
+// Ceres' words, as the JSON has always had them.
+inline constexpr EnumName<Termination> kTerminationNames[] = {
+    {Termination::kConvergence, "CONVERGENCE"},
+    {Termination::kNoConvergence, "NO_CONVERGENCE"},
+    {Termination::kFailure, "FAILURE"}};
 std::string TerminationName(Termination termination);
 
 // Whether the parameters' standard errors were computed (fit/src/uncertainty.h).

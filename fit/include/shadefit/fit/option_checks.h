@@ -32,10 +32,13 @@ enum class FitField {
   kEnvironmentRounds,
   kSolver,
   kEncoding,
+  kModel,       // FitProblem::model
+  kReferences,  // FitProblem::references
+  kFixed,       // FitProblem::fixed
 };
 
-// A refused setting. what() names the field by its command-line flag; callers that spell it
-// otherwise rethrow `problem` under their own name.
+// A refused setting. what() names the field by FitKeyword; front ends that spell it otherwise
+// rethrow `problem` under their own name.
 class FitOptionError : public Error {
  public:
   FitOptionError(FitField field, const std::string& problem);
@@ -43,10 +46,8 @@ class FitOptionError : public Error {
   std::string problem;  // "must be >= 1", "unknown loss 'l3' (known: ...)".
 };
 
-// The flag of `shadefit fit` for the field: "--loss-scale", "--env-samples".
-std::string FitFlag(FitField field);
-// The flag's words joined by '_': "loss_scale", "env_samples" (the Python module's keywords; a
-// study's keys but for environment_samples).
+// The field in the library's words: "loss_scale", "env_samples", "references" (the Python
+// module's keywords; a study's keys but for environment_samples).
 std::string FitKeyword(FitField field);
 
 // Bounds beyond which a value is a typo, not a plan: it would run for days.
