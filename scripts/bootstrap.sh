@@ -3,9 +3,12 @@
 #   bash scripts/bootstrap.sh main   install packages, build, run the default study -> report
 #   bash scripts/bootstrap.sh test   install packages, build, run the whole test suite
 # .ci/run calls the second form. Re-running is cheap: apt and the build are incremental.
+#   bash scripts/bootstrap.sh packages   only install the test form's packages (no build, no run):
+# scripts/sanitizer-check.sh calls it, so the sanitizer suite on CI's host has what the test
+# command installs even where that command ran in a fresh root rather than on the host.
 set -euo pipefail
 mode=${1:-main}
-case "$mode" in main | test) ;; *) echo "usage: $0 main|test" >&2; exit 2 ;; esac
+case "$mode" in main | test | packages) ;; *) echo "usage: $0 main|test|packages" >&2; exit 2 ;; esac
 cd "$(dirname "$0")/.."
 
 # Every dependency is a Debian 12 package (README, "Dependencies").
@@ -33,7 +36,7 @@ test_packages=(
   python3-pytest python3-nbclient python3-nbformat python3-ipykernel  # tests/python, the notebook
   python3-mypy  # stubtest of python/shadefit/__init__.pyi (tests/python/test_stubs.py)
 )
-[ "$mode" = test ] && packages+=("${test_packages[@]}")
+[ "$mode" != main ] && packages+=("${test_packages[@]}")
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
 missing=()
@@ -46,6 +49,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
     "${missing[@]}" >/dev/null
 fi
+[ "$mode" = packages ] && { echo "== the test command's packages are installed"; exit 0; }
 
 # The main job builds what it runs: the shadefit executable and the Python module (the report is
 # Python). Test mode builds everything: the tests, bench/, the executable and the module.

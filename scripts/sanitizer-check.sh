@@ -12,6 +12,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=1
 if [ "${1:-}" = "--no-build" ]; then build=0; shift; fi
+# The test command's packages (pdflatex, Chromium, Slurm, clang, ...): where .ci/run ran that
+# command in a fresh root, this host has not installed them, and a test that needs one would skip.
+bash scripts/bootstrap.sh packages
 command -v clang++ >/dev/null ||
   { echo "sanitizer-check: error: clang++ not found (bootstrap.sh test installs clang)" >&2; exit 2; }
 start=$(date +%s)
