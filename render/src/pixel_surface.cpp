@@ -402,6 +402,27 @@ std::vector<double> IntegrateNormals(const NormalImage& img, double pixel_size, 
   return depth;
 }
 
+ImageSize NormalImageSize(const std::string& path, const std::string& mask_path,
+                          const std::string& variable, bool y_down) {
+  auto hash = [](const std::string& f) {
+    return f.empty() || !PathExists(f) ? std::string() : Sha256File(f);
+  };
+  const std::string key =
+      fmt::format("{}|{}|{}|{}|{}|{}", path, hash(path), mask_path, hash(mask_path), variable, y_down);
+  static std::mutex mutex;
+  static std::map<std::string, ImageSize> cache;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+  }
+  const NormalImage img = ReadNormalImage(path, mask_path, variable, y_down);
+  const ImageSize size{img.width, img.height};
+  std::lock_guard<std::mutex> lock(mutex);
+  cache.emplace(key, size);
+  return size;
+}
+
 std::shared_ptr<const PixelSurface> LoadPixelSurface(const NormalMapSpec& spec,
                                                      const Camera& cam) {
   auto hash = [](const std::string& f) {

@@ -373,8 +373,9 @@ bool NormalMapCamera(const toml::table& root, const std::string& name, const std
   const TableReader r(t, name, "objects[0].");
   const std::string normals = ScenePath(r, "normals", dir);
   const std::string mask = r.Has("mask") ? ScenePath(r, "mask", dir) : "";
-  const NormalImage img = Naming(r, "normals", [&] {
-    return ReadNormalImage(normals, mask, r.String("variable", ""), r.String("y_axis", "up") == "down");
+  const ImageSize img = Naming(r, "normals", [&] {
+    return NormalImageSize(normals, mask, r.String("variable", ""),
+                           r.String("y_axis", "up") == "down");
   });
   if (img.width > 8192 || img.height > 8192) r.Fail("normals", "larger than 8192 pixels a side");
   cam->type = Camera::Type::kOrthographic;

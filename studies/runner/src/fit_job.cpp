@@ -469,7 +469,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
 
   std::vector<reference_images::Reference> references;
   for (const ReferenceSpec& r : g.references) {
-    references.push_back(reference_images::LoadReference(r.image_path));
+    references.push_back(*context.Reference(r.image_path));  // A copy: the job may redecode it.
   }
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);

@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -80,11 +79,16 @@ std::string SkipReason(const Scene& scene) {
 std::vector<float> GeometryRows(const reference_images::Reference& ref, const GBuffer& g,
                                 std::size_t* rows, int* slots) {
   const Image& im = ref.image;
-  std::map<std::pair<int, int>, ShadingPoint> points;
+  const std::vector<ShadingPoint> points = PrepareShading(ref.scene, g, 0.0f);
+  // Each pixel's shading point, if it has one (an index into points, or -1).
+  std::vector<int> point_at(static_cast<std::size_t>(im.width) * im.height, -1);
   *slots = 0;
-  for (ShadingPoint& sp : PrepareShading(ref.scene, g, 0.0f)) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const ShadingPoint& sp = points[k];
     *slots = std::max<int>(*slots, static_cast<int>(sp.lights.size()));
-    points.emplace(std::make_pair(sp.y, sp.x), std::move(sp));
+    if (sp.x < 0 || sp.y < 0 || sp.x >= im.width || sp.y >= im.height) continue;
+    int& at = point_at[static_cast<std::size_t>(sp.y) * im.width + sp.x];
+    if (at < 0) at = static_cast<int>(k);  // The first point of a pixel, as before.
   }
   const std::size_t cols = kColumns.size() + static_cast<std::size_t>(kLightColumns * *slots);
   std::vector<float> out;
@@ -92,7 +96,8 @@ std::vector<float> GeometryRows(const reference_images::Reference& ref, const GB
   for (int y = 0; y < im.height; ++y) {
     for (int x = 0; x < im.width; ++x) {
       if (im.channels >= 4 && !(im.at(x, y, 3) > 0.5f)) continue;
-      std::vector<float> row(cols, 0.0f);
+      out.resize(out.size() + cols, 0.0f);
+      float* row = out.data() + out.size() - cols;
       row[0] = static_cast<float>(x);
       row[1] = static_cast<float>(y);
       bool clipped = false;
@@ -100,9 +105,9 @@ std::vector<float> GeometryRows(const reference_images::Reference& ref, const GB
         row[4 + c] = im.at(x, y, c);
         clipped = clipped || !std::isfinite(im.at(x, y, c)) || im.at(x, y, c) >= ref.clip_level;
       }
-      const auto it = points.find({y, x});
-      if (it != points.end()) {
-        const ShadingPoint& sp = it->second;
+      const int at = point_at[static_cast<std::size_t>(y) * im.width + x];
+      if (at >= 0) {
+        const ShadingPoint& sp = points[static_cast<std::size_t>(at)];
         row[2] = g.Coverage(x, y);
         const bool full = im.channels < 4 || im.at(x, y, 3) >= 1.0f;
         const bool masked = ref.mask.empty() || ref.mask.at(x, y, 0) > 0.5f;
@@ -118,7 +123,6 @@ std::vector<float> GeometryRows(const reference_images::Reference& ref, const GB
             row[kColumns.size() + kLightColumns * i + k] = static_cast<float>(lv[k]);
         }
       }
-      out.insert(out.end(), row.begin(), row.end());
       ++*rows;
     }
   }
@@ -141,7 +145,9 @@ void WriteGeometry(const RunContext& context, Renderer& renderer) {
   json refs_json = json::array();
   for (const ReferenceGroup& group : context.spec.groups) {
     for (const ReferenceSpec& rs : group.references) {
-      const reference_images::Reference ref = reference_images::LoadReference(rs.image_path);
+      const std::shared_ptr<const reference_images::Reference> shared =
+          context.Reference(rs.image_path);
+      const reference_images::Reference& ref = *shared;
       // decoded_from: how the values were decoded from the stored ones (sRGB or linear), so that
       // the floor can take the decoding a fit with encoding = "fit" chose instead.
       json e = {{"reference", rs.name},

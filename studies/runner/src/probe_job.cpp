@@ -17,7 +17,6 @@
 #include "shadefit/probes/probes.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/reference_images/reference.h"
-#include "shadefit/reference_images/sidecar.h"
 #include "test_hooks.h"
 
 namespace shadefit::studies::internal {
@@ -25,17 +24,17 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-std::vector<probes::ProbeReference> ProbeReferences(const ReferenceGroup& g,
-                                                    Renderer& renderer) {
+std::vector<probes::ProbeReference> ProbeReferences(const RunContext& context,
+                                                    const ReferenceGroup& g, Renderer& renderer) {
   std::vector<probes::ProbeReference> out;
   for (const ReferenceSpec& r : g.references) {
-    reference_images::Reference ref = reference_images::LoadReference(r.image_path);
+    const std::shared_ptr<const reference_images::Reference> ref = context.Reference(r.image_path);
     probes::ProbeReference pr;
     pr.name = r.name;
     pr.lighting = r.lighting;
-    pr.gbuffer = renderer.RenderGBuffer(ref.scene);
-    pr.image = std::move(ref.image);
-    pr.scene = std::move(ref.scene);
+    pr.gbuffer = renderer.RenderGBuffer(ref->scene);
+    pr.image = ref->image;
+    pr.scene = ref->scene;
     out.push_back(std::move(pr));
   }
   return out;
@@ -84,16 +83,10 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   StageClock clock;
   probes::ProbeInputs in;
   in.renderer = &renderer;
-  in.references = ProbeReferences(g, renderer);
+  in.references = ProbeReferences(context, g, renderer);
   std::vector<std::string> without_fit;
   in.models = FittedModels(context, job, jobs, &without_fit);
-  if (const auto truth = reference_images::TruthOfSidecar(g.references.front().sidecar_path)) {
-    probes::ModelUnderTest t;
-    t.label = "truth";
-    t.model = truth->model;
-    t.params = truth->params;
-    in.truth = t;
-  }
+  in.truth = probes::TruthOfReference(g.references.front().sidecar_path);
   const fs::path probe_dir = context.paths.dir / "probes" / g.material;
   fs::create_directories(probe_dir);
   ProbeJobRecord record;

@@ -7,6 +7,7 @@
 
 #include "brdf_space_fits.h"
 #include "job_graph.h"
+#include "loaded_references.h"
 #include "shadefit/metrics/flip.h"
 #include "progress_log.h"
 #include "shadefit/studies/runner.h"
@@ -40,6 +41,15 @@ struct RunContext {
   WrittenOnce* reference_previews = nullptr;
   // Shared by the workers; never null (the runner owns it).
   BrdfSpaceFits* brdf_fits = nullptr;
+  // Shared by the workers; null: every job reads its own references.
+  LoadedReferences* references = nullptr;
+
+  // The reference at `image_path`, read once per run where `references` is set.
+  std::shared_ptr<const reference_images::Reference> Reference(const std::string& image_path) const {
+    if (references) return references->Get(image_path);
+    return std::make_shared<const reference_images::Reference>(
+        reference_images::LoadReference(image_path));
+  }
 };
 
 }  // namespace shadefit::studies::internal

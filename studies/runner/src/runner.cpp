@@ -67,7 +67,9 @@ class StudyRun {
       : spec_(spec),
         options_(options),
         flip_cache_(kFlipCacheBytes),
-        context_{spec_, options_, {}, nullptr, &flip_cache_, &reference_previews_, &brdf_fits_} {}
+        loaded_references_(kReferenceBytes),
+        context_{spec_,        options_,           {},         nullptr, &flip_cache_,
+                 &reference_previews_, &brdf_fits_, &loaded_references_} {}
 
   RunSummary Run();
 
@@ -99,11 +101,17 @@ class StudyRun {
   // 768 MiB holds about five materials at 256^2 (one at 512^2); the workers share one or two.
   static constexpr std::size_t kFlipCacheBytes = std::size_t{768} << 20;
 
+  // The references the workers share (loaded_references.h): 1 GiB holds a 96-light set at
+  // 612x512 (about 7 MB a reference with its mask and shadow edges) or the measured study's
+  // references at 256^2 many times over.
+  static constexpr std::size_t kReferenceBytes = std::size_t{1} << 30;
+
   const StudySpec& spec_;
   RunOptions options_;
   metrics::FlipReferenceCache flip_cache_;
   internal::WrittenOnce reference_previews_;
   internal::BrdfSpaceFits brdf_fits_;
+  internal::LoadedReferences loaded_references_;
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;
   std::map<std::string, internal::InputHashes> hashes_;  // By reference image path.

@@ -43,6 +43,15 @@ struct NormalImage {
 NormalImage ReadNormalImage(const std::string& path, const std::string& mask_path,
                             const std::string& variable, bool y_down, bool check_facing = true);
 
+// ReadNormalImage's width and height (its checks included), remembered per content of the
+// normals and mask files: a data set's scenes (one per light) name the same normals, and a scene
+// needs only their size for its camera.
+struct ImageSize {
+  int width = 0, height = 0;
+};
+ImageSize NormalImageSize(const std::string& path, const std::string& mask_path,
+                          const std::string& variable, bool y_down);
+
 // Writes normals as a .npy of float32, H x W x 3 (0 outside the mask), atomically.
 void WriteNormalsNpy(const std::string& path, const NormalImage& normals);
 

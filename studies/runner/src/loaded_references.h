@@ -1,0 +1,52 @@
+// The references a run has read, shared by its workers: a study fits every model of a material to
+// the same references (five models x 96 lights on a photometric-stereo set), and reading one
+// (decoding the EXR, its scene, mask and shadow-edge mask) costs more than the fit's use of it.
+#pragma once
+
+#include <cstddef>
+#include <future>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "shadefit/reference_images/reference.h"
+
+namespace shadefit::studies::internal {
+
+// Each reference read once per run (LoadReference of its image path) by the first worker that
+// asks; the others wait for it and share it. A read that threw is forgotten (the next asker
+// reports its own error). The least recently asked-for references go when the held bytes pass
+// the budget (one that goes lives on in the jobs holding it).
+class LoadedReferences {
+ public:
+  using Shared = std::shared_ptr<const reference_images::Reference>;
+
+  explicit LoadedReferences(std::size_t byte_budget) : budget_(byte_budget) {}
+
+  Shared Get(const std::string& image_path);
+
+  struct Stats {
+    long reads = 0, shared = 0;
+    std::size_t bytes = 0;  // Held now.
+  };
+  Stats stats() const;
+
+ private:
+  struct Entry {
+    std::shared_future<Shared> value;
+    std::size_t bytes = 0;  // 0 until read.
+    std::list<std::string>::iterator order;
+  };
+  void EvictLocked();
+
+  const std::size_t budget_;
+  mutable std::mutex mutex_;
+  std::map<std::string, Entry> entries_;
+  std::list<std::string> order_;  // Most recently asked-for first.
+  std::size_t bytes_ = 0;
+  long reads_ = 0, shared_ = 0;
+};
+
+}  // namespace shadefit::studies::internal
