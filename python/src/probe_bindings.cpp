@@ -76,14 +76,10 @@ py::object Probe(const std::string& name, const std::vector<std::string>& refere
         if (truth_from_sidecar) {
           const std::string sidecar = reference_images::SidecarPathFor(references.front());
           std::string why_not;
-          const std::optional<reference_images::SidecarTruth> truth =
-              reference_images::TruthOfSidecar(sidecar, &why_not);
-          if (!truth) throw Error(sidecar, "material", why_not + " (needed by truth_from_sidecar)");
-          probes::ModelUnderTest t;
-          t.label = "truth";
-          t.model = truth->model;
-          t.params = truth->params;
-          in.truth = t;
+          in.truth = probes::TruthOfReference(sidecar, &why_not);
+          if (!in.truth) {
+            throw Error(sidecar, "material", why_not + " (needed by truth_from_sidecar)");
+          }
         }
         return probes::ProbeResultToJson(probes::RunProbe(*kind, in));
       });

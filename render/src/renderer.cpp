@@ -215,11 +215,12 @@ struct Renderer::Impl {
         "#define SHADEFIT_SUPERSAMPLE {}\n#define SHADEFIT_ENV_MODE {}\n"
         "#define SHADEFIT_OBJECT_TYPES {}\n#define SHADEFIT_LIGHT_TYPES {}\n"
         "#define SHADEFIT_CAMERA_ORTHO {}\n#define SHADEFIT_TRANSPARENT {}\n"
-        "#define SHADEFIT_SURFACE {}\n",
+        "#define SHADEFIT_SURFACE {}\n{}",
         ModelGlslFile(model), static_cast<int>(term), gbuffer ? 1 : 0, num_objects,
         num_lights, scene.camera.supersample, gbuffer ? 0 : env_mode, object_types, light_types,
         scene.camera.type == Camera::Type::kOrthographic ? 1 : 0,
-        scene.background.transparent ? 1 : 0, surface ? 1 : 0);
+        scene.background.transparent ? 1 : 0, surface ? 1 : 0,
+        *ModelGlslVariant(model) ? fmt::format("#define {}\n", ModelGlslVariant(model)) : "");
     auto it = programs.find(preamble);
     if (it != programs.end()) return it->second;
     const std::vector<std::string> vfiles = {"fullscreen.vert"};

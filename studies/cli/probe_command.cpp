@@ -100,19 +100,15 @@ probes::ModelUnderTest ModelFromFit(const std::string& path) {
   return m;
 }
 
-// The first reference's Cycles material as one of our models (reference_images::TruthOfSidecar, the
-// one mapping the study runner uses too); an error naming the sidecar when it has no exact twin.
+// The first reference's Cycles material as one of our models (probes::TruthOfReference, as the
+// study's probe job and the Python module take it); an error naming the sidecar when it has no
+// exact twin.
 probes::ModelUnderTest TruthFromSidecar(const std::string& image_path) {
   const std::string sidecar = reference_images::SidecarPathFor(image_path);
   std::string why_not;
-  const std::optional<reference_images::SidecarTruth> truth =
-      reference_images::TruthOfSidecar(sidecar, &why_not);
+  std::optional<probes::ModelUnderTest> truth = probes::TruthOfReference(sidecar, &why_not);
   if (!truth) throw Error(sidecar, "material", why_not + " (needed by --truth-from-sidecar)");
-  probes::ModelUnderTest m;
-  m.label = "truth";
-  m.model = truth->model;
-  m.params = truth->params;
-  return m;
+  return *std::move(truth);
 }
 
 // --model (with --set) and every --fit, in that order.

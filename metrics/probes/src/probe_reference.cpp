@@ -5,6 +5,7 @@
 
 #include "shadefit/probes/probes.h"
 #include "shadefit/reference_images/reference.h"
+#include "shadefit/reference_images/sidecar.h"
 
 namespace shadefit::probes {
 
@@ -33,6 +34,18 @@ ProbeReference LoadProbeReference(const std::string& path, Renderer& renderer) {
     r.image = std::move(rgba);
   }
   return r;
+}
+
+std::optional<ModelUnderTest> TruthOfReference(const std::string& sidecar_path,
+                                               std::string* why_not) {
+  const std::optional<reference_images::SidecarTruth> truth =
+      reference_images::TruthOfSidecar(sidecar_path, why_not);
+  if (!truth) return std::nullopt;
+  ModelUnderTest t;
+  t.label = "truth";
+  t.model = truth->model;
+  t.params = truth->params;
+  return t;
 }
 
 }  // namespace shadefit::probes

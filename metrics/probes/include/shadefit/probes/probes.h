@@ -50,6 +50,13 @@ struct ModelUnderTest {                 // a model with parameters: a fit, or th
   std::vector<std::string> trained_on;  // reference names used to fit it (portability)
 };
 
+// The Cycles material of the reference whose sidecar is `sidecar_path` as one of our models,
+// labelled "truth" (reference_images::TruthOfSidecar, the one mapping); nullopt when it has no
+// exact twin, with the reason in `why_not` (when given). The probe command, the study's probe
+// job and the Python module all take the truth from here.
+std::optional<ModelUnderTest> TruthOfReference(const std::string& sidecar_path,
+                                               std::string* why_not = nullptr);
+
 struct ProbeInputs {
   std::vector<ProbeReference> references;
   std::vector<ModelUnderTest> models;
