@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 
+#include "prepared_reference.h"
 #include "shadefit/base/error.h"
 
 namespace shadefit::fit {
@@ -42,23 +43,28 @@ struct Scored {
 };
 
 // Fits `problem` with every reference re-decoded by `e` and scores the fit in stored values.
-Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e) {
+// `shaded`: the references' G-buffer shading, shared by every candidate (the decoding changes
+// values, not scenes: internal::ShadeScene).
+Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e,
+                   std::vector<internal::ShadedScene>* shaded) {
   FitProblem decoded = problem;
   for (reference_images::Reference& r : decoded.references) r = Redecode(r, e);
   FitOptions quick = options;
   quick.render_outputs = false;
   quick.compute_covariance = false;
-  const FitResult fit = Fit(decoded, quick);
+  const FitResult fit = internal::FitSharingShading(decoded, quick, shaded);
   Scored s;
   s.candidate.encoding = e;
   s.candidate.linear_rmse = fit.rmse;
   s.candidate.exposure = fit.exposure;
   s.candidate.converged = fit.converged;
   double sq = 0;
+  // The fitted model's render of each training reference (what EvaluateModelOnReference renders,
+  // without preparing the reference's pixels again: the score takes its own).
+  internal::RendererHolder holder(options.renderer);
   for (std::size_t i = 0; i < problem.references.size(); ++i) {
-    Image prediction;
-    EvaluateModelOnReference(decoded.references[i], *problem.model, fit.values, 1.0,
-                             options.renderer, &prediction);
+    const Image prediction =
+        holder.renderer->Render(decoded.references[i].scene, problem.model->id, fit.values);
     long n = 0;
     const double rmse = StoredRmse(problem.references[i], prediction, fit.exposure, e, &n);
     sq += rmse * rmse * n;
@@ -159,14 +165,15 @@ EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitO
   }
   EncodingSearchResult result;
   using Kind = StoredEncoding::Kind;
-  const Scored srgb = FitAndScore(problem, options, {Kind::kSrgb, 1.0});
-  const Scored linear = FitAndScore(problem, options, {Kind::kLinear, 1.0});
+  std::vector<internal::ShadedScene> shaded;
+  const Scored srgb = FitAndScore(problem, options, {Kind::kSrgb, 1.0}, &shaded);
+  const Scored linear = FitAndScore(problem, options, {Kind::kLinear, 1.0}, &shaded);
   result.pixels = srgb.pixels;
 
   // Golden-section search of the power's exponent (Kiefer 1953): the score is taken as
   // unimodal in gamma over the bracket; each evaluation is a full fit.
   auto score = [&](double g) {
-    const Scored s = FitAndScore(problem, options, {Kind::kGamma, g});
+    const Scored s = FitAndScore(problem, options, {Kind::kGamma, g}, &shaded);
     result.gamma_trail.emplace_back(g, s.candidate.stored_rmse);
     return s.candidate;
   };

@@ -108,6 +108,13 @@ void SolvePrepared(const ModelInfo& model, const Parametrization& param, const F
 }  // namespace internal
 
 FitResult Fit(const FitProblem& problem, const FitOptions& options) {
+  return internal::FitSharingShading(problem, options, nullptr);
+}
+
+namespace internal {
+
+FitResult FitSharingShading(const FitProblem& problem, const FitOptions& options,
+                            std::vector<ShadedScene>* shaded) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!problem.model) throw FitOptionError(FitField::kModel, "no model given");
   const ModelInfo& model = *problem.model;
@@ -145,9 +152,18 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   Renderer& renderer = *holder.renderer;
   std::vector<PreparedReference> refs;
   bool twin_ok = true;
-  for (const FitReference& ref : problem.references) {
-    refs.push_back(
-        internal::Prepare(ref, renderer, options.environment_samples, &result.gbuffer_renders));
+  const bool reuse = shaded && shaded->size() == problem.references.size();
+  if (shaded && !reuse) shaded->clear();
+  for (std::size_t i = 0; i < problem.references.size(); ++i) {
+    const FitReference& ref = problem.references[i];
+    if (reuse) {
+      refs.push_back(internal::PrepareFrom(ref, (*shaded)[i]));
+    } else {
+      ShadedScene s =
+          internal::ShadeScene(ref, renderer, options.environment_samples, &result.gbuffer_renders);
+      if (shaded) shaded->push_back(s);
+      refs.push_back(internal::PrepareFrom(ref, std::move(s)));
+    }
     twin_ok = twin_ok && TwinSupportsScene(ref.scene);
   }
   // The twin covers every scene: environment and uniform light through its quadrature.
@@ -174,6 +190,8 @@ FitResult Fit(const FitProblem& problem, const FitOptions& options) {
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }
+
+}  // namespace internal
 
 double EvaluateModelOnReference(const FitReference& reference, const ModelInfo& model,
                                 const std::vector<double>& params, double exposure, Renderer* given,

@@ -67,31 +67,45 @@ void AttachQuadrature(std::vector<PreparedReference>& refs, std::vector<double> 
   }
 }
 
-PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int environment_samples,
-                          long* gbuffer_renders) {
-  PreparedReference out;
-  out.source = &ref;
-  out.label = ref.image_path.empty() ? ref.name : ref.image_path;
+ShadedScene ShadeScene(const FitReference& ref, Renderer& renderer, int environment_samples,
+                       long* gbuffer_renders) {
+  const std::string label = ref.image_path.empty() ? ref.name : ref.image_path;
+  ShadedScene out;
   out.scene = ref.scene;
   if (environment_samples > 0) {
     for (Light& light : out.scene.lights) light.samples = environment_samples;
   }
   const Image& image = ref.image;
   if (image.channels < 3) {
-    throw Error(out.label, "channels", fmt::format("expected RGB or RGBA, got {}", image.channels));
+    throw Error(label, "channels", fmt::format("expected RGB or RGBA, got {}", image.channels));
   }
   if (image.width != ref.scene.camera.width || image.height != ref.scene.camera.height_px) {
-    throw Error(out.label, "resolution",
+    throw Error(label, "resolution",
                 fmt::format("image is {}x{} but its scene renders {}x{}", image.width, image.height,
                             ref.scene.camera.width, ref.scene.camera.height_px));
   }
   if (!ref.mask.empty() && (ref.mask.width != image.width || ref.mask.height != image.height)) {
-    throw Error(ref.mask_path.empty() ? out.label : ref.mask_path, "resolution",
+    throw Error(ref.mask_path.empty() ? label : ref.mask_path, "resolution",
                 "mask and reference differ in size");
   }
   const GBuffer gbuffer = renderer.RenderGBuffer(out.scene);
   ++*gbuffer_renders;
-  std::vector<ShadingPoint> all = PrepareShading(out.scene, gbuffer, 1.0f);
+  out.points = PrepareShading(out.scene, gbuffer, 1.0f);
+  return out;
+}
+
+PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int environment_samples,
+                          long* gbuffer_renders) {
+  return PrepareFrom(ref, ShadeScene(ref, renderer, environment_samples, gbuffer_renders));
+}
+
+PreparedReference PrepareFrom(const FitReference& ref, ShadedScene shaded) {
+  PreparedReference out;
+  out.source = &ref;
+  out.label = ref.image_path.empty() ? ref.name : ref.image_path;
+  out.scene = std::move(shaded.scene);
+  const Image& image = ref.image;
+  std::vector<ShadingPoint>& all = shaded.points;
   int non_finite = 0, first_x = -1, first_y = -1;
   bool any_light = false;
   std::vector<double> norms;

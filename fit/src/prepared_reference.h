@@ -33,10 +33,30 @@ struct PreparedReference {
   std::vector<double> all_linear;
 };
 
+// What Prepare renders: the reference's scene (environment sample count possibly overridden)
+// and the shading points of its G-buffer, before any pixel is chosen. Checks the image's and the
+// mask's size against the scene (shadefit::Error naming the file). Depends on the scene, the
+// image's size and the mask's, not the pixel values: the encoding search's candidates, the same
+// references decoded differently, share it.
+struct ShadedScene {
+  Scene scene;
+  std::vector<ShadingPoint> points;
+};
+ShadedScene ShadeScene(const FitReference& ref, Renderer& renderer, int environment_samples,
+                       long* gbuffer_renders);
+
 // Finds the valid pixels: full coverage in the reference (alpha) and in our G-buffer, inside the
 // mask, not clipped. Throws on non-finite values there, and when nothing (or only black) is left.
 PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int environment_samples,
                           long* gbuffer_renders);
+// The same from the reference's ShadeScene.
+PreparedReference PrepareFrom(const FitReference& ref, ShadedScene shaded);
+
+// Fit() with each reference's ShadeScene taken from `shaded` where it holds one per reference
+// (made by an earlier call on references of the same scenes and sizes, as the encoding search's
+// candidates are), else made and left there. nullptr: Fit().
+FitResult FitSharingShading(const FitProblem& problem, const FitOptions& options,
+                            std::vector<ShadedScene>* shaded);
 
 // Keeps `want` of the valid pixels, half of them from the brightest tenth (highlights are few
 // and carry the lobe's shape) and half by a regular stride through the rest. Deterministic.
