@@ -5,6 +5,7 @@
 //   uncertainty.h         covariance and standard errors;
 //   fit_result.h          FitResult assembly; fit_output.cpp its JSON and files.
 #include "shadefit/fit/fitter.h"
+#include "shadefit/fit/option_checks.h"
 
 #include <fmt/format.h>
 

@@ -7,7 +7,7 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "bounded_lm.h"
+#include "lm_problem.h"
 #include "lm_geometry.h"
 
 namespace shadefit::fit::internal {

@@ -8,7 +8,7 @@
 #include <thread>
 #include <vector>
 
-#include "bounded_lm.h"
+#include "lm_problem.h"
 
 namespace shadefit::fit::internal {
 

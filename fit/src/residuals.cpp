@@ -8,6 +8,7 @@
 #include <random>
 
 #include "shadefit/base/error.h"
+#include "shadefit/render/renderer.h"
 
 namespace shadefit::fit {
 namespace {

@@ -15,6 +15,7 @@
 #include "shadefit/fit/brdf_space.h"
 #include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/fitter.h"
+#include "shadefit/fit/option_checks.h"
 #include "shadefit/fit/training_pixels.h"
 #include "shadefit/reference_images/measured_brdf.h"
 #include "shadefit/render/gl_context.h"

@@ -10,7 +10,7 @@
 
 #include "shadefit/base/made_once.h"
 #include "shadefit/fit/brdf_space.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/fit_types.h"
 
 namespace shadefit::studies::internal {
 

@@ -2,6 +2,7 @@
 // values, training lightings, and the [study] comparisons between models (docs/studies.md).
 #include <optional>
 
+#include "shadefit/fit/option_checks.h"
 #include "shadefit/render/models.h"
 #include "study_file.h"
 

@@ -28,14 +28,14 @@
 
 #include "shadefit/fit/defaults.h"
 #include "shadefit/fit/exposure_pin.h"
-#include "shadefit/fit/option_checks.h"
 #include "shadefit/reference_images/reference.h"
 #include "shadefit/base/enum_names.h"
 #include "shadefit/base/error.h"
-#include "shadefit/base/files.h"
 #include "shadefit/render/image.h"
-#include "shadefit/render/renderer.h"
-#include "shadefit/render/scene.h"
+
+namespace shadefit {
+class Renderer;  // render/renderer.h: FitOptions may lend one.
+}  // namespace shadefit
 
 namespace shadefit::fit {
 

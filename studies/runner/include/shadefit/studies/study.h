@@ -13,7 +13,8 @@
 
 #include "shadefit/fit/defaults.h"
 #include "shadefit/fit/encoding_search.h"
-#include "shadefit/fit/fitter.h"
+#include "shadefit/fit/encoding_search.h"
+#include "shadefit/fit/fit_types.h"
 #include "shadefit/probes/probe_kind.h"
 
 namespace shadefit::studies {
