@@ -72,6 +72,7 @@ void RunStudyCommand(const StudyRunOptions& o) {
   studies::MeasuredOptions mo;
   mo.quiet = o.quiet;
   mo.verbose = o.verbose;
+  mo.progress_bar = isatty(STDERR_FILENO) != 0;
   if (!shard.whole()) {
     shard_materials = studies::RestrictToShard(&spec, shard);
     mo.materials = &shard_materials;

@@ -102,9 +102,18 @@ TEST(MeasuredStudy, ReferencesAreByteIdenticalAcrossRunsAndThreadCountsAndCached
   ASSERT_EQ(a.measured.size(), 1u);
   ASSERT_EQ(a.measured[0].materials, (std::vector<std::string>{"chrome", "red-plastic"}));
   const MeasuredSummary sa = MaterialiseMeasuredReferences(&a, (dir / "a").string(), true);
-  const MeasuredSummary sb = MaterialiseMeasuredReferences(&b, (dir / "b").string(), true);
+  // Not quiet, not a terminal: a progress line at each quarter of the references to render.
+  MeasuredOptions piped;
+  testing::internal::CaptureStderr();
+  const MeasuredSummary sb = MaterialiseMeasuredReferences(&b, (dir / "b").string(), piped);
+  const std::string progress = testing::internal::GetCapturedStderr();
   EXPECT_EQ(sa.rendered, 4);
   EXPECT_EQ(sb.rendered, 4);
+  for (const char* want : {"1/4 references (25%), 0 failed, ", "2/4 references (50%)",
+                           "3/4 references (75%)"}) {
+    EXPECT_NE(progress.find(want), std::string::npos) << want << " not in:\n" << progress;
+  }
+  EXPECT_EQ(progress.find("4/4"), std::string::npos) << progress;  // The summary line says it.
   ASSERT_EQ(a.groups.size(), 2u);
   for (std::size_t g = 0; g < a.groups.size(); ++g) {
     ASSERT_EQ(a.groups[g].references.size(), 2u);

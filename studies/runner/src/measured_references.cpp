@@ -8,6 +8,7 @@
 // change them).
 #include <fmt/core.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -18,6 +19,7 @@
 #include "shadefit/reference_images/render_measured.h"
 #include "shadefit/render/gl_context.h"
 #include "shadefit/render/renderer.h"
+#include "progress_log.h"
 #include "shadefit/studies/runner.h"
 
 namespace shadefit::studies {
@@ -55,13 +57,38 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir.string(), "", "cannot create the folder");
+  // Whether a reference's files are there and its key is the one its inputs give now.
+  auto cached = [&](const MeasuredSource& src, std::size_t m, std::size_t l, std::string* key) {
+    const std::string name = src.materials[m] + "-" + src.lightings[l];
+    const std::string image = (dir / (name + ".exr")).string();
+    *key = ReferenceKey(src, m, l);
+    const fs::path key_path = dir / (name + ".key");
+    return fs::exists(image) && fs::exists(reference_images::SidecarPath(image)) &&
+           fs::exists(reference_images::DomainPath(image)) && fs::exists(key_path) &&
+           ReadAll(key_path.string()) == *key + "\n";
+  };
+  auto wanted = [&](const MeasuredSource& src, std::size_t m) {
+    return options.materials == nullptr || options.materials->count(src.materials[m]) > 0;
+  };
+  // The references to render, for the progress line (the jobs' own, internal::Log): one live
+  // line on a terminal, a line per quarter elsewhere.
+  int to_render = 0;
+  if (options.render) {
+    for (const MeasuredSource& src : spec->measured) {
+      for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
+        if (!wanted(src, m)) continue;
+        std::string key;
+        for (std::size_t l = 0; l < src.scenes.size(); ++l) to_render += !cached(src, m, l, &key);
+      }
+    }
+  }
+  internal::Log progress("", options.progress_bar, options.quiet || to_render == 0, "references");
+  const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<GlContext> context;
   std::unique_ptr<Renderer> renderer;
   for (const MeasuredSource& src : spec->measured) {
     for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
-      if (options.materials != nullptr && options.materials->count(src.materials[m]) == 0) {
-        continue;
-      }
+      if (!wanted(src, m)) continue;
       for (const ReferenceGroup& g : spec->groups) {
         if (g.material == src.materials[m]) {
           throw Error(spec->path, "measured.folder",
@@ -77,12 +104,9 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
         ref.lighting = src.lightings[l];
         ref.image_path = (dir / (ref.name + ".exr")).string();
         ref.sidecar_path = reference_images::SidecarPath(ref.image_path);
-        const std::string key = ReferenceKey(src, m, l);
+        std::string key;
         const fs::path key_path = dir / (ref.name + ".key");
-        const bool cached = fs::exists(ref.image_path) && fs::exists(ref.sidecar_path) &&
-                            fs::exists(reference_images::DomainPath(ref.image_path)) &&
-                            fs::exists(key_path) && ReadAll(key_path.string()) == key + "\n";
-        if (cached) {
+        if (cached(src, m, l, &key)) {
           ++summary.unchanged;
         } else if (!options.render) {
           throw Error(ref.image_path, "",
@@ -107,8 +131,12 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
           ++summary.rendered;
           summary.seconds += stats.seconds;
           if (options.verbose && !options.quiet) {
-            fmt::print(stderr, "measured reference {} ({:.2f} s)\n", ref.name, stats.seconds);
+            progress.Say(fmt::format("measured reference {} ({:.2f} s)", ref.name, stats.seconds));
           }
+          const double elapsed =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          progress.Progress(summary.rendered, to_render, summary.rendered, to_render, 0, ref.name,
+                            elapsed);
         }
         group.references.push_back(ref);
       }
@@ -118,6 +146,7 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
       spec->groups.push_back(std::move(group));
     }
   }
+  progress.EndBar();
   return summary;
 }
 

@@ -54,14 +54,14 @@ void Log::Progress(double done_weight, double total_weight, int done, int total,
   const int quarter = total > 0 ? 4 * done / total : 0;
   if (quarter > quarter_ && done < total) {
     quarter_ = quarter;
-    std::fprintf(stderr, "%d/%d jobs (%d%%), %d failed, %s, %s left\n", done, total,
-                 100 * done / total, failed, Rate().c_str(), TimeLeft().c_str());
+    std::fprintf(stderr, "%d/%d %s (%d%%), %d failed, %s, %s left\n", done, total,
+                 unit_.c_str(), 100 * done / total, failed, Rate().c_str(), TimeLeft().c_str());
   }
 }
 
 std::string Log::Rate() const {
-  if (elapsed_ <= 0 || done_ == 0) return "-- jobs/min";
-  return fmt::format("{:.1f} jobs/min", 60.0 * done_ / elapsed_);
+  if (elapsed_ <= 0 || done_ == 0) return "-- " + unit_ + "/min";
+  return fmt::format("{:.1f} {}/min", 60.0 * done_ / elapsed_, unit_);
 }
 
 std::string Log::TimeLeft() const {

@@ -6,13 +6,17 @@
 #include <fstream>
 #include <mutex>
 #include <string>
+#include <utility>
 
 namespace shadefit::studies::internal {
 
 class Log {
  public:
-  Log(const std::string& path, bool bar, bool quiet)
-      : out_(path, std::ios::app), bar_(bar), quiet_(quiet) {}
+  // `path` "": no log file (the progress line only). `unit`: what is counted ("jobs").
+  Log(const std::string& path, bool bar, bool quiet, std::string unit = "jobs")
+      : bar_(bar), quiet_(quiet), unit_(std::move(unit)) {
+    if (!path.empty()) out_.open(path, std::ios::app);
+  }
 
   // A timestamped line in the log file only.
   void Line(const std::string& text);
@@ -26,12 +30,13 @@ class Log {
 
  private:
   void DrawLocked();
-  std::string Rate() const;      // "31.2 jobs/min"
+  std::string Rate() const;      // "31.2 jobs/min" (the unit's)
   std::string TimeLeft() const;  // "12:05", from the weights; "--:--" too early to tell
 
   std::mutex mutex_;
   std::ofstream out_;
   bool bar_, quiet_;
+  std::string unit_;
   double done_weight_ = 0, total_weight_ = 0, elapsed_ = 0;
   int done_ = 0, total_ = 0, failed_ = 0, quarter_ = 0;
   std::string current_;

@@ -88,6 +88,9 @@ struct MeasuredSummary {
 struct MeasuredOptions {
   bool quiet = false;
   bool verbose = false;  // A line per rendered reference (else only the summary line).
+  // Progress of the references to render, as the jobs' (RunOptions::progress_bar): true, one
+  // live line on stderr; false, a line at each quarter.
+  bool progress_bar = false;
   // When set, only these materials are rendered and added as groups (a shard's).
   const std::set<std::string>* materials = nullptr;
   // false (merge): a missing or out-of-date reference is an error, not a render.
