@@ -402,13 +402,20 @@ std::vector<double> IntegrateNormals(const NormalImage& img, double pixel_size, 
   return depth;
 }
 
+namespace {
+
+// A file's SHA-256, "" for no file: what the caches of this file key loaded data by.
+std::string ContentHash(const std::string& path) {
+  return path.empty() || !PathExists(path) ? std::string() : Sha256File(path);
+}
+
+}  // namespace
+
 ImageSize NormalImageSize(const std::string& path, const std::string& mask_path,
                           const std::string& variable, bool y_down) {
-  auto hash = [](const std::string& f) {
-    return f.empty() || !PathExists(f) ? std::string() : Sha256File(f);
-  };
   const std::string key =
-      fmt::format("{}|{}|{}|{}|{}|{}", path, hash(path), mask_path, hash(mask_path), variable, y_down);
+      fmt::format("{}|{}|{}|{}|{}|{}", path, ContentHash(path), mask_path,
+                  ContentHash(mask_path), variable, y_down);
   static std::mutex mutex;
   static std::map<std::string, ImageSize> cache;
   {
@@ -425,14 +432,11 @@ ImageSize NormalImageSize(const std::string& path, const std::string& mask_path,
 
 std::shared_ptr<const PixelSurface> LoadPixelSurface(const NormalMapSpec& spec,
                                                      const Camera& cam) {
-  auto hash = [](const std::string& f) {
-    return f.empty() || !PathExists(f) ? std::string() : Sha256File(f);
-  };
   const std::string key = fmt::format(
       "{}|{}|{}|{}|{}|{}|{}|{:.17g},{:.17g},{:.17g}|{:.17g},{:.17g},{:.17g}|{:.17g},{:.17g},{:.17g}|"
       "{:.17g}|{:.17g}|{}x{}",
-      spec.normals, hash(spec.normals), hash(spec.mask), hash(spec.depth), spec.variable,
-      spec.y_down, static_cast<int>(cam.type), cam.position.x, cam.position.y, cam.position.z,
+      spec.normals, ContentHash(spec.normals), ContentHash(spec.mask), ContentHash(spec.depth),
+      spec.variable, spec.y_down, static_cast<int>(cam.type), cam.position.x, cam.position.y, cam.position.z,
       cam.look_at.x, cam.look_at.y, cam.look_at.z, cam.up.x, cam.up.y, cam.up.z, cam.fov_y_deg,
       cam.height, cam.width, cam.height_px);
   static std::mutex mutex;

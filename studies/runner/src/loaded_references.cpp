@@ -22,11 +22,9 @@ LoadedReferences::Shared LoadedReferences::Get(const std::string& image_path) {
     if (auto it = entries_.find(image_path); it != entries_.end()) {
       order_.splice(order_.begin(), order_, it->second.order);
       found = it->second.value;
-      ++shared_;
     } else {
       order_.push_front(image_path);
       entries_[image_path] = Entry{made.get_future().share(), 0, order_.begin()};
-      ++reads_;
     }
   }
   if (found.valid()) return found.get();
@@ -61,11 +59,6 @@ void LoadedReferences::EvictLocked() {
     entries_.erase(it);
     order_.pop_back();
   }
-}
-
-LoadedReferences::Stats LoadedReferences::stats() const {
-  std::lock_guard lock(mutex_);
-  return {reads_, shared_, bytes_};
 }
 
 }  // namespace shadefit::studies::internal

@@ -27,12 +27,6 @@ class LoadedReferences {
 
   Shared Get(const std::string& image_path);
 
-  struct Stats {
-    long reads = 0, shared = 0;
-    std::size_t bytes = 0;  // Held now.
-  };
-  Stats stats() const;
-
  private:
   struct Entry {
     std::shared_future<Shared> value;
@@ -42,11 +36,10 @@ class LoadedReferences {
   void EvictLocked();
 
   const std::size_t budget_;
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::map<std::string, Entry> entries_;
   std::list<std::string> order_;  // Most recently asked-for first.
   std::size_t bytes_ = 0;
-  long reads_ = 0, shared_ = 0;
 };
 
 }  // namespace shadefit::studies::internal

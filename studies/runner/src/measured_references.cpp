@@ -11,6 +11,8 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "shadefit/base/error.h"
@@ -57,31 +59,35 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir.string(), "", "cannot create the folder");
-  // Whether a reference's files are there and its key is the one its inputs give now.
-  auto cached = [&](const MeasuredSource& src, std::size_t m, std::size_t l, std::string* key) {
-    const std::string name = src.materials[m] + "-" + src.lightings[l];
-    const std::string image = (dir / (name + ".exr")).string();
-    *key = ReferenceKey(src, m, l);
-    const fs::path key_path = dir / (name + ".key");
-    return fs::exists(image) && fs::exists(reference_images::SidecarPath(image)) &&
-           fs::exists(reference_images::DomainPath(image)) && fs::exists(key_path) &&
-           ReadAll(key_path.string()) == *key + "\n";
-  };
   auto wanted = [&](const MeasuredSource& src, std::size_t m) {
     return options.materials == nullptr || options.materials->count(src.materials[m]) > 0;
   };
-  // The references to render, for the progress line (the jobs' own, internal::Log): one live
-  // line on a terminal, a line per quarter elsewhere.
+  // Each wanted reference's key (it hashes the BRDF files: once per reference), and whether its
+  // files are there with that key; the count to render is the progress line's total (the jobs'
+  // own, internal::Log: one live line on a terminal, a line per quarter elsewhere).
+  std::map<std::string, std::string> key_of;  // By reference name.
+  std::set<std::string> up_to_date;
   int to_render = 0;
-  if (options.render) {
-    for (const MeasuredSource& src : spec->measured) {
-      for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
-        if (!wanted(src, m)) continue;
-        std::string key;
-        for (std::size_t l = 0; l < src.scenes.size(); ++l) to_render += !cached(src, m, l, &key);
+  for (const MeasuredSource& src : spec->measured) {
+    for (std::size_t m = 0; m < src.brdfs.size(); ++m) {
+      if (!wanted(src, m)) continue;
+      for (std::size_t l = 0; l < src.scenes.size(); ++l) {
+        const std::string name = src.materials[m] + "-" + src.lightings[l];
+        const std::string image = (dir / (name + ".exr")).string();
+        const std::string key = ReferenceKey(src, m, l);
+        const fs::path key_path = dir / (name + ".key");
+        if (fs::exists(image) && fs::exists(reference_images::SidecarPath(image)) &&
+            fs::exists(reference_images::DomainPath(image)) && fs::exists(key_path) &&
+            ReadAll(key_path.string()) == key + "\n") {
+          up_to_date.insert(name);
+        } else {
+          ++to_render;
+        }
+        key_of[name] = key;
       }
     }
   }
+  if (!options.render) to_render = 0;
   internal::Log progress("", options.progress_bar, options.quiet || to_render == 0, "references");
   const auto start = std::chrono::steady_clock::now();
   std::unique_ptr<GlContext> context;
@@ -104,9 +110,9 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
         ref.lighting = src.lightings[l];
         ref.image_path = (dir / (ref.name + ".exr")).string();
         ref.sidecar_path = reference_images::SidecarPath(ref.image_path);
-        std::string key;
+        const std::string& key = key_of.at(ref.name);
         const fs::path key_path = dir / (ref.name + ".key");
-        if (cached(src, m, l, &key)) {
+        if (up_to_date.count(ref.name) > 0) {
           ++summary.unchanged;
         } else if (!options.render) {
           throw Error(ref.image_path, "",
