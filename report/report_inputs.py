@@ -9,6 +9,12 @@ previews has no `images`; only a fitted encoding writes `encoding`; a metric wit
 null); readers take them with `.get(name)` and handle their absence, never with a default that
 hides a required field's absence.
 
+Every other field the runner writes is declared too, as Written: the report neither requires nor
+checks it, but tests/report/report_schema_test.py walks a real study's files strictly
+(strict_problems) and fails on any field present in a file and declared nowhere here, naming the
+file and the field's path. So a field the runner adds fails a test until it is declared here; the
+report's own reading stays tolerant of it.
+
 Writers: studies/runner/src/study.cpp (study.json), fit_job.cpp (fit jobs), probe_job.cpp and
 metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance.json).
 """
@@ -35,15 +41,25 @@ SPLIT = "split"  # a results.csv cell kind: one of SPLITS
 
 class Field:
     """One field: its kind; `optional`: may be absent; `nullable`: may be null; `one_of`: the
-    values it may take; `hint`: said after a wrong value (how to get a good one)."""
+    values it may take; `hint`: said after a wrong value (how to get a good one); `unread`: the
+    runner writes it and the report does not read it (see Written)."""
 
-    def __init__(self, kind, optional=False, nullable=False, one_of=None, hint=""):
+    def __init__(self, kind, optional=False, nullable=False, one_of=None, hint="",
+                 unread=False):
         self.kind, self.optional, self.nullable = kind, optional, nullable
-        self.one_of, self.hint = one_of, hint
+        self.one_of, self.hint, self.unread = one_of, hint, unread
 
 
 def Optional(kind, nullable=False, one_of=None):
     return Field(kind, optional=True, nullable=nullable, one_of=one_of)
+
+
+def Written(kind, nullable=False):
+    """A field the runner writes that the report does not read: declared, so that the strict
+    walk (strict_problems, tests/report/report_schema_test.py) fails on a field the runner adds
+    and this schema lacks; never required nor checked when the report reads the file (an older
+    or newer runner's file still gets its report)."""
+    return Field(kind, optional=True, nullable=nullable, unread=True)
 
 
 class Object:
@@ -80,11 +96,11 @@ def expected_name(kind):
     return {Object: "object", Map: "object", Array: "array"}[type(kind)]
 
 
-def check(value, kind, path, where):
+def check(value, kind, path, where, strict=False):
     """Raises ReportInputError unless `value` (at `where` in the file `path`) is a `kind` (a kind
-    or a Field)."""
+    or a Field). `strict`: the fields the report does not read (Written) are checked too."""
     if isinstance(kind, Field):
-        check_field(value, kind, path, where)
+        check_field(value, kind, path, where, strict)
         return
     if kind == ANY:
         return
@@ -94,33 +110,75 @@ def check(value, kind, path, where):
                                f"got {got}")
     if isinstance(kind, Array):
         for i, item in enumerate(value):
-            check(item, kind.item, path, f"{where}[{i}]")
+            check(item, kind.item, path, f"{where}[{i}]", strict)
     elif isinstance(kind, Map):
         for name, item in value.items():
-            check(item, kind.value, path, f"{where}.{name}")
+            check(item, kind.value, path, f"{where}.{name}", strict)
     elif isinstance(kind, Object):
-        check_object(value, kind, path, where)
+        check_object(value, kind, path, where, strict)
 
 
-def check_field(value, field, path, where):
+def check_field(value, field, path, where, strict=False):
     """A present field's value: null where nullable, one of its values where it has a list."""
+    if field.unread and not strict:
+        return
     if value is None and field.nullable:
         return
     if field.one_of is not None and value not in field.one_of:
         want = " or ".join(repr(v) for v in field.one_of)
         raise ReportInputError(f"{path}: field '{where}': expected {want}, got {value!r}"
                                + (f" ({field.hint})" if field.hint else ""))
-    check(value, field.kind, path, where)
+    check(value, field.kind, path, where, strict)
 
 
-def check_object(obj, schema, path, where=""):
+def check_object(obj, schema, path, where="", strict=False):
     for name, field in schema.fields.items():
         at = f"{where}.{name}" if where else name
         if name in obj:
-            check_field(obj[name], field, path, at)
+            check_field(obj[name], field, path, at, strict)
         elif not field.optional:
             raise ReportInputError(f"{path}: field '{at}': missing"
                                    + (f" ({field.hint})" if field.hint else ""))
+
+
+def undeclared_fields(value, kind, where=""):
+    """The paths ('evaluations[0].images.domain') of the fields in `value` that `kind` does not
+    declare: the strict walk's half that the report's own reading never does (it reads what it
+    declares and passes over the rest). ANY's inside is not the report's contract; a Map's
+    names are data."""
+    if isinstance(kind, Field):
+        kind = kind.kind
+    if isinstance(kind, Object) and isinstance(value, dict):
+        for name, item in value.items():
+            at = f"{where}.{name}" if where else name
+            if name not in kind.fields:
+                yield at
+            else:
+                yield from undeclared_fields(item, kind.fields[name], at)
+    elif isinstance(kind, Array) and isinstance(value, list):
+        for i, item in enumerate(value):
+            yield from undeclared_fields(item, kind.item, f"{where}[{i}]")
+    elif isinstance(kind, Map) and isinstance(value, dict):
+        for name, item in value.items():
+            yield from undeclared_fields(item, kind.value, f"{where}.{name}")
+
+
+def strict_problems(value, schema, path):
+    """Every way `value` (the file `path`) departs from `schema`, held strictly: one line per
+    field present in the file and declared nowhere, then the first field of a wrong type or
+    missing (the fields the report does not read included). [] when the file is exactly what
+    the schema declares. For tests: the report's reader stays tolerant of fields it does not
+    know."""
+    out = [f"{path}: field '{at}': not declared in report/report_inputs.py's schema"
+           for at in undeclared_fields(value, schema)]
+    try:
+        if isinstance(schema, Object) and isinstance(value, dict):
+            check_object(value, schema, path, strict=True)
+        else:
+            check(value, schema, path, "", strict=True)
+    except ReportInputError as e:
+        out.append(str(e))
+    return out
 
 
 # ------------------------------------------------------------------------------------------------
@@ -134,9 +192,25 @@ FIT_ROLES = ("train", "floor", "brdf")
 # or neither ("other").
 SPLITS = ("train", "test", "other")
 
+# A model's fit settings (FitSettings::ToJson, study.cpp): the report reads the loss of studies
+# written before fits carried theirs (normalise_fits).
+FIT_SETTINGS = Object({
+    "loss": Optional(STRING),
+    "loss_scale": Written(NUMBER), "starts": Written(NUMBER), "seed": Written(NUMBER),
+    "exposure": Written(STRING), "path": Written(STRING), "max_iterations": Written(NUMBER),
+    "pixel_stride": Written(NUMBER), "environment_samples": Written(NUMBER),
+    "fixed": Written(Array(STRING)),
+    "encoding": Written(STRING),  # only when not the default ("as imported")
+    "start": Written(STRING),     # only when not the default: "brdf"
+})
+
 STUDY = Object({
+    "schema": Written(STRING),
     "name": STRING,
     "description": STRING,
+    "path": Written(STRING),  # the study file
+    "quick": Written(BOOLEAN),
+    "shadefit_version": Written(STRING),  # WriteStudyJson (outputs.cpp), absent in provenance
     # label: what results.csv and the jobs call the fit; model and train: the label's parts, as
     # fields (the label is composed from them in C++, StudySpec::Label; read these, never split
     # the label).
@@ -147,8 +221,11 @@ STUDY = Object({
                           "role": Optional(STRING, one_of=FIT_ROLES)})),
     "groups": Array(Object({
         "material": STRING,
-        "references": Array(Object({"lighting": STRING, "sidecar": STRING})),
+        "object": Written(STRING),  # a group of a named object only (results.csv has it too)
+        "references": Array(Object({"lighting": STRING, "sidecar": STRING,
+                                    "name": Written(STRING), "image": Written(STRING)})),
     })),
+    "models": Written(Array(STRING)),
     "training_sets": Array(Array(STRING)),
     "test_lightings": Array(STRING),  # empty: every lighting not trained on
     "baseline": Field(STRING, nullable=True),
@@ -156,9 +233,12 @@ STUDY = Object({
     "losses": Optional(Array(STRING)),   # absent before several losses: the models' own
     "floor": Optional(Array(STRING)),    # the floor fits' lightings; [] or absent: none
     "judging": Optional(Array(STRING), nullable=True),  # [verdicts] judging; null: the default
-    "fit_settings": Optional(Map(Object({"loss": Optional(STRING)}))),
+    "fit_settings": Optional(Map(FIT_SETTINGS)),
+    "metrics": Written(Object({"exposure_stops": NUMBER, "ppd": NUMBER})),
     "probes": Array(STRING),
-    "measured": Array(Object({"materials": Array(STRING), "folder": Optional(STRING)})),
+    "measured": Array(Object({"materials": Array(STRING), "folder": Optional(STRING),
+                              "present": Written(BOOLEAN), "lightings": Written(Array(STRING)),
+                              "scenes": Written(Array(STRING)), "samples": Written(NUMBER)})),
     "verdicts": Map(Object({
         "source": STRING,
         "kind": Field(STRING, one_of=VERDICT_KINDS),
@@ -169,6 +249,8 @@ STUDY = Object({
         "keys": Optional(Array(STRING)),  # quantities judged (fnmatch patterns); absent: all
         "floor": Optional(NUMBER),  # a relative error's least denominator; absent: 0
     })),
+    "outputs": Written(Object({"previews": BOOLEAN, "report": BOOLEAN,
+                               "floor": Field(BOOLEAN, nullable=True)})),
 })
 
 
@@ -212,17 +294,36 @@ def check_study(study, path):
 # jobs/fit.*.json (RunFitJob and WriteFailedFit, studies/runner/src/fit_job.cpp). A failed fit has
 # no exposure, termination or fit record, and empty parameters and evaluations.
 
-NUMBERS = Map(Field(NUMBER, nullable=True))  # metrics: null where a pass had no pixel
+# A pass's metrics (MetricsSummary, fit_job.cpp): every metric column of results.csv, null where
+# the pass had no pixel.
+NUMBERS = Object({m: Optional(NUMBER, nullable=True) for m in results_csv.METRIC_COLUMNS})
+
+# The head of every job record (BaseJson, job_records.cpp).
+JOB_HEAD = {"schema": Written(STRING), "id": Written(STRING), "hash": Written(STRING),
+            "shadefit_version": Written(STRING), "outputs": Written(Array(STRING))}
+
+# Where a fit's error lies (RegionErrors, region_errors.cpp): per region of REGIONS (results_csv),
+# the means over its pixels, null where it has none.
+REGION_ERRORS = Object({name: Object({"signed": Field(NUMBER, nullable=True),
+                                      "abs": Field(NUMBER, nullable=True),
+                                      "ref": Field(NUMBER, nullable=True), "pixels": NUMBER})
+                        for name in results_csv.REGIONS})
 
 FIT_JOB = Object({
+    **JOB_HEAD,
     "kind": Field(STRING, one_of=("fit",)),
     "material": STRING,
     "label": STRING,
     "model": STRING,
     "train": Array(STRING),
+    "status": Written(STRING),  # FitStatusName (fit_status.h)
+    "error": Written(STRING),   # a failed fit only: why it left no parameters
     "converged": BOOLEAN,
-    "exposure": Optional(NUMBER),      # absent on a failed fit
-    "termination": Optional(STRING),   # absent on a failed fit
+    # The rest of the head only where the fit left parameters (HasFit): absent on a failed fit.
+    "settings": Written(FIT_SETTINGS),
+    "values": Written(Array(Field(NUMBER, nullable=True))),
+    "exposure": Optional(NUMBER),
+    "termination": Optional(STRING),
     "parameters": Array(Object({
         "name": STRING,
         "value": Field(NUMBER, nullable=True),      # null: not finite
@@ -234,30 +335,63 @@ FIT_JOB = Object({
         "at_bound": BOOLEAN,
         "undetermined": BOOLEAN,
     })),
+    # One per reference of the material (Evaluate, fit_job.cpp; EvaluationRecord, job_records.h).
     "evaluations": Array(Object({
+        "reference": Written(STRING),
         "lighting": STRING,
         "split": Field(STRING, one_of=SPLITS),
-        "metrics": NUMBERS,
+        "metrics": NUMBERS,                  # over the measured pixels
+        "metrics_all": Written(NUMBERS),     # over every covered pixel (results.csv's *_all)
         "measured_fraction": Optional(NUMBER),
+        "rmse_fitter": Written(NUMBER, nullable=True),
+        "metrics_pixels": Written(STRING),   # "covered", or "covered and measured"
+        "covered_pixels": Written(NUMBER), "measured_pixels": Written(NUMBER),
+        "lit_pixels": Written(NUMBER), "measured_lit_pixels": Written(NUMBER),
+        "metrics_masked": Written(BOOLEAN, nullable=True),
+        "metrics_all_masked": Written(BOOLEAN, nullable=True),
+        # Every metric's full report (MetricsToJson, metrics/src/report.cpp): the metrics'
+        # record, of which results.csv takes the summary; its inside is not the report's.
+        "metrics_full": Written(ANY),
+        "metrics_none": Written(STRING),      # why "metrics" has no numbers
+        "metrics_all_none": Written(STRING),  # why "metrics_all" has none
+        "regions": Written(REGION_ERRORS, nullable=True),  # results.csv's region_* columns
         # Absent when the study writes no previews; "domain" on measured references only.
         "images": Optional(Object({"reference": Optional(STRING), "fit": Optional(STRING),
                                    "error": Optional(STRING), "error_scale": Optional(NUMBER),
                                    "domain": Optional(STRING)})),
     })),
-    # The fitter's own record (FitResultToJson, fit/src/fit_output.cpp); the report reads what a
-    # free exposure pinned (fit/exposure_pin.h), absent in jobs written before it was recorded.
+    # The fitter's own record (FitResultToJson, fit/src/fit_output.cpp; Python's FitResult holds
+    # its keys); the report reads what a free exposure pinned (fit/exposure_pin.h), absent in
+    # jobs written before it was recorded. Its other parts are fit/'s: declared by name.
     "fit": Optional(Object({
         "exposure": Object({"mode": Field(STRING, one_of=("fixed", "free")),
-                            "pinned": Optional(STRING)}),
+                            "pinned": Optional(STRING),
+                            "value": Written(NUMBER, nullable=True),
+                            "std_error": Written(NUMBER, nullable=True)}),
+        "shadefit_version": Written(STRING), "model": Written(STRING),
+        "derivative_path": Written(STRING), "parameters": Written(ANY), "values": Written(ANY),
+        "held": Written(ANY),  # only where the fit held values
+        "loss": Written(ANY), "cost": Written(ANY), "rmse": Written(ANY), "solver": Written(ANY),
+        "converged": Written(BOOLEAN), "starts": Written(ANY), "covariance": Written(ANY),
+        "evaluations": Written(ANY), "inputs": Written(ANY),
     })),
-    # The encoding search's record (fit.encoding = "fit" only; fit/src/encoding_search.cpp).
+    # The encoding search's record (fit.encoding = "fit" only; EncodingSearchToJson,
+    # fit/src/encoding_search.cpp).
     "encoding": Optional(Object({
+        "mode": Written(STRING),
         "chosen": STRING,
         "name": STRING,
         "gamma": Field(NUMBER, nullable=True),
         "stored_rmse": NUMBER,
+        "scored_values": Written(NUMBER),
+        "score": Written(STRING),  # what stored_rmse measures, in words
         "candidates": Array(Object({"name": STRING, "gamma": Field(NUMBER, nullable=True),
-                                    "stored_rmse": NUMBER, "chosen": BOOLEAN})),
+                                    "stored_rmse": NUMBER, "chosen": BOOLEAN,
+                                    "encoding": Written(STRING),
+                                    "linear_rmse": Written(NUMBER, nullable=True),
+                                    "exposure": Written(NUMBER, nullable=True),
+                                    "converged": Written(BOOLEAN)})),
+        "gamma_search": Written(Array(Array(Field(NUMBER, nullable=True)))),  # [gamma, score]
     })),
 })
 
@@ -268,28 +402,51 @@ PROBE_SCHEMA = "shadefit.probe/4"  # kProbeResultSchema, metrics/probes/include/
 PROBE_RESULT = Object({
     "schema": Field(STRING, one_of=(PROBE_SCHEMA,),
                     hint="written by an older shadefit: run the study again"),
+    "probe": Written(STRING),
     "numbers": Map(ANY),  # per series, nested numbers; flattened by report_util.flatten
     "curves": Array(Object({
         "series": STRING, "kind": STRING, "x": Array(ANY), "y": Array(ANY),
         "x_label": STRING, "y_label": STRING, "x_scale": STRING, "y_scale": STRING,
         "reference": Field(STRING, nullable=True),  # null: a curve of no reference image
         "lighting": Field(STRING, nullable=True),  # that reference's lighting; null with it
+        "x_ticks": Written(Array(STRING)),  # names of x = 0, 1, ...; empty where x is a number
         "extrapolated": Optional(Array(BOOLEAN)),
     })),
+    "notes": Written(Array(STRING)),
 })
 
 PROBE_JOB = Object({
+    **JOB_HEAD,
     "kind": Field(STRING, one_of=("probe",)),
     "material": STRING,
+    "status": Written(STRING),  # "ok", or "no-fit" when no fit of the material left parameters
+    "fits_without_parameters": Written(Array(STRING)),
+    "probes_skipped": Written(Array(Object({"probe": STRING, "why": STRING}))),
     "probes": Map(PROBE_RESULT),
 })
 
+# A job record's schema by its `kind` (read_jobs); other kinds are not the report's.
+JOB_SCHEMAS = {"fit": FIT_JOB, "probe": PROBE_JOB}
+
 # provenance.json (outputs.cpp): shown at the page's foot; the file itself may be absent.
 PROVENANCE = Object({
-    "shadefit": Optional(Object({"version": Optional(STRING)})),
+    "schema": Written(STRING),
+    "study": Written(Object({"name": STRING, "path": STRING, "sha256": STRING, "text": STRING,
+                             "quick": BOOLEAN})),
+    "shadefit": Optional(Object({"version": Optional(STRING),
+                                 "git_revision": Written(STRING)})),
+    "options": Written(STUDY),  # the study as study.json has it, less shadefit_version
+    "inputs": Written(Array(Object({
+        "reference": STRING,
+        **{part: Object({"path": STRING, "sha256": STRING})
+           for part in ("image", "sidecar", "scene")}}))),
+    "jobs": Written(Array(Object({"id": STRING, "hash": STRING}))),
     "gl_renderer": Optional(STRING),
     "dependencies": Optional(ANY),  # shown as they are
     "machine": Optional(ANY),
+    # merged_shards: a merge of shards only (MergedShards, outputs.cpp)
+    "run": Written(Object({"workers": NUMBER, "ceres_threads_per_fit": NUMBER,
+                           "merged_shards": Optional(ANY)})),
 })
 
 # A reference's sidecar (reference_images/; LoadReference): the Ngan et al. 2005 comparison looks
@@ -379,11 +536,11 @@ def read_jobs(study_dir):
             continue  # wall-clock times (WriteTiming), not results
         job = load_json(path)
         kind = job.get("kind") if isinstance(job, dict) else None
+        if kind in JOB_SCHEMAS:
+            check_object(job, JOB_SCHEMAS[kind], path)
         if kind == "fit":
-            check_object(job, FIT_JOB, path)
             fits[(job["material"], job["label"])] = job
         elif kind == "probe":
-            check_object(job, PROBE_JOB, path)
             probes[job["material"]] = job
     return fits, probes
 
