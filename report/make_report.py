@@ -177,7 +177,8 @@ class Inputs:
         (self.study, self.rows, self.fits, self.probes,
          self.provenance) = load_study(study_dir)
         self.charts = report_charts.load_charts(study_dir)
-        self.ngan = report_ngan.ngan_comparison(self.study, self.fits)
+        self.ngan = report_ngan.ngan_comparison(self.study, self.fits,
+                                                report_inputs.read_ngan_fits(self.study))
         # The photographs' geometry, where the runner wrote geometry/ (the data floor's input).
         self.geometry = floor_inputs.read_geometry(study_dir)
         # The material classes' tables (report_classes: beside the measured folder, and ours).
@@ -199,8 +200,8 @@ def study_tables(inp, summary, detail, answers, floor):
                    "probes": report_tables.probes_table(inp.study, inp.probes),
                    "verdicts": verdicts, "verdict_details": verdict_details, "matrix": matrix})
     if inp.ngan is not None:
-        tables["ngan2005"] = report_ngan.ngan_table(inp.ngan)
-        tables["ngan2005_spearman"] = report_ngan.spearman_table(inp.ngan)
+        tables["ngan2005"] = report_tables.ngan_table(inp.ngan)
+        tables["ngan2005_spearman"] = report_tables.spearman_table(inp.ngan)
     if floor is not None:
         tables["floor"] = section_words.data_floor_table(floor)
     tables["encoding"] = report_tables.encoding_table(inp.fits)
@@ -301,7 +302,7 @@ def _write_report(inp, report_dir, fig_dir, material_figs, progress):
     figures, charts = draw_figures(inp, answers, fig_dir, material_figs, progress.step)
     write_json(report_dir, "figures.json", figures + charts)
     if inp.ngan is not None:
-        write_json(report_dir, "ngan2005.json", inp.ngan)
+        write_json(report_dir, "ngan2005.json", report_tables.ngan_json(inp.ngan))
     # Right after the comparative answers, each fit's test error next to the floor's.
     data_floor_lines = []
     if floor is not None:

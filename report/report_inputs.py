@@ -20,6 +20,7 @@ metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance
 """
 
 import csv
+import dataclasses
 import glob
 import json
 import os
@@ -575,6 +576,54 @@ def load_study(study_dir):
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = read_checked(prov_path, PROVENANCE) if os.path.exists(prov_path) else {}
     return study, rows, fits, probes, provenance
+
+
+# ------------------------------------------------------------------------------------------------
+# Ngan, Durand and Matusik 2005's BRDF-space fits (report_ngan.ngan_comparison compares our fits
+# with them): ngan2005-fits.tsv beside the measured folder the study's references came from.
+
+NGAN_NAME = "ngan2005-fits.tsv"
+
+
+@dataclasses.dataclass(frozen=True)
+class NganFits:
+    path: str
+    fits: dict  # {material: {column: number}}
+
+
+def ngan_table_path(study):
+    """ngan2005-fits.tsv beside the measured folder the study's references came from, if any."""
+    for g in study["groups"]:
+        for r in g["references"]:
+            sidecar = r["sidecar"]
+            if not sidecar or not os.path.exists(sidecar):
+                continue
+            sc = read_checked(sidecar, SIDECAR)
+            if sc.get("kind") != "measured-brdf":
+                continue
+            if "brdf" not in sc:
+                raise ReportInputError(f"{sidecar}: field 'brdf': missing (a measured-brdf "
+                                       "sidecar names its BRDF files)")
+            for f in sc["brdf"]["files"]:
+                candidate = os.path.join(os.path.dirname(os.path.dirname(f["path"])), NGAN_NAME)
+                if os.path.exists(candidate):
+                    return candidate
+    return None
+
+
+def read_ngan_fits(study):
+    """NganFits of the study's measured folder, or None where it has no ngan2005-fits.tsv."""
+    path = ngan_table_path(study)
+    if path is None:
+        return None
+    with open(path, encoding="utf-8") as f:
+        lines = [l.rstrip("\n") for l in f if l.strip() and not l.startswith("#")]
+    header = lines[0].split("\t")
+    out = {}
+    for line in lines[1:]:
+        cells = line.split("\t")
+        out[cells[0]] = {h: float(c) for h, c in zip(header[1:], cells[1:])}
+    return NganFits(path, out)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -121,10 +121,10 @@ def ngan_markdown(ngan):
     if ngan is None:
         return ""
     return "\n## Against Ngan, Durand and Matusik 2005\n\n" + "".join(
-        f"- {c['fit']}: Spearman rho of our {c['ours']} with Ngan's {c['ngan']} over "
-        f"{c['materials']} materials: "
-        + (f"{c['spearman']:.3f}" if c["spearman"] is not None else "n/a") + "\n"
-        for c in ngan["correlations"])
+        f"- {c.fit}: Spearman rho of our {c.ours} with Ngan's {c.ngan} over "
+        f"{c.materials} materials: "
+        + (f"{c.spearman:.3f}" if c.spearman is not None else "n/a") + "\n"
+        for c in ngan.correlations)
 
 
 # --- Encoding of photographs (fit.encoding = "fit": fit/encoding_search.h) --------------------

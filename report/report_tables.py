@@ -1,6 +1,8 @@
 """The report's tables as (columns, rows of strings): metrics, fitted parameters, probe numbers,
 the verdicts (report_verdicts' records) and the encoding search. report_latex writes them out."""
 
+import dataclasses
+
 from report_util import flatten, fmt, labels_of, materials_of, probe_numbers, to_float
 
 METRIC_COLUMNS = [
@@ -118,3 +120,28 @@ def verdict_tables(study, summary, detail):
             row.append(f"{good}/{len(judged)}" if judged else "n/a")
         mrows.append(row)
     return (cols, rows), (dcols, drows), (mcols, mrows)
+
+
+# ------------------------------------------------------------------------------------------------
+# Against Ngan, Durand and Matusik 2005 (report_ngan.ngan_comparison's NganComparison)
+
+
+def ngan_table(ngan):
+    """Our number next to Ngan's, per material and fit."""
+    return (["material", "fit", "ours", "value", "Ngan 2005", "Ngan's value"],
+            [[r.material, r.fit, r.ours_label, fmt(r.ours), r.ngan_label, fmt(r.theirs)]
+             for r in ngan.rows])
+
+
+def spearman_table(ngan):
+    cols = ["fit", "our parameter", "Ngan 2005", "materials", "Spearman rho"]
+    rows = [[c.fit, c.ours, c.ngan, str(c.materials),
+             fmt(c.spearman, "{:.3f}") if c.spearman is not None else "n/a"]
+            for c in ngan.correlations]
+    return cols, rows
+
+
+def ngan_json(ngan):
+    """ngan2005.json's record: the source, the table's rows, the correlations."""
+    return {"source": ngan.source, "rows": ngan_table(ngan)[1],
+            "correlations": [dataclasses.asdict(c) for c in ngan.correlations]}

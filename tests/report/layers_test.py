@@ -15,10 +15,10 @@ import sys
 # The compute core: the rules that decide an answer, their statistics, the judging set.
 COMPUTE = ["answer_rules.py", "answer_stats.py", "judging.py", "model_floor.py",
            "report_regions.py", "report_classes.py", "report_verdicts.py", "data_floor.py",
-           "study_answers.py"]
+           "study_answers.py", "report_ngan.py", "report_records.py"]
 # What a compute module must not import: readers, writers and drawing (results_csv's column
 # names may be imported; its reader may not be called).
-FORBIDDEN = {"report_inputs", "floor_inputs", "report_ngan", "section_words", "figure_cache",
+FORBIDDEN = {"report_inputs", "floor_inputs", "section_words", "figure_cache",
              "report_figures", "report_page", "report_latex", "report_summary", "answer_words",
              "report_findings", "report_sections", "report_grids", "report_probe_figures",
              "report_metric_figures", "report_charts", "report_tables", "make_report",
