@@ -207,6 +207,24 @@ TEST(StudyFile, PhotoTemplateFixedIsPerModel) {
   }
 }
 
+// Every study file the repository ships loads as it is (those of measured materials with or
+// without ../shared beside the clone: a missing folder is skipped, not an error). The photo
+// template points at the user's images: PhotoTemplateFixedIsPerModel loads it, filled in.
+TEST(StudyFile, EveryShippedStudyLoads) {
+  int loaded = 0;
+  for (const auto& entry : fs::directory_iterator(std::string(SHADEFIT_SOURCE_DIR) + "/studies")) {
+    if (entry.path().extension() != ".toml") continue;
+    if (entry.path().stem().string().ends_with("_template")) continue;
+    try {
+      LoadStudy(entry.path().string());
+      ++loaded;
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << e.what();
+    }
+  }
+  EXPECT_GE(loaded, 6);
+}
+
 }  // namespace
 }  // namespace shadefit::studies
 

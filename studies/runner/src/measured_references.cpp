@@ -103,6 +103,7 @@ MeasuredSummary MaterialiseMeasuredReferences(StudySpec* spec, const std::string
       }
       ReferenceGroup group;
       group.material = src.materials[m];
+      group.object = src.object;
       for (std::size_t l = 0; l < src.scenes.size(); ++l) {
         ReferenceSpec ref;
         ref.name = group.material + "-" + src.lightings[l];

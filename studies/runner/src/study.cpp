@@ -162,6 +162,7 @@ nlohmann::json StudySpec::ToJson() const {
                             {"lightings", src.lightings},
                             {"scenes", src.scenes},
                             {"samples", src.samples}});
+               if (!src.object.empty()) m.back()["object"] = src.object;  // Else unchanged.
              }
              return m;
            }()},

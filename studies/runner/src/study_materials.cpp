@@ -46,9 +46,12 @@ void ReadMeasuredScenes(const Reader& r, const toml::table& t, const fs::path& b
     }
     for (const fs::path& m : matches) {
       if (Excluded(exclude, m.filename().string())) continue;
-      // "sphere-key.toml" -> "key": the lighting names of the shipped Cycles scenes.
+      // "sphere-key.toml" -> "key": the lighting names of the shipped Cycles scenes; with an
+      // object, the stem after "<object>-" ("torus-knot-key.toml" of "torus-knot" -> "key").
       std::string lighting = m.stem().string();
-      if (const auto dash = lighting.find('-'); dash != std::string::npos) {
+      if (!src->object.empty() && lighting.rfind(src->object + "-", 0) == 0) {
+        lighting = lighting.substr(src->object.size() + 1);
+      } else if (const auto dash = lighting.find('-'); dash != std::string::npos) {
         lighting = lighting.substr(dash + 1);
       }
       if (!q.KeepsLighting(lighting)) continue;
@@ -85,7 +88,8 @@ void ReadMeasuredBrdfs(const Reader& r, const toml::table& t,
   }
   std::sort(files.begin(), files.end());
   for (const fs::path& f : files) {
-    const std::string material = f.stem().string();
+    const std::string material =
+        src->object.empty() ? f.stem().string() : src->object + "-" + f.stem().string();
     if (!q.KeepsMaterial(material)) continue;
     if (std::find(src->materials.begin(), src->materials.end(), material) != src->materials.end()) {
       r.Fail(&t, "measured.folder", "material '" + material + "' is there twice (.binary and .h5)");
@@ -109,8 +113,9 @@ void ReadMeasured(const Reader& r, const toml::table& root, const fs::path& base
   if (!mn->is_array_of_tables()) r.Fail(mn, "measured", "expected [[measured]] tables");
   for (const toml::node& e : *mn->as_array()) {
     const toml::table& t = *e.as_table();
-    r.CheckKeys(t, "measured.", {"folder", "scenes", "exclude", "samples"});
+    r.CheckKeys(t, "measured.", {"folder", "scenes", "exclude", "samples", "object"});
     MeasuredSource src;
+    src.object = r.String(t, "measured.", "object", "");  // Before the scenes: names lightings.
     const std::string folder = r.String(t, "measured.", "folder", "");
     if (folder.empty()) r.Fail(&e, "measured.folder", "missing");
     src.folder = (base / folder).lexically_normal().string();
@@ -123,6 +128,17 @@ void ReadMeasured(const Reader& r, const toml::table& root, const fs::path& base
       r.Fail(t.get("folder"), "measured.folder", e.what());
     }
     if (src.present) ReadMeasuredBrdfs(r, t, exclude, q, &src);
+    // Materials name results' rows: the same BRDF under two tables needs an object apart.
+    for (const MeasuredSource& other : spec->measured) {
+      for (const std::string& m : src.materials) {
+        if (std::find(other.materials.begin(), other.materials.end(), m) !=
+            other.materials.end()) {
+          r.Fail(&e, "measured.object",
+                 "material '" + m + "' comes from two [[measured]] tables: give each its object "
+                 "(object = \"torus\" names its materials \"torus-<brdf>\")");
+        }
+      }
+    }
     spec->measured.push_back(std::move(src));
   }
 }

@@ -84,6 +84,10 @@ struct MeasuredSource {
   std::vector<std::string> scenes;    // Absolute scene paths, one per lighting.
   std::vector<std::string> lightings; // "key" for ".../sphere-key.toml", in the same order.
   int samples = 0;                    // Environment samples per technique (0 = the scene's).
+  // The object the scenes show (a mesh's or a normal map's), where several [[measured]] tables
+  // render the same BRDFs on different objects: materials are then "<object>-<stem>", grouped
+  // under that object for the report's per-object answers. Empty: the stems, no object.
+  std::string object;
 };
 
 // The training set that fits a [[measured]] material's BRDF itself, in BRDF space (Ngan et al.
