@@ -18,12 +18,14 @@ or writes a word: it is handed the rows make_report.py read.
 
 import dataclasses
 import math
-from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 import judging
 from answer_stats import compare_pair, holm_by_pair
+from report_records import (ClassQuestion, ImageQuestionRecord, LossAgreement, ObjectAnswer,
+                            PairAnswer, PairVerdict, ProbeQuestionRecord, Question,
+                            QuestionAnswer, UnitError, Verdict)
 from report_util import materials_of
 
 # An image question over fewer materials (material-object pairs) than this is answered over its
@@ -82,10 +84,11 @@ def not_valid_reason(study, source, material):
 def questions_of(study, rows):
     """The study's questions: one image question per split of IMAGE_SPLITS the results have
     (named by the study's first metric verdict on that split, else "image" and "transfer"; worded
-    without a metric), answered under the judging set; then every probe verdict. Each is a dict
-    with the verdict's fields plus `name` and `default` (True for the added ones)."""
-    out = [dict(v, name=name, default=False) for name, v in study["verdicts"].items()
-           if v["source"] != "metrics"]
+    without a metric), answered under the judging set; then every probe verdict: a Question
+    each."""
+    out = [Question(name, v["question"], v["source"], v["kind"], False, v.get("split"),
+                    float(v["tolerance"]))
+           for name, v in study["verdicts"].items() if v["source"] != "metrics"]
     splits = {r["split"] for r in rows}
     defaults = {"train": ("image", "How close can the model get to a reference image "
                                    "(training lighting)?"),
@@ -99,12 +102,11 @@ def questions_of(study, rows):
             # The question in words of no metric (a verdict's text may name the metric its
             # tolerance is on; the answer is under every metric of the judging set).
             name, text = named[0] if named else defaults[split][0], defaults[split][1]
-            image.append({"name": name, "default": not named, "source": "metrics",
-                          "split": split, "kind": "max", "question": text})
+            image.append(Question(name, text, "metrics", "max", not named, split))
     # Reading order: image closeness, new lighting, then the phenomena (BRDF space first: on
     # measured references it is where the lobe and the Fresnel rise are measured).
     rank = {"brdf": 2, "highlight": 3, "fresnel": 4, "energy": 5}
-    return image + sorted(out, key=lambda q: rank.get(q["source"], 6))
+    return image + sorted(out, key=lambda q: rank.get(q.source, 6))
 
 
 def metric_mode(metric):
@@ -131,9 +133,9 @@ def probe_errors(study, summary, question, materials):
     errors, why = {}, {}
     labels = [f["label"] for f in study["fits"]]
     judged = {(s["material"], s["fit"]): s for s in summary
-              if s["phenomenon"] == question["name"]}
+              if s["phenomenon"] == question.name}
     for m in materials:
-        reason = not_valid_reason(study, question["source"], m)
+        reason = not_valid_reason(study, question.source, m)
         for label in labels:
             if reason:
                 errors[(m, label)], why[(m, label)] = None, reason
@@ -168,14 +170,14 @@ def image_units(rows, split, materials, lighting_units=True):
 
 
 def image_errors(rows, question, to_float, unit, units, labels, metric, column=None):
-    """{(unit name, label): error or None} for one image question and metric over `units` of
-    kind `unit` (image_units): the metric's mean over the unit's lightings of the split (one
-    lighting for a lighting unit), oriented so that smaller is better; `column` overrides the
-    results.csv column (the all-pixel one)."""
+    """{(unit name, label): error or None} for one image question (a Question or its record:
+    its split) and metric over `units` of kind `unit` (image_units): the metric's mean over the
+    unit's lightings of the split (one lighting for a lighting unit), oriented so that smaller
+    is better; `column` overrides the results.csv column (the all-pixel one)."""
     col, values = column or metric, {}
     by_lighting = unit == "lighting"
     for r in rows:
-        if r["split"] == question["split"]:
+        if r["split"] == question.split:
             x = to_float(r.get(col))
             if x is not None:
                 key = (r["material"], r.get("object", ""))
@@ -194,15 +196,15 @@ def probe_error(s, question):
     excess over its bound, 0 when within; None without a number."""
     if s is None or s["error"] is None:
         return None
-    if question["kind"] == "max":
-        return max(0.0, s["error"] - float(question["tolerance"]))
+    if question.kind == "max":
+        return max(0.0, s["error"] - question.tolerance)
     return s["error"]
 
 
 def question_mode(question):
-    if question["source"] == "metrics":
+    if question.source == "metrics":
         return "per metric"
-    return "difference" if question["kind"] == "max" else "ratio"
+    return "difference" if question.kind == "max" else "ratio"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -231,26 +233,6 @@ def comparison_pairs(study):
     return pairs
 
 
-@dataclass
-class PairAnswer:
-    """A compared pair on an image question: a Comparison per metric of the judging set, then
-    (on the question's own pairs, not the all-pixel ones) its Verdict and what the two fits
-    are: training set, loss, role, models."""
-    fit: str
-    baseline: str
-    per_metric: list
-    verdict: "Verdict" = None
-    train: list = None
-    loss: str = None
-    role: str = None
-    model: str = None
-    baseline_model: str = None
-
-    def to_json(self):
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        return {k: v for k, v in out.items() if v is not None}
-
-
 def comparisons_of(pair):
     """The Comparisons a question's entry holds: an image pair's per metric, or a probe
     question's one."""
@@ -273,26 +255,6 @@ def direction(c):
     """+1: the fit's error is smaller; -1: larger; 0: tied."""
     neutral = 1.0 if c.mode == "ratio" else 0.0
     return (c.effect > neutral) - (c.effect < neutral)
-
-
-@dataclass
-class Verdict:
-    """A compared pair's verdict on an image question over the judging set: `kind` one of
-    WORDS' keys and `word` its words; the metrics on each side (the fit's error smaller, larger,
-    equal) and those of each side that are Holm-significant."""
-    kind: str
-    word: str
-    n: int
-    smaller: list
-    larger: list
-    equal: list
-    significant_smaller: list
-    significant_larger: list
-
-    def significant(self):
-        """The significant metrics on the verdict's own side (smaller or larger), else []."""
-        return {"smaller": self.significant_smaller,
-                "larger": self.significant_larger}.get(self.kind, [])
 
 
 def verdict(per_metric, alpha=ALPHA):
@@ -351,8 +313,7 @@ def across_losses(pairs, fit_of):
             continue
         kinds = set(by_loss.values())
         holds = len(kinds) == 1 and kinds <= {"smaller", "larger"}
-        out.append({"train": train, "role": role, "model": model, "baseline": base,
-                    "verdicts": by_loss, "holds": holds})
+        out.append(LossAgreement(train, role, model, base, by_loss, holds))
     return out
 
 
@@ -363,9 +324,10 @@ def across_losses(pairs, fit_of):
 def compare_study(study, rows, summary, to_float, materials=None, lighting_units=True,
                   image_only=False):
     """Every question's comparisons over `materials` (default: all the study's), Holm-corrected
-    per pair over the questions and metrics. Returns a list of question records; an image
-    question's record has `metrics` (the judging set), `judging` (why that set) and per pair
-    `per_metric`, `verdict`; `across_losses` where the study has several losses.
+    per pair over the questions and metrics. Returns a record per question:
+    ImageQuestionRecord (`metrics`: the judging set, `judging`: why that set; per pair its
+    comparison per metric and verdict; `across_losses` where the study has several losses) or
+    ProbeQuestionRecord.
     `lighting_units`: an image question of few materials is answered over its lightings
     (image_units); False keeps the materials as the units (the classes' answers).
     `image_only`: the image questions only (an object's answers: probes are per material).
@@ -377,36 +339,31 @@ def compare_study(study, rows, summary, to_float, materials=None, lighting_units
     records, tests = [], []
     objects = objects_of(rows)
     for q in questions_of(study, rows):
-        if image_only and q["source"] != "metrics":
+        if image_only and q.source != "metrics":
             continue
-        if q["source"] == "metrics":
+        if q.source == "metrics":
             rec = image_record(study, rows, q, to_float, materials, metrics, pairs,
                                lighting_units)
-            rec["judging"] = why
+            rec.judging = why
             if len(objects) > 1:
-                rec["pooled_objects"] = len(objects)
-            tests += [c for p in rec["comparisons"] for c in p.per_metric]
+                rec.pooled_objects = len(objects)
+            tests += [c for p in rec.comparisons for c in p.per_metric]
         else:
             rec = probe_record(study, rows, summary, q, to_float, materials, pairs)
-            tests += rec["comparisons"]
+            tests += rec.comparisons
         records.append(rec)
     holm_by_pair(tests)
     fit_of = {f["label"]: f for f in study["fits"]}
     for rec in records:
-        if rec["source"] != "metrics":
+        if rec.source != "metrics":
             continue
-        for p in rec["comparisons"]:
+        for p in rec.comparisons:
             p.verdict = verdict(p.per_metric)
             f, b = fit_of[p.fit], fit_of[p.baseline]
             p.train, p.loss, p.role = f["train"], f["loss"], f["role"]
             p.model, p.baseline_model = f["model"], b["model"]
-        rec["across_losses"] = across_losses(rec["comparisons"], fit_of)
+        rec.across_losses = across_losses(rec.comparisons, fit_of)
     return records
-
-
-def record_head(q, mode):
-    return {"name": q["name"], "question": q.get("question", q["name"]), "default": q["default"],
-            "source": q["source"], "split": q.get("split"), "mode": mode}
 
 
 def image_record(study, rows, q, to_float, materials, metrics, pairs, lighting_units=True):
@@ -414,39 +371,33 @@ def image_record(study, rows, q, to_float, materials, metrics, pairs, lighting_u
     the materials, or below MIN_MATERIALS_FOR_PAIRED_TEST of them their lightings, then `unit`
     is "lighting" in the record); where the results have all-pixel columns (measured
     references), the same pairs over every pixel beside."""
-    rec = dict(record_head(q, "per metric"), metrics=metrics, n_a=[], errors=[])
-    unit, units = image_units(rows, q["split"], materials, lighting_units)
+    rec = ImageQuestionRecord(q.name, q.question, q.default, q.split, metrics)
+    unit, units = image_units(rows, q.split, materials, lighting_units)
     names = [unit_name(*u) for u in units]
     if unit == "lighting":
-        rec["unit"] = unit
-        rec["unit_materials"] = len({u[:2] for u in units})
+        rec.unit = unit
+        rec.unit_materials = len({u[:2] for u in units})
     labels = [f["label"] for f in study["fits"]]
     errs, all_errs = {}, {}
     for m in metrics:
         errs[m] = image_errors(rows, q, to_float, unit, units, labels, m)
-        rec["errors"] += [error_entry(u, l, m, errs[m][(unit_name(*u), l)])
-                          for u in units for l in labels]
+        rec.errors += [unit_error(u, l, m, errs[m][(unit_name(*u), l)])
+                       for u in units for l in labels]
         col = f"{m}_all"
         if rows and col in rows[0]:
             all_errs[m] = image_errors(rows, q, to_float, unit, units, labels, m, column=col)
-    rec["comparisons"] = [p for p in (answer_pair(errs, names, l, b, metrics)
-                                      for l, b in pairs) if p is not None]
+    rec.comparisons = [p for p in (answer_pair(errs, names, l, b, metrics)
+                                   for l, b in pairs) if p is not None]
     if all_errs and any(all_errs[m] != errs[m] for m in all_errs):
-        rec["all_pixels"] = [p for p in (answer_pair(all_errs, names, l, b, list(all_errs))
-                                         for l, b in pairs) if p is not None]
+        rec.all_pixels = [p for p in (answer_pair(all_errs, names, l, b, list(all_errs))
+                                      for l, b in pairs) if p is not None]
     return rec
 
 
-def error_entry(u, label, metric, error):
-    """One unit's error as comparisons.json records it: the material, then its object and
-    lighting where the unit has them."""
-    out = {"material": u[0]}
-    if u[1]:
-        out["object"] = u[1]
-    if len(u) > 2:
-        out["lighting"] = u[2]
-    out.update(fit=label, metric=metric, error=error)
-    return out
+def unit_error(u, label, metric, error):
+    """One unit's error: the material, then its object and lighting where the unit has them."""
+    return UnitError(u[0], label, error, object=u[1] or None,
+                     lighting=u[2] if len(u) > 2 else None, metric=metric)
 
 
 def probe_record(study, rows, summary, q, to_float, materials, pairs):
@@ -455,12 +406,13 @@ def probe_record(study, rows, summary, q, to_float, materials, pairs):
     comparisons = [c for c in (compare_pair(errors, materials, l, b, mode) for l, b in pairs)
                    if c is not None]
     what = "error"
-    if q["kind"] == "max":
-        what = f"excess over the bound {float(q['tolerance']):g}"
+    if q.kind == "max":
+        what = f"excess over the bound {q.tolerance:g}"
     for c in comparisons:
         c.what = what
-    return dict(record_head(q, mode), n_a=sorted(set(why.values())), comparisons=comparisons,
-                errors=[{"material": m, "fit": l, "error": e} for (m, l), e in errors.items()])
+    return ProbeQuestionRecord(q.name, q.question, q.default, q.source, q.split, mode,
+                               sorted(set(why.values())), comparisons,
+                               [UnitError(m, l, e) for (m, l), e in errors.items()])
 
 
 def describe_pair(errors, units, label, base, metric):
@@ -486,7 +438,7 @@ def every_metric_cells(study, rows, records, to_float, columns):
     """({(fit, baseline, metric, question name): describe_pair's tuple or None}, metrics) for
     every metric column results.csv has (`columns`, in that order), over each image question's
     own units; (None, []) without an answered image question."""
-    image = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    image = [r for r in records if r.source == "metrics" and r.comparisons]
     if not image or not rows:
         return None, []
     materials = materials_of(study)
@@ -494,12 +446,12 @@ def every_metric_cells(study, rows, records, to_float, columns):
     metrics = [m for m in columns if m in rows[0]]
     cells = {}
     for rec in image:
-        unit, units = image_units(rows, rec["split"], materials)
+        unit, units = image_units(rows, rec.split, materials)
         names = [unit_name(*u) for u in units]
         for m in metrics:
             errs = image_errors(rows, rec, to_float, unit, units, labels, m)
-            for p in rec["comparisons"]:
-                cells[(p.fit, p.baseline, m, rec["name"])] = describe_pair(
+            for p in rec.comparisons:
+                cells[(p.fit, p.baseline, m, rec.name)] = describe_pair(
                     errs, names, p.fit, p.baseline, m)
     return cells, metrics
 
@@ -513,36 +465,6 @@ def objects_of(rows):
     """The objects the rows show, in their order; [""] (one object, named after nothing: the
     analytic sphere or plane, or a results.csv from before the column) when none is named."""
     return list(dict.fromkeys(r.get("object", "") for r in rows)) or [""]
-
-
-@dataclass
-class ObjectPair:
-    """One compared pair's verdict on one object's question: its Verdict and the lowest and
-    highest error ratio (fit / baseline) over the metrics."""
-    fit: str
-    baseline: str
-    verdict: Verdict
-    ratio_range: tuple = None
-
-
-@dataclass
-class QuestionAnswer:
-    """One image question over one object's units: `unit` "material" or "lighting", `units`
-    how many."""
-    name: str
-    question: str
-    split: str
-    unit: str
-    units: int
-    pairs: list = field(default_factory=list)
-
-
-@dataclass
-class ObjectAnswer:
-    """One object's answers: its materials (in the study's order) and its image questions."""
-    object: str
-    materials: list
-    questions: list = field(default_factory=list)
 
 
 def object_answers(study, rows, summary, to_float):
@@ -561,14 +483,23 @@ def object_answers(study, rows, summary, to_float):
                                 image_only=True)
         questions = []
         for rec in records:
-            n = len({e["material"] + "\0" + e.get("lighting", "") for e in rec["errors"]
-                     if e["error"] is not None})
-            questions.append(QuestionAnswer(
-                rec["name"], rec["question"], rec["split"], rec.get("unit", "material"), n,
-                [ObjectPair(p.fit, p.baseline, p.verdict, ratio_range(p.per_metric))
-                 for p in rec["comparisons"]]))
+            n = len({e.material + "\0" + (e.lighting or "") for e in rec.errors
+                     if e.error is not None})
+            questions.append(QuestionAnswer(rec.name, rec.question, rec.split, rec.unit, n,
+                                            pair_verdicts(rec)))
         out.append(ObjectAnswer(obj, materials, questions))
     return out
+
+
+def pair_verdicts(rec):
+    """[PairVerdict] of an image question's record: each pair's verdict and ratio range."""
+    return [PairVerdict(p.fit, p.baseline, p.verdict, ratio_range(p.per_metric))
+            for p in rec.comparisons]
+
+
+def class_question(rec):
+    """ClassQuestion of an image question's record over one material class."""
+    return ClassQuestion(rec.name, rec.question, pair_verdicts(rec))
 
 
 def to_jsonable(value):

@@ -12,11 +12,12 @@ python3-statsmodels); nothing here is a hand-written statistic. No file is read,
 import gc
 import math
 import warnings
-from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy import stats
 from statsmodels.stats.multitest import multipletests
+
+from report_records import Comparison
 
 BOOTSTRAP_RESAMPLES = 10000
 
@@ -68,40 +69,6 @@ def paired_test(x):
 def quartiles(values):
     q1, med, q3 = np.percentile(np.asarray(values, dtype=float), [25, 50, 75])
     return float(med), float(q1), float(q3)
-
-
-@dataclass
-class Comparison:
-    """A pair of fits compared over the units both have an error on: `effect` is the geometric
-    mean of baseline error / fit error (mode "ratio"; > 1: the fit is closer) or the mean of
-    baseline error - fit error ("difference"), `ci` its bootstrap 95% interval, `p` the paired
-    test's and `p_holm` its Holm-adjusted p (holm_by_pair); `metric` (an image question's) or
-    `what` (a probe question's error, in words) beside. comparisons.json records it by
-    to_json(), without the fields it does not have."""
-    fit: str
-    baseline: str
-    materials: list  # the units compared (materials, or "material, lighting")
-    n: int
-    mode: str
-    effect: float
-    ci: list
-    closer: int
-    farther: int
-    tied: int
-    p: float
-    test: str
-    fit_quartiles: tuple
-    baseline_quartiles: tuple
-    errors: dict
-    metric: str = None
-    what: str = None
-    p_holm: float = None
-    holm_family: int = None
-
-    def to_json(self):
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        return {k: v for k, v in out.items()
-                if v is not None or k not in ("metric", "what", "p_holm", "holm_family")}
 
 
 def compare_pair(errors, materials, label, base, mode):

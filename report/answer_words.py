@@ -64,14 +64,14 @@ def sentence(rec, c):
 
 
 def question_title(rec):
-    if rec["source"] == "metrics":
-        return f"{rec['question']} [judged under {len(rec['metrics'])} metrics]"
-    return rec["question"]
+    if rec.source == "metrics":
+        return f"{rec.question} [judged under {len(rec.metrics)} metrics]"
+    return rec.question
 
 
 def error_label(rec):
     """The y axis of a probe question's figure: what its error is."""
-    if rec["mode"] == "difference":
+    if rec.mode == "difference":
         return "excess over the bound"
     return "largest relative error"
 
@@ -86,7 +86,7 @@ def comparison_table(records, fmt):
             "closer", "test", "p", "p (Holm)", "verdict"]
     out = []
     for rec in records:
-        for pair in rec["comparisons"]:
+        for pair in rec.comparisons:
             per = comparisons_of(pair)
             word = pair.verdict.word if getattr(pair, "verdict", None) else ""
             out += [comparison_row(rec, c, fmt, word) for c in per]
@@ -104,7 +104,7 @@ def comparison_row(rec, c, fmt, word):
     # The same ratio the other way round, as issue 40's table and the findings read it.
     ratio = error_ratio(c)
     inverse = "" if ratio is None else f"{ratio:.3g}"
-    return [rec["name"], c.fit, c.baseline, metric, str(c.n), med(c.fit_quartiles),
+    return [rec.name, c.fit, c.baseline, metric, str(c.n), med(c.fit_quartiles),
             med(c.baseline_quartiles), effect, ci, inverse, f"{c.closer}/{c.n}",
             c.test, fmt_p(c.p), fmt_p(c.p_holm), word]
 
@@ -147,19 +147,20 @@ def pair_sentence(pair, unit="material"):
 
 
 def loss_sentence(a):
-    per = "; ".join(f"{loss}: {kind}" for loss, kind in a["verdicts"].items())
-    where = "floor fits" if a["role"] == "floor" else f"trained on {a['train']}"
-    if a["holds"]:
-        return (f"{a['model']} vs {a['baseline']} ({where}): the verdict holds across the "
-                f"{len(a['verdicts'])} losses ({per})")
-    return (f"{a['model']} vs {a['baseline']} ({where}): the verdict does not hold across "
+    """One LossAgreement in words."""
+    per = "; ".join(f"{loss}: {kind}" for loss, kind in a.verdicts.items())
+    where = "floor fits" if a.role == "floor" else f"trained on {a.train}"
+    if a.holds:
+        return (f"{a.model} vs {a.baseline} ({where}): the verdict holds across the "
+                f"{len(a.verdicts)} losses ({per})")
+    return (f"{a.model} vs {a.baseline} ({where}): the verdict does not hold across "
             f"losses ({per})")
 
 
 def all_pixels_text(rec, pair):
     """' [all pixels, extrapolated data included: smaller under 3 and larger under 5 of 8
     metrics]' beside a pair, where the measured references' all-pixel numbers differ."""
-    alls = {(a.fit, a.baseline): a for a in rec.get("all_pixels", [])}
+    alls = {(a.fit, a.baseline): a for a in rec.all_pixels or []}
     a = alls.get((pair.fit, pair.baseline))
     if a is None:
         return ""
@@ -176,24 +177,24 @@ def markdown_list(items):
 def answer_items(rec):
     """List items (depth, text) of one question: its title, then one sentence per comparison,
     then whether the verdicts hold across losses."""
-    items = [(0, f"**{question_title(rec)}**" + (" (default question)" if rec["default"] else ""))]
-    if rec["source"] == "metrics":
-        items.append((1, "Judged under " + names(rec["metrics"]) + ". " + rec["judging"]))
-        if rec.get("pooled_objects"):
-            items.append((1, f"Pooled over the {rec['pooled_objects']} objects (each material on "
+    items = [(0, f"**{question_title(rec)}**" + (" (default question)" if rec.default else ""))]
+    if rec.source == "metrics":
+        items.append((1, "Judged under " + names(rec.metrics) + ". " + rec.judging))
+        if rec.pooled_objects:
+            items.append((1, f"Pooled over the {rec.pooled_objects} objects (each material on "
                              "each object a unit); each object alone: \"Per object\" below"))
-        if rec.get("unit") == "lighting":
+        if rec.unit == "lighting":
             items.append((1, lighting_units_text(rec)))
-        items += [(1, f"{pair_sentence(p, rec.get('unit', 'material'))}."
-                      f"{all_pixels_text(rec, p)}") for p in rec["comparisons"]]
-        items += [(1, f"{loss_sentence(a)}.") for a in rec.get("across_losses", [])]
+        items += [(1, f"{pair_sentence(p, rec.unit)}."
+                      f"{all_pixels_text(rec, p)}") for p in rec.comparisons]
+        items += [(1, f"{loss_sentence(a)}.") for a in rec.across_losses]
     else:
-        if rec["n_a"] and not rec["comparisons"]:
-            return items + [(1, f"n/a: {rec['n_a'][0]}")]
-        items += [(1, f"{sentence(rec, c)}.") for c in rec["comparisons"]]
-        if rec["n_a"]:
-            items.append((1, f"n/a on some materials: {'; '.join(rec['n_a'])}"))
-    if not rec["comparisons"]:
+        if rec.n_a and not rec.comparisons:
+            return items + [(1, f"n/a: {rec.n_a[0]}")]
+        items += [(1, f"{sentence(rec, c)}.") for c in rec.comparisons]
+        if rec.n_a:
+            items.append((1, f"n/a on some materials: {'; '.join(rec.n_a)}"))
+    if not rec.comparisons:
         items.append((1, "no fit pair has numbers on this question"))
     return items
 
@@ -207,14 +208,14 @@ def lighting_units_text(rec):
     """What an image question answered over its lightings is about, said plainly: how many
     (material, lighting) units its pairs have (each pair is compared over the lightings of the
     split both its fits have: a fit trained on more lightings has more training units)."""
-    n = rec["unit_materials"]
-    ns = sorted({c.n for p in rec["comparisons"] for c in p.per_metric})
+    n = rec.unit_materials
+    ns = sorted({c.n for p in rec.comparisons for c in p.per_metric})
     count = "" if not ns else f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}-{ns[-1]}"
-    which = "test" if rec["split"] == "test" else "training"
+    which = "test" if rec.split == "test" else "training"
     # Pooled over several objects a unit's first part is a material on an object.
-    noun = "material-object pair" if rec.get("pooled_objects") else "material"
+    noun = "material-object pair" if rec.pooled_objects else "material"
     who = "this object" if n == 1 else f"these {n} {noun}s"
-    lights = ("other lights" if rec["split"] == "test" else
+    lights = ("other lights" if rec.split == "test" else
               f"the lights {'it was' if n == 1 else 'they were'} fitted to")
     return (f"Units: the {which} lightings ({count} per compared pair). With {n} "
             f"{noun}{'s' if n > 1 else ''} (fewer than {MIN_MATERIALS_FOR_PAIRED_TEST}, too "
@@ -225,8 +226,8 @@ def lighting_units_text(rec):
 
 def method_text(records):
     """How the answers are computed, in one paragraph (summary.md and index.html)."""
-    tests = sum(len(comparisons_of(p)) for r in records for p in r["comparisons"])
-    few = any(r.get("unit") == "lighting" for r in records)
+    tests = sum(len(comparisons_of(p)) for r in records for p in r.comparisons)
+    few = any(r.unit == "lighting" for r in records)
     return ("Every fit is compared with the baseline fit of its training set and loss over the "
             "materials, from each material's continuous error (an image metric's mean over the "
             "lightings of the split; a probe's largest error over the question's quantities). "
@@ -263,7 +264,7 @@ def to_json(records, extra=None):
                                  f"one side; metric-dependent: both sides have a metric with "
                                  f"Holm p < {ALPHA:g}; mixed: otherwise",
                       "judging_rule": judging.RULE_TEXT},
-           "judging": next((r["metrics"] for r in records if r["source"] == "metrics"), []),
+           "judging": next((r.metrics for r in records if r.source == "metrics"), []),
            "questions": records}
     out.update(extra or {})
     return out
@@ -279,15 +280,15 @@ def every_metric_table(records, cells, metrics):
     mean difference for PSNR) and on how many units the fit is closer, per image question
     (`cells`: answer_rules.every_metric_cells). No test and no verdict: it shows how far the
     judging set's agreement reaches."""
-    image = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    image = [r for r in records if r.source == "metrics" and r.comparisons]
     if cells is None:
         return None
-    judged = set(image[0]["metrics"])
-    pairs = list(dict.fromkeys((p.fit, p.baseline) for r in image for p in r["comparisons"]))
+    judged = set(image[0].metrics)
+    pairs = list(dict.fromkeys((p.fit, p.baseline) for r in image for p in r.comparisons))
     head = ["fit", "baseline", "metric", "in the judging set"] + [
-        f"{r['name']}: ratio, closer" for r in image]
+        f"{r.name}: ratio, closer" for r in image]
     out = [[f, b, judging.metric_name(m), "yes" if m in judged else ""]
-           + [describe(cells.get((f, b, m, r["name"]))) for r in image]
+           + [describe(cells.get((f, b, m, r.name))) for r in image]
            for f, b in pairs for m in metrics]
     return head, out
 

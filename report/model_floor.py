@@ -23,6 +23,7 @@ import numpy as np
 
 from answer_rules import metric_error
 from answer_stats import bootstrap_ci
+from report_records import FloorEntry, FloorRatio
 from report_util import materials_of
 
 
@@ -50,7 +51,8 @@ def floor_lightings(fit, floor, split):
 def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
     """Per material, error(label) / error(floor), each the mean of the metric over
     `lightings` (as every question's material error is: answer_rules.image_errors); then
-    the geometric mean over materials and its bootstrap 95% CI. None without a material."""
+    the geometric mean over materials and its bootstrap 95% CI: a FloorRatio, None without a
+    material."""
     logs, used = [], []
     for mat in materials:
         pairs = [(errs.get((mat, label, l), {}).get(metric),
@@ -63,9 +65,9 @@ def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
     if not logs:
         return None
     lo, hi = bootstrap_ci(logs)
-    return {"ratio": math.exp(float(np.mean(logs))), "n": len(logs),
-            "ci": [None, None] if lo is None else [math.exp(lo), math.exp(hi)],
-            "per_material": {m: math.exp(x) for m, x in zip(used, logs)}}
+    return FloorRatio(math.exp(float(np.mean(logs))), len(logs),
+                      [None, None] if lo is None else [math.exp(lo), math.exp(hi)],
+                      {m: math.exp(x) for m, x in zip(used, logs)})
 
 
 def floor_fits_of(study, fit):
@@ -78,26 +80,25 @@ def floor_fits_of(study, fit):
 
 
 def model_floors(study, rows, records, to_float):
-    """{question name: [entry per (fit, floor fit)]}: each entry's lightings and, per metric,
-    the ratio over the floor with its CI. Empty without floor fits."""
+    """{question name: [FloorEntry per (fit, floor fit)]}: each entry's lightings and, per
+    metric, the ratio over the floor with its CI. Empty without floor fits."""
     if not study.get("floor") or not any(f["role"] == "floor" for f in study["fits"]):
         return {}
-    image = [r for r in records if r["source"] == "metrics"]
-    metrics = image[0]["metrics"] if image else []
+    image = [r for r in records if r.source == "metrics"]
+    metrics = image[0].metrics if image else []
     errs = lighting_errors(rows, metrics, to_float)
     materials = materials_of(study)
     out = {}
     for rec in image:
         entries = []
         for fit in (f for f in study["fits"] if f["role"] in ("train", "brdf")):
-            lightings = floor_lightings(fit, study["floor"], rec["split"])
+            lightings = floor_lightings(fit, study["floor"], rec.split)
             for fl in floor_fits_of(study, fit) if lightings else []:
                 per = {m: ratio_over_floor(errs, materials, fit["label"], fl["label"],
                                            lightings, m) for m in metrics}
                 per = {m: v for m, v in per.items() if v is not None}
                 if per:
-                    entries.append({"fit": fit["label"], "floor": fl["label"],
-                                    "role": fit["role"], "lightings": lightings,
-                                    "metrics": per})
-        out[rec["name"]] = entries
+                    entries.append(FloorEntry(fit["label"], fl["label"], fit["role"], lightings,
+                                              per))
+        out[rec.name] = entries
     return out

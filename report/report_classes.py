@@ -11,15 +11,16 @@ read with the other inputs (report_inputs.classifications), the words are sectio
 """
 
 import answer_rules
+from report_records import ClassAnswers, MaterialClass
 from report_util import materials_of
 
 MIN_MATERIALS = 4
 
 
 def class_answers(study, rows, summary, to_float, classified):
-    """{"classes": [{scheme, source, class, materials, questions: [{name, pairs}]}],
-    "skipped": [why]}: the image questions' verdicts per class of >= MIN_MATERIALS.
-    `classified`: classifications(), read with the report's other inputs."""
+    """ClassAnswers: the image questions' verdicts per class of >= MIN_MATERIALS (a
+    MaterialClass each), and why a classification or class is left out. `classified`:
+    report_inputs.classifications(), read with the report's other inputs."""
     schemes, skipped = classified[0], list(classified[1])
     materials = materials_of(study)
     out = []
@@ -38,14 +39,7 @@ def class_answers(study, rows, summary, to_float, classified):
             if len(ms) < MIN_MATERIALS:
                 continue
             records = answer_rules.compare_study(study, rows, summary, to_float, materials=ms)
-            out.append({"scheme": scheme, "source": source, "class": cls, "materials": ms,
-                        "questions": [class_question(r) for r in records
-                                      if r["source"] == "metrics"]})
-    return {"classes": out, "skipped": skipped}
-
-
-def class_question(rec):
-    return {"name": rec["name"], "question": rec["question"],
-            "pairs": [{"fit": p.fit, "baseline": p.baseline, "verdict": p.verdict,
-                       "ratio_range": answer_rules.ratio_range(p.per_metric)}
-                      for p in rec["comparisons"]]}
+            out.append(MaterialClass(scheme, source, cls, ms,
+                                     [answer_rules.class_question(r) for r in records
+                                      if r.source == "metrics"]))
+    return ClassAnswers(out, skipped)

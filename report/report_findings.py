@@ -9,6 +9,7 @@ import math
 import judging
 import answer_rules
 from answer_words import fmt_range
+from report_records import PairAnswer
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
 from report_figures import (FONT_PT, OKABE_ITO, PAGE_IN, legend_layout, plt, save_figure,
@@ -39,7 +40,7 @@ def column(pair, fit_of, several_losses):
 def cell(pair):
     """The verdict in a few words: 'smaller under all 8 metrics; 0.52-0.88x; 8/8 sig.'; a
     probe question's single comparison: '2.3x smaller; sig.'."""
-    if isinstance(pair, answer_rules.PairAnswer):
+    if isinstance(pair, PairAnswer):
         v = pair.verdict
         rng = answer_rules.ratio_range(pair.per_metric)
         r = "" if rng is None else f"; {fmt_range(rng, 2)}"
@@ -69,15 +70,15 @@ def findings_tables(study, records):
     several = len(study.get("losses") or []) > 1
     sets = {}
     for rec in records:
-        for p in rec["comparisons"]:
+        for p in rec.comparisons:
             col = column(p, fit_of, several)
-            sets.setdefault(set_key(p, fit_of), {}).setdefault(rec["name"], {})[col] = cell(p)
+            sets.setdefault(set_key(p, fit_of), {}).setdefault(rec.name, {})[col] = cell(p)
     out = []
     for key, by_q in sets.items():
         cols = []
         for cells in by_q.values():
             cols += [c for c in cells if c not in cols]
-        rows = [[next(r["question"] for r in records if r["name"] == q)]
+        rows = [[next(r.question for r in records if r.name == q)]
                 + [cells.get(c, "") for c in cols] for q, cells in by_q.items()]
         out.append((set_title(key), (["question"] + cols, rows)))
     losses = losses_table(records)
@@ -89,13 +90,13 @@ def losses_table(records):
     pair (a column each), whether the verdict holds across the study's losses, else each
     loss's verdict."""
     cells = {}
-    for rec in (r for r in records if r["source"] == "metrics"):
-        for a in rec.get("across_losses", []):
-            where = "floor fits" if a["role"] == "floor" else f"trained on {a['train']}"
-            verdicts = ", ".join(f"{loss} {kind}" for loss, kind in a["verdicts"].items())
-            cells.setdefault(f"{rec['question']} ({where})", {})[
-                f"{a['model']} vs {a['baseline']}"] = (
-                f"holds: {next(iter(a['verdicts'].values()))}" if a["holds"]
+    for rec in (r for r in records if r.source == "metrics"):
+        for a in rec.across_losses:
+            where = "floor fits" if a.role == "floor" else f"trained on {a.train}"
+            verdicts = ", ".join(f"{loss} {kind}" for loss, kind in a.verdicts.items())
+            cells.setdefault(f"{rec.question} ({where})", {})[
+                f"{a.model} vs {a.baseline}"] = (
+                f"holds: {next(iter(a.verdicts.values()))}" if a.holds
                 else f"differs: {verdicts}")
     cols = list(dict.fromkeys(c for by in cells.values() for c in by))
     if not cols:
@@ -129,26 +130,26 @@ def findings_markdown(tables):
 def forest_rows(records):
     """[(pair label, {question name: [(metric, ratio, lo, hi)]})] in reading order."""
     rows = {}
-    for rec in (r for r in records if r["source"] == "metrics"):
-        for p in rec["comparisons"]:
+    for rec in (r for r in records if r.source == "metrics"):
+        for p in rec.comparisons:
             label = f"{p.fit} vs {p.baseline}"
             pts = []
             for c in p.per_metric:
                 r = answer_rules.error_ratio(c)
                 if r is not None:
                     pts.append((c.metric, r, *answer_rules.error_ratio_ci(c)))
-            rows.setdefault(label, {})[rec["name"]] = pts
+            rows.setdefault(label, {})[rec.name] = pts
     return list(rows.items())
 
 
 def forest_plot(records, fig_dir, manifest):
     """Log error ratio (fit / baseline) with its 95% CI: a row per pair, a marker per metric,
     a panel per image question."""
-    questions = [r for r in records if r["source"] == "metrics" and r["comparisons"]]
+    questions = [r for r in records if r.source == "metrics" and r.comparisons]
     rows = forest_rows(records)
     if not questions or not rows:
         return
-    metrics = questions[0]["metrics"]
+    metrics = questions[0].metrics
     names = [judging.metric_name(m) for m in metrics]
     # "fit vs" over "baseline": two short lines instead of one that takes half the page.
     labels = [pair_label(label) for label, _ in rows]
@@ -164,10 +165,10 @@ def forest_plot(records, fig_dir, manifest):
         x0 = label_in + k * (panel_w + 0.15)
         ax = fig.add_axes([x0 / PAGE_IN, bottom_in / height, (panel_w - 0.05) / PAGE_IN,
                            axes_in / height])
-        draw_panel(ax, rows, rec["name"], metrics)
+        draw_panel(ax, rows, rec.name, metrics)
         ax.set_yticks(range(len(rows)))
         ax.set_yticklabels(labels if k == 0 else [""] * len(rows))
-        ax.set_title(wrap_to_width(f"{rec['name']}: {rec['split']} lightings", panel_w - 0.1,
+        ax.set_title(wrap_to_width(f"{rec.name}: {rec.split} lightings", panel_w - 0.1,
                                    FONT_PT), fontsize=FONT_PT, pad=3)
         ax.set_xlabel("error ratio fit / baseline (log)")
     handles = [plt.Line2D([], [], marker=MARKERS[j % len(MARKERS)], linestyle="",
@@ -179,7 +180,7 @@ def forest_plot(records, fig_dir, manifest):
                 "closer) under every metric of the judging set, with its bootstrap 95% CI over "
                 "materials" + (" (over lightings for a question of fewer than "
                                f"{answer_rules.MIN_MATERIALS_FOR_PAIRED_TEST} materials)"
-                               if any(r.get("unit") == "lighting" for r in questions) else "")
+                               if any(r.unit == "lighting" for r in questions) else "")
                 + "; one panel per image question",
                 {"kind": "forest"})
 

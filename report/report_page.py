@@ -237,12 +237,12 @@ def answers_html(answers, figures, data_floor_lines=()):
     for rec in comparisons:
         items = answer_words.answer_items(rec)
         title = answer_words.question_title(rec)
-        out.append(f"<h3 id='{anchor('a', rec['name'])}'>{esc(title)}"
-                   + (" <span class='default'>(default question)</span>" if rec["default"] else "")
+        out.append(f"<h3 id='{anchor('a', rec.name)}'>{esc(title)}"
+                   + (" <span class='default'>(default question)</span>" if rec.default else "")
                    + "</h3>")
         out += folded(f"{len(items) - 1} sentences", ["<ul class='answers'>"]
                       + [f"<li>{esc(text)}</li>" for _, text in items[1:]] + ["</ul>"])
-        f = by_question.get(rec["name"])
+        f = by_question.get(rec.name)
         if f is not None:
             out.append(figure_html(f))
     for key, title, items in answers.sections():
@@ -374,7 +374,7 @@ def within_tolerance_html(study, summary, labels, comparisons):
     """The tolerance matrix, then why the image questions judge by their metric: each metric
     against human judgments."""
     hcols, hrows = judging.human_agreement_table(
-        next((r["metrics"] for r in comparisons if r["source"] == "metrics"), []))
+        next((r.metrics for r in comparisons if r.source == "metrics"), []))
     return ["<h2 id='verdicts'>Within tolerance</h2><p>Secondary: materials whose numbers "
             "are within the study's fixed tolerance, out of those judged, per question and "
             "fit. Every number is computed from the result files (rules: docs/studies.md). A "

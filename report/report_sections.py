@@ -67,7 +67,7 @@ class AnswerSections:
         """The forest plot, then one region figure per image question."""
         report_findings.forest_plot(self.records, fig_dir, manifest)
         if self.regions:
-            for rec in (r for r in self.records if r["source"] == "metrics" and r["comparisons"]):
+            for rec in (r for r in self.records if r.source == "metrics" and r.comparisons):
                 report_metric_figures.region_figure(self.regions, rec, labels, fig_dir, manifest)
 
     def json(self):

@@ -10,7 +10,7 @@ from report_util import labels_of, materials_of, md_escape
 
 
 def judged_metrics(comparisons):
-    return next((r["metrics"] for r in comparisons if r["source"] == "metrics"), [])
+    return next((r.metrics for r in comparisons if r.source == "metrics"), [])
 
 
 def not_valid_reasons(summary, name):

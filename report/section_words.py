@@ -9,13 +9,14 @@ from report_regions import extra_error
 
 
 def floor_sentence(e):
-    ratios = [v["ratio"] for v in e["metrics"].values()]
-    los = [v["ci"][0] for v in e["metrics"].values() if v["ci"][0] is not None]
-    his = [v["ci"][1] for v in e["metrics"].values() if v["ci"][1] is not None]
+    """One FloorEntry in words: its ratios over the floor and their CIs."""
+    ratios = [v.ratio for v in e.metrics.values()]
+    los = [v.ci[0] for v in e.metrics.values() if v.ci[0] is not None]
+    his = [v.ci[1] for v in e.metrics.values() if v.ci[1] is not None]
     ci = f"; 95% CIs from {min(los):.3g} to {max(his):.3g}" if los and his else ""
-    above = sum(1 for v in e["metrics"].values() if v["ci"][0] is not None and v["ci"][0] > 1)
-    what = f"{e['fit']} (the BRDF-space fit)" if e["role"] == "brdf" else e["fit"]
-    return (f"{what}'s error over its floor {e['floor']} on {', '.join(e['lightings'])}: "
+    above = sum(1 for v in e.metrics.values() if v.ci[0] is not None and v.ci[0] > 1)
+    what = f"{e.fit} (the BRDF-space fit)" if e.role == "brdf" else e.fit
+    return (f"{what}'s error over its floor {e.floor} on {', '.join(e.lightings)}: "
             f"{fmt_range((min(ratios), max(ratios)))} over the {len(ratios)} metrics{ci}; the CI "
             f"lies above 1 under {above} of {len(ratios)}")
 
@@ -24,16 +25,16 @@ def ordering_sentences(records):
     """Where the floors order a model pair otherwise than a training set does: a sentence per
     (question, pair). The floors' verdict is the floor pair's on the training question (the
     floor fits train on every floor lighting)."""
-    train_q = next((r for r in records if r["source"] == "metrics" and r["split"] == "train"),
+    train_q = next((r for r in records if r.source == "metrics" and r.split == "train"),
                    None)
     if train_q is None:
         return {}
-    floors = {(p.model, p.baseline_model, p.loss): p for p in train_q["comparisons"]
+    floors = {(p.model, p.baseline_model, p.loss): p for p in train_q.comparisons
               if p.role == "floor"}
     out = {}
-    for rec in (r for r in records if r["source"] == "metrics"):
+    for rec in (r for r in records if r.source == "metrics"):
         lines = []
-        for p in (p for p in rec["comparisons"] if p.role == "train"):
+        for p in (p for p in rec.comparisons if p.role == "train"):
             fp = floors.get((p.model, p.baseline_model, p.loss))
             if fp is None or fp.verdict.kind == p.verdict.kind:
                 continue
@@ -41,7 +42,7 @@ def ordering_sentences(records):
                          f"than one training set does: {fp.fit} vs {fp.baseline} is "
                          f"'{fp.verdict.word}', {p.fit} vs {p.baseline} on this "
                          f"question is '{p.verdict.word}'")
-        out[rec["name"]] = lines
+        out[rec.name] = lines
     return out
 
 
@@ -52,13 +53,13 @@ def model_floor_lines(floors, records):
         return []
     order = ordering_sentences(records)
     lines = []
-    for rec in (r for r in records if r["source"] == "metrics"):
-        entries = floors.get(rec["name"], [])
-        if not entries and not order.get(rec["name"]):
+    for rec in (r for r in records if r.source == "metrics"):
+        entries = floors.get(rec.name, [])
+        if not entries and not order.get(rec.name):
             continue
-        lines.append((0, f"**{rec['question']}**"))
+        lines.append((0, f"**{rec.question}**"))
         lines += [(1, f"{floor_sentence(e)}.") for e in entries]
-        lines += [(1, f"{s}.") for s in order.get(rec["name"], [])]
+        lines += [(1, f"{s}.") for s in order.get(rec.name, [])]
     return lines
 
 
@@ -68,10 +69,10 @@ def model_floor_table(floors):
     out = []
     for q, entries in floors.items():
         for e in entries:
-            for m, v in e["metrics"].items():
-                lo, hi = v["ci"]
-                out.append([q, e["fit"], e["floor"], ", ".join(e["lightings"]),
-                            judging.metric_name(m), str(v["n"]), f"{v['ratio']:.3g}x",
+            for m, v in e.metrics.items():
+                lo, hi = v.ci
+                out.append([q, e.fit, e.floor, ", ".join(e.lightings),
+                            judging.metric_name(m), str(v.n), f"{v.ratio:.3g}x",
                             "" if lo is None else f"{lo:.3g}-{hi:.3g}"])
     return cols, out
 
@@ -95,9 +96,9 @@ def region_lines(means, records):
     if means is None:
         return []
     lines = []
-    for rec in (r for r in records if r["source"] == "metrics" and r["comparisons"]):
-        lines.append((0, f"**{rec['question']}**"))
-        lines += [(1, f"{region_sentence(means, rec['split'], p)}.") for p in rec["comparisons"]]
+    for rec in (r for r in records if r.source == "metrics" and r.comparisons):
+        lines.append((0, f"**{rec.question}**"))
+        lines += [(1, f"{region_sentence(means, rec.split, p)}.") for p in rec.comparisons]
     return lines
 
 
@@ -110,19 +111,19 @@ def region_table(means):
 
 
 def class_lines(answers):
-    """List items (depth, text): per class, each image question's verdict per pair; then why
-    classes are left out."""
+    """List items (depth, text) of report_classes' ClassAnswers: per class, each image
+    question's verdict per pair; then why classes are left out."""
     lines = []
-    for c in answers["classes"]:
-        lines.append((0, f"**{c['class']}** ({c['scheme']}; {len(c['materials'])} materials: "
-                         f"{', '.join(c['materials'])})"))
-        for q in c["questions"]:
-            lines.append((1, q["question"]))
-            for p in q["pairs"]:
-                rng = p["ratio_range"]
+    for c in answers.classes:
+        lines.append((0, f"**{c.class_name}** ({c.scheme}; {len(c.materials)} materials: "
+                         f"{', '.join(c.materials)})"))
+        for q in c.questions:
+            lines.append((1, q.question))
+            for p in q.pairs:
+                rng = p.ratio_range
                 r = "" if rng is None else f", {fmt_range(rng)}"
-                lines.append((2, f"{p['fit']} vs {p['baseline']}: {p['verdict'].word}{r}"))
-    lines += [(0, f"Left out: {s}.") for s in answers["skipped"]]
+                lines.append((2, f"{p.fit} vs {p.baseline}: {p.verdict.word}{r}"))
+    lines += [(0, f"Left out: {s}.") for s in answers.skipped]
     return lines
 
 

@@ -16,11 +16,12 @@ from results_csv import METRIC_COLUMNS
 @dataclasses.dataclass(frozen=True)
 class Answers:
     study: dict
-    records: list             # one per question (answer_rules.compare_study)
-    model_floors: list        # model_floor.model_floors
+    # The records are report_records' dataclasses.
+    records: list             # ImageQuestionRecord or ProbeQuestionRecord per question
+    model_floors: dict        # model_floor.model_floors: {question name: [FloorEntry]}
     regions: dict             # report_regions.region_means: {(split, lighting, region, fit): ..}
-    objects: list             # answer_rules.ObjectAnswer per question, where several objects
-    classes: dict             # report_classes.class_answers
+    objects: list             # ObjectAnswer per object, where the rows show several
+    classes: object           # report_classes.class_answers: ClassAnswers
     every_metric_cells: tuple  # answer_rules.every_metric_cells: (cells, metrics)
 
 

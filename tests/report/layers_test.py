@@ -3,7 +3,9 @@
 compute the answers (the rules, statistics, judging set, model's floor, regions, classes,
 verdicts, the data floor and the study's answer set) import no file reader and no writer of
 words, tables, figures or pages, and open no file; every metric the report's own tables and
-words name is one of results.csv's metric columns (report/results_csv.py, the one list).
+words name is one of results.csv's metric columns (report/results_csv.py, the one list); and the
+fit/baseline ratio is made from a comparison's effect in answer_rules only (no other module
+divides by an effect or its CI).
 
     layers_test.py REPORT_DIR      exit 0 pass, 1 fail
 """
@@ -49,9 +51,31 @@ def calls(tree):
     return out
 
 
+# The one fit/baseline ratio (answer_rules.error_ratio, error_ratio_ci): a comparison's effect
+# (baseline / fit) and its interval are turned round there and nowhere else.
+RATIO_HOME = {"answer_rules.py", "answer_stats.py"}
+
+
+def inverts_effect(tree):
+    """Line numbers where a division's divisor reads a comparison's `effect` or `ci`."""
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+            if any(isinstance(n, ast.Attribute) and n.attr in ("effect", "ci")
+                   for n in ast.walk(node.right)):
+                out.append(node.lineno)
+    return out
+
+
 def main(argv):
     report = argv[1]
     failures = []
+    for name in sorted(os.listdir(report)):
+        if name.endswith(".py") and name not in RATIO_HOME:
+            tree = ast.parse(open(os.path.join(report, name), encoding="utf-8").read())
+            for line in inverts_effect(tree):
+                failures.append(f"report/{name}:{line} divides by a comparison's effect or CI "
+                                "(the fit/baseline ratio is answer_rules.error_ratio's)")
     for name in COMPUTE:
         tree = ast.parse(open(os.path.join(report, name), encoding="utf-8").read())
         bad = sorted(imports(tree) & FORBIDDEN)
@@ -74,7 +98,8 @@ def main(argv):
         print("FAILED: " + f)
     if not failures:
         print(f"PASS: {', '.join(COMPUTE)} import no reader or writer and open no file; every "
-              "metric named is a results.csv column")
+              "metric named is a results.csv column; no module but answer_rules turns a "
+              "comparison's effect round")
     return 1 if failures else 0
 
 
