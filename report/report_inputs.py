@@ -239,7 +239,9 @@ STUDY = Object({
     "probes": Array(STRING),
     "measured": Array(Object({"materials": Array(STRING), "folder": Optional(STRING),
                               "present": Written(BOOLEAN), "lightings": Written(Array(STRING)),
-                              "scenes": Written(Array(STRING)), "samples": Written(NUMBER)})),
+                              "scenes": Written(Array(STRING)), "samples": Written(NUMBER),
+                              # [[measured]] object = "...": the mesh its materials are on
+                              "object": Written(STRING)})),
     "verdicts": Map(Object({
         "source": STRING,
         "kind": Field(STRING, one_of=VERDICT_KINDS),
