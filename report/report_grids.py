@@ -8,8 +8,9 @@ import types
 
 import numpy as np
 
-from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, linear_to_srgb, matplotlib, plt,
-                            read_rgb, save_figure, srgb_to_linear, wrap_to_width)
+from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, linear_to_srgb, matplotlib,
+                            opaque_rgba, plt, read_rgb, save_figure, srgb_to_linear,
+                            wrap_to_width)
 
 
 def row_exposure(reference_rgb):
@@ -292,7 +293,7 @@ def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, 
             img = cropped(img)
         else:
             img = exposed(cropped(img), stops)
-        tiles.imshow(img, interpolation="nearest", aspect="auto",
+        tiles.imshow(opaque_rgba(img), interpolation="nearest", aspect="auto",
                      extent=(x0, x0 + g.cell_w, y0, y0 + g.cell_h))
     split = next((evals[l].get(light, {}).get("split") for l in labels
                   if evals[l].get(light, {}).get("split")), "")
