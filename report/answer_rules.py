@@ -1,8 +1,9 @@
 """The rules that decide the study's comparative answers (docs/studies.md, "Comparative answers"
 and "Answers under a set of metrics"): its questions (one image question per split, answered under
 every metric of the judging set; then every probe verdict), each unit's continuous error per fit,
-the pairs compared, the one ratio convention (error_ratio: fit error / baseline error, < 1: the fit
-is closer), and a pair's verdict over the metrics:
+the pairs compared, the one ratio convention (fit error / baseline error, < 1: the fit is closer:
+error_ratio from a comparison, geometric_mean_ratio over units without one), and a pair's verdict
+over the metrics:
 
 - "smaller under all N metrics" / "larger under all N metrics": every metric's ratio points the
   same way (how many of them are Holm-significant is said beside it);
@@ -48,8 +49,16 @@ SIMILARITY_METRICS = {"ssim", "ms_ssim"}
 HIGHER_IS_BETTER_DB = {"psnr"}
 
 # The image questions' splits: one question per split, answered under every metric of the judging
-# set (compare_study).
+# set (compare_study); and each one's name and words where no metric verdict of the study names it.
 IMAGE_SPLITS = ("train", "test")
+DEFAULT_IMAGE_QUESTIONS = {
+    "train": ("image", "How close can the model get to a reference image (training lighting)?"),
+    "test": ("transfer", "Do fitted parameters carry over to new lighting (image error under "
+                         "test lightings)?")}
+
+# The probe questions' reading order after the image questions: BRDF space first (on measured
+# references it is where the lobe and the Fresnel rise are measured), then any other source.
+PROBE_ORDER = {"brdf": 2, "highlight": 3, "fresnel": 4, "energy": 5}
 
 
 # Probes that do not measure what they claim on some kinds of reference: (source, kind) -> why.
@@ -90,10 +99,6 @@ def questions_of(study, rows):
                     float(v["tolerance"]))
            for name, v in study["verdicts"].items() if v["source"] != "metrics"]
     splits = {r["split"] for r in rows}
-    defaults = {"train": ("image", "How close can the model get to a reference image "
-                                   "(training lighting)?"),
-                "test": ("transfer", "Do fitted parameters carry over to new lighting (image "
-                                     "error under test lightings)?")}
     image = []
     for split in IMAGE_SPLITS:
         named = [n for n, v in study["verdicts"].items()
@@ -101,12 +106,11 @@ def questions_of(study, rows):
         if named or split in splits:
             # The question in words of no metric (a verdict's text may name the metric its
             # tolerance is on; the answer is under every metric of the judging set).
-            name, text = named[0] if named else defaults[split][0], defaults[split][1]
+            default_name, text = DEFAULT_IMAGE_QUESTIONS[split]
+            name = named[0] if named else default_name
             image.append(Question(name, text, "metrics", "max", not named, split))
-    # Reading order: image closeness, new lighting, then the phenomena (BRDF space first: on
-    # measured references it is where the lobe and the Fresnel rise are measured).
-    rank = {"brdf": 2, "highlight": 3, "fresnel": 4, "energy": 5}
-    return image + sorted(out, key=lambda q: rank.get(q.source, 6))
+    # Reading order: image closeness, new lighting, then the phenomena (PROBE_ORDER).
+    return image + sorted(out, key=lambda q: PROBE_ORDER.get(q.source, 6))
 
 
 def metric_mode(metric):
@@ -132,8 +136,7 @@ def probe_errors(study, summary, question, materials):
     a probe (energy) becomes the excess over its bound, 0 when within."""
     errors, why = {}, {}
     labels = [f["label"] for f in study["fits"]]
-    judged = {(s["material"], s["fit"]): s for s in summary
-              if s["phenomenon"] == question.name}
+    judged = {(s.material, s.fit): s for s in summary if s.phenomenon == question.name}
     for m in materials:
         reason = not_valid_reason(study, question.source, m)
         for label in labels:
@@ -192,13 +195,14 @@ def image_errors(rows, question, to_float, unit, units, labels, metric, column=N
 
 
 def probe_error(s, question):
-    """A probe verdict's error on one material: the worst quantity's; for a `max` verdict the
-    excess over its bound, 0 when within; None without a number."""
-    if s is None or s["error"] is None:
+    """A probe verdict's error on one material (`s`: its ToleranceVerdict): the worst
+    quantity's; for a `max` verdict the excess over its bound, 0 when within; None without a
+    number."""
+    if s is None or s.error is None:
         return None
     if question.kind == "max":
-        return max(0.0, s["error"] - question.tolerance)
-    return s["error"]
+        return max(0.0, s.error - question.tolerance)
+    return s.error
 
 
 def question_mode(question):
@@ -289,6 +293,17 @@ def error_ratio_ci(c):
     if c.mode != "ratio" or lo is None:
         return None, None
     return 1 / hi, 1 / lo
+
+
+def log_error_ratio(fit_error, base_error):
+    """log(fit error / baseline error) of one unit: < 0 where the fit is closer."""
+    return math.log(fit_error / base_error)
+
+
+def geometric_mean_ratio(log_ratios):
+    """The fit/baseline ratio over units without a comparison (the every-metric table, the
+    model's floor): the geometric mean of their error ratios, from log_error_ratio's logs."""
+    return math.exp(float(np.mean(log_ratios)))
 
 
 def ratio_range(per_metric):
@@ -429,8 +444,8 @@ def describe_pair(errors, units, label, base, metric):
         return None
     closer = sum(x < y for x, y in zip(a, b))
     if metric_mode(metric) == "ratio" and min(a) > 0 and min(b) > 0:
-        return (math.exp(sum(math.log(x / y) for x, y in zip(a, b)) / len(a)), "ratio", closer,
-                len(a))
+        return (geometric_mean_ratio([log_error_ratio(x, y) for x, y in zip(a, b)]), "ratio",
+                closer, len(a))
     return sum(x - y for x, y in zip(a, b)) / len(a), "difference", closer, len(a)
 
 

@@ -35,6 +35,8 @@ import math
 import numpy as np
 from scipy import sparse
 
+from report_records import DataFloor, DataFloorDecoding, DataFloorFit, DataFloorMaterial
+
 H_BINS, D_BINS = 32, 16
 LAMBDAS = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
 RELATIVE_EPSILON = 0.01  # metrics::PixelMetricParameters::relative_epsilon
@@ -51,23 +53,22 @@ def srgb_oetf(x):
 def redecode(values, decoded_from, decoding):
     """`values` decoded as a fit with encoding = "fit" chose (fit/src/encoding_search.cpp,
     Redecode): back to the stored values by the import's decoding (sRGB or linear), then decoded
-    by `decoding` ({"chosen": "srgb" | "linear" | "gamma", "gamma": g}); None keeps them."""
+    by `decoding` (a DataFloorDecoding: "srgb", "linear" or "gamma" g); None keeps them."""
     if decoding is None:
         return values
     stored = srgb_oetf(values) if decoded_from == "srgb" else values
     v = np.clip(stored, 0.0, 1.0)
-    chosen = decoding.get("chosen")
-    if chosen == "srgb":
+    if decoding.chosen == "srgb":
         return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
-    if chosen == "gamma":
-        return np.power(v, float(decoding["gamma"]))
+    if decoding.chosen == "gamma":
+        return np.power(v, float(decoding.gamma))
     return v
 
 
 def chosen_decoding(study, fits, material, train):
     """The decoding the study's baseline fit (else the first fit) of this material and training
-    set chose with encoding = "fit", as {"chosen", "gamma", "label"}; None when it kept the
-    import's: the floor is scored in the same values as that fit."""
+    set chose with encoding = "fit", a DataFloorDecoding; None when it kept the import's: the
+    floor is scored in the same values as that fit."""
     cands = [(label, f) for (m, label), f in sorted(fits.items())
              if m == material and list(f["train"]) == list(train)]
     base = study["baseline"]
@@ -75,7 +76,7 @@ def chosen_decoding(study, fits, material, train):
     for label, f in cands:
         enc = f.get("encoding")  # optional: only a fit that searched the encoding has one
         if enc is not None:
-            return {"chosen": enc["chosen"], "gamma": enc["gamma"], "label": label}
+            return DataFloorDecoding(enc["chosen"], enc["gamma"], label)
         return None
     return None
 
@@ -236,20 +237,18 @@ def fit_test_error(fit, lightings):
 
 
 def compute_floor(geometry, study, fits):
-    """floor.json's content, or None when the study wrote no geometry. `geometry`:
-    floor_inputs.read_geometry's; `fits`: make_report's {(material, label): job JSON}."""
+    """The DataFloor (floor.json's record), or None when the study wrote no geometry.
+    `geometry`: floor_inputs.read_geometry's; `fits`: make_report's {(material, label): job
+    JSON}."""
     if geometry is None:
         return None
     dtd = smoothness_matrix()
     test_only = set(study["test_lightings"])
-    out = {"schema": "shadefit.report.floor/1", "bins": [H_BINS, D_BINS],
-           "theta_h_spacing": "square root", "lambdas": list(LAMBDAS),
-           "relative_epsilon": RELATIVE_EPSILON, "materials": []}
+    materials = []
     by_material = {}
     for e in geometry.references:
         # Per material and object: a data set of several objects has a floor per object.
         by_material.setdefault((e.material, e.object), []).append(e)
-    out["skipped"] = [dict(s) for s in geometry.skipped]
     for material, obj in sorted(by_material):
         entries = by_material[(material, obj)]
 
@@ -269,22 +268,18 @@ def compute_floor(geometry, study, fits):
             for e in entries:
                 if e.lighting not in per:
                     per[e.lighting] = Reference(e, decoding).relative_rmse(tables)
-            rec = {"material": material, **({"object": obj} if obj else {}),
-                   "train": list(train), "lambda": lam,
-                   "decoding": decoding,
-                   "loo_sse": {f"{k:g}": v for k, v in scores.items()},
-                   "train_relative_rmse": mean([per[r.lighting] for r in train_refs]),
-                   "test_relative_rmse": mean([per[l] for l in test_lightings]),
-                   "per_lighting": per, "test_lightings": test_lightings,
-                   "table_max": [float(np.max(t)) for t in tables], "fits": []}
+            floor = mean([per[l] for l in test_lightings])
+            beside = []
             for (m, label), fit in sorted(fits.items()):
                 if m != material or list(fit["train"]) != list(train):
                     continue
                 err = fit_test_error(fit, set(test_lightings))
-                floor = rec["test_relative_rmse"]
-                rec["fits"].append({
-                    "label": label, "test_relative_rmse": err,
-                    "points_above_floor": (100.0 * (err - floor)
-                                           if err is not None and floor is not None else None)})
-            out["materials"].append(rec)
-    return out
+                beside.append(DataFloorFit(label, err, 100.0 * (err - floor)
+                                           if err is not None and floor is not None else None))
+            materials.append(DataFloorMaterial(
+                material, obj, list(train), lam, decoding,
+                {f"{k:g}": v for k, v in scores.items()},
+                mean([per[r.lighting] for r in train_refs]), floor, per, test_lightings,
+                [float(np.max(t)) for t in tables], beside))
+    return DataFloor("shadefit.report.floor/1", [H_BINS, D_BINS], "square root", list(LAMBDAS),
+                     RELATIVE_EPSILON, materials, [dict(s) for s in geometry.skipped])

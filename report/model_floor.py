@@ -19,9 +19,7 @@ image question and per metric of the judging set:
 
 import math
 
-import numpy as np
-
-from answer_rules import metric_error
+from answer_rules import geometric_mean_ratio, log_error_ratio, metric_error
 from answer_stats import bootstrap_ci
 from report_records import FloorEntry, FloorRatio
 from report_util import materials_of
@@ -60,12 +58,12 @@ def ratio_over_floor(errs, materials, label, floor_label, lightings, metric):
         pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
         a, b = sum(p[0] for p in pairs), sum(p[1] for p in pairs)
         if pairs and a > 0 and b > 0:
-            logs.append(math.log(a / b))
+            logs.append(log_error_ratio(a, b))
             used.append(mat)
     if not logs:
         return None
     lo, hi = bootstrap_ci(logs)
-    return FloorRatio(math.exp(float(np.mean(logs))), len(logs),
+    return FloorRatio(geometric_mean_ratio(logs), len(logs),
                       [None, None] if lo is None else [math.exp(lo), math.exp(hi)],
                       {m: math.exp(x) for m, x in zip(used, logs)})
 

@@ -87,29 +87,29 @@ def statement(name, v, summary, labels):
     (or, when every fit reproduces everything, the closest margin)."""
     counts, judged_all = [], []
     for label in labels:
-        judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
-                  and s["reproduced"] is not None]
+        judged = [s for s in summary if s.phenomenon == name and s.fit == label
+                  and s.reproduced is not None]
         judged_all += judged
         if judged:
-            counts.append(f"{label} on {sum(1 for s in judged if s['reproduced'])} of {len(judged)}")
+            counts.append(f"{label} on {sum(1 for s in judged if s.reproduced)} of {len(judged)}")
     if not judged_all:
         return (f"No fit could be judged on this question: the numbers it needs were not "
                 f"measured (tolerance {v['kind']} {v['tolerance']:g}).")
     first = (f"Within the tolerance ({v['kind']} {v['tolerance']:g}), the phenomenon is "
              f"reproduced by {', '.join(counts)} materials.")
-    failed = [s for s in judged_all if not s["reproduced"]]
+    failed = [s for s in judged_all if not s.reproduced]
     tol = v["tolerance"]
-    ratio = (lambda s: s["error"] / tol) if tol > 0 else (lambda s: s["error"])
+    ratio = (lambda s: s.error / tol) if tol > 0 else (lambda s: s.error)
     if failed:
         w = max(failed, key=ratio)
-        ref = "" if v["kind"] == "max" else f" against the reference's {fmt_num(w['reference'])}"
-        second = (f"Furthest off is {w['fit']} on {w['material']}: {w['quantity']} = "
-                  f"{fmt_num(w['model'])}{ref} (error {fmt_num(w['error'])}, "
+        ref = "" if v["kind"] == "max" else f" against the reference's {fmt_num(w.reference)}"
+        second = (f"Furthest off is {w.fit} on {w.material}: {w.quantity} = "
+                  f"{fmt_num(w.model)}{ref} (error {fmt_num(w.error)}, "
                   f"{ratio(w):.1f} times the tolerance).")
     else:
         w = max(judged_all, key=ratio)
-        second = (f"Every judged fit is within it; the closest to the limit is {w['fit']} on "
-                  f"{w['material']} ({w['quantity']}: error {fmt_num(w['error'])}, "
+        second = (f"Every judged fit is within it; the closest to the limit is {w.fit} on "
+                  f"{w.material} ({w.quantity}: error {fmt_num(w.error)}, "
                   f"{ratio(w):.2f} of the tolerance).")
     return first + " " + second
 
@@ -128,9 +128,9 @@ def lead_figure(family, verdict_names, summary, figures, materials):
         return []
 
     def disagreement(m):
-        outcomes = {s["reproduced"] for s in summary
-                    if s["material"] == m and s["phenomenon"] in verdict_names
-                    and s["reproduced"] is not None}
+        outcomes = {s.reproduced for s in summary
+                    if s.material == m and s.phenomenon in verdict_names
+                    and s.reproduced is not None}
         return len(outcomes)
 
     candidates = [m for m in materials if f"probe-{probe}-{m}" in by_name]
@@ -191,10 +191,10 @@ def matrix_html(study, summary, labels):
             row = [f"<td class='key'>{esc(name)}</td>",
                    f"<td class='question'><a href='#{target}'>{esc(v['question'])}</a></td>"]
             for label, _ in cols:
-                mine = [s for s in summary if s["phenomenon"] == name and s["fit"] == label]
-                judged = [s for s in mine if s["reproduced"] is not None]
-                why = sorted({s["not_valid"] for s in mine if s.get("not_valid")})
-                good = sum(1 for s in judged if s["reproduced"])
+                mine = [s for s in summary if s.phenomenon == name and s.fit == label]
+                judged = [s for s in mine if s.reproduced is not None]
+                why = sorted({s.not_valid for s in mine if s.not_valid})
+                good = sum(1 for s in judged if s.reproduced)
                 text = f"{good}/{len(judged)}" if judged else "n/a"
                 cls = "" if not judged else (" class='yes'" if good == len(judged) else
                                              (" class='no'" if good == 0 else " class='some'"))
@@ -203,7 +203,7 @@ def matrix_html(study, summary, labels):
                            f"{text}</a></td>")
             out.append("<tr>" + "".join(row) + "</tr>")
         out.append("</tbody></table>")
-    reasons = sorted({s["not_valid"] for s in summary if s.get("not_valid")})
+    reasons = sorted({s.not_valid for s in summary if s.not_valid})
     if reasons:
         out.append("<p class='na'>n/a: " + " ".join(f"{esc(r)}." for r in reasons) + "</p>")
     return "\n".join(out)

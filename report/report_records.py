@@ -342,3 +342,154 @@ class FloorEntry(Readable):
     role: str
     lightings: list
     metrics: dict  # {metric: FloorRatio}
+
+
+# ------------------------------------------------------------------------------------------------
+# The fixed-tolerance verdicts (report_verdicts.compute_verdicts; verdicts.json)
+
+CHECK_KEYS = ("phenomenon", "material", "fit", "quantity", "reference", "model", "error",
+              "kind", "tolerance", "reproduced")
+
+
+@dataclass(frozen=True)
+class ToleranceCheck(Readable):
+    """One quantity of a phenomenon x material x fit judged against the verdict's tolerance:
+    the reference's number and the model's (`reference` None for a `max` verdict's bound), the
+    error the tolerance bounds (`kind`: relative, absolute or max) and whether it is within
+    (None: no number to judge). verdicts.json's "detail" records it by to_json()."""
+    phenomenon: str
+    material: str
+    fit: str
+    quantity: str
+    reference: float
+    model: float
+    error: float
+    kind: str
+    tolerance: float
+    reproduced: bool
+
+    def to_json(self):
+        return present(self, CHECK_KEYS)
+
+
+@dataclass(frozen=True)
+class ToleranceVerdict(Readable):
+    """A phenomenon x material x fit: its worst quantity's ToleranceCheck numbers, whether every
+    judged quantity is within the tolerance (`reproduced`; None where none was judged) and how
+    many were judged (`quantities`); `not_valid`: why the probe is not valid on this kind of
+    reference (answer_rules.NOT_VALID), never judged then. verdicts.json's "summary" records it
+    by to_json(), `not_valid` only where it has one."""
+    phenomenon: str
+    question: str
+    material: str
+    fit: str
+    quantity: str
+    reference: float
+    model: float
+    error: float
+    kind: str
+    tolerance: float
+    reproduced: bool
+    quantities: int
+    not_valid: str = None
+
+    def to_json(self):
+        return present(self, ("phenomenon", "question", "material", "fit", "quantity",
+                              "reference", "model", "error", "kind", "tolerance", "reproduced",
+                              "quantities", "not_valid"), optional=("not_valid",))
+
+
+# ------------------------------------------------------------------------------------------------
+# Where the difference lies (report_regions.region_means)
+
+
+@dataclass(frozen=True)
+class RegionMean(Readable):
+    """One fit's luminance error in one image region under one lighting, each the mean over the
+    `materials` that have the region: `signed` (fit - reference; > 0: brighter), `abs` (mean
+    |error|) and `ref` (the reference's mean luminance). comparisons.json's "regions" records
+    it after its key (split, lighting, region, fit) by to_json()."""
+    signed: float
+    abs: float
+    ref: float
+    materials: int
+
+    def to_json(self):
+        return present(self, ("signed", "abs", "ref", "materials"))
+
+
+# ------------------------------------------------------------------------------------------------
+# The data floor (data_floor.compute_floor; floor.json). Not the model's floor above: the best
+# tabulated isotropic BRDF the photographs support, fitted without a model.
+
+
+@dataclass(frozen=True)
+class DataFloorDecoding:
+    """The decoding a fit with encoding = "fit" chose (`label`: which fit), in which the floor
+    is scored: `chosen` "srgb", "linear" or "gamma" with its `gamma`."""
+    chosen: str
+    gamma: float
+    label: str
+
+    def to_json(self):
+        return present(self, ("chosen", "gamma", "label"))
+
+
+@dataclass(frozen=True)
+class DataFloorFit:
+    """A fit of the material and training set next to the floor: its mean test relative RMSE
+    over the floor's test lightings and how far above the floor's that is, in points (100 x
+    the difference); None where it has no test error."""
+    label: str
+    test_relative_rmse: float
+    points_above_floor: float
+
+    def to_json(self):
+        return present(self, ("label", "test_relative_rmse", "points_above_floor"))
+
+
+@dataclass(frozen=True)
+class DataFloorMaterial:
+    """The data floor of one material (on one `object`, where the photographs show several) and
+    training set: the smoothness weight chosen (`lam`, floor.json's "lambda") and each
+    candidate's leave-one-lighting-out error (`loo_sse`, keyed by "%g"), the decoding, the
+    table's relative RMSE over the training and the test lightings and per lighting, each
+    channel's largest table value, and the fits beside it (DataFloorFit)."""
+    material: str
+    object: str
+    train: list
+    lam: float
+    decoding: DataFloorDecoding
+    loo_sse: dict
+    train_relative_rmse: float
+    test_relative_rmse: float
+    per_lighting: dict
+    test_lightings: list
+    table_max: list
+    fits: list  # [DataFloorFit]
+
+    def to_json(self):
+        out = {"material": self.material, **({"object": self.object} if self.object else {}),
+               "train": self.train, "lambda": self.lam}
+        return out | present(self, ("decoding", "loo_sse", "train_relative_rmse",
+                                    "test_relative_rmse", "per_lighting", "test_lightings",
+                                    "table_max", "fits"))
+
+
+@dataclass(frozen=True)
+class DataFloor:
+    """floor.json: the table's shape (`bins`: theta_h x theta_d nodes, theta_h on
+    `theta_h_spacing`), the smoothness weights tried, the relative RMSE's epsilon, a
+    DataFloorMaterial per material and training set, and the references left out
+    (`skipped`: floor_inputs.Geometry's, {"reference", "why"})."""
+    schema: str
+    bins: list
+    theta_h_spacing: str
+    lambdas: list
+    relative_epsilon: float
+    materials: list  # [DataFloorMaterial]
+    skipped: list
+
+    def to_json(self):
+        return present(self, ("schema", "bins", "theta_h_spacing", "lambdas",
+                              "relative_epsilon", "materials", "skipped"))

@@ -13,14 +13,15 @@ lighting and region (report_metric_figures.region_figure). This module computes 
 
 import numpy as np
 
+from report_records import RegionMean
 from results_csv import REGIONS
 
 QUANTITIES = ("signed", "abs", "ref")
 
 
 def region_means(rows, to_float):
-    """{(split, lighting, region, label): {signed, abs, ref, materials}}: means over the
-    materials; None where results.csv has no region columns."""
+    """{(split, lighting, region, label): RegionMean}: means over the materials; None where
+    results.csv has no region columns."""
     if not rows or f"region_{REGIONS[0]}_abs" not in rows[0]:
         return None
     acc = {}
@@ -32,8 +33,8 @@ def region_means(rows, to_float):
                 continue
             cell = acc.setdefault((r["split"], r["lighting"], g, r["label"]), [])
             cell.append(vals)
-    return {k: {q: float(np.mean([v[q] for v in cells])) for q in QUANTITIES}
-            | {"materials": len(cells)} for k, cells in acc.items()}
+    return {k: RegionMean(**{q: float(np.mean([v[q] for v in cells])) for q in QUANTITIES},
+                          materials=len(cells)) for k, cells in acc.items()}
 
 
 def lightings_of(means, split):
@@ -47,6 +48,6 @@ def extra_error(means, split, fit, base):
     for l in lightings_of(means, split):
         for g in REGIONS:
             a, b = means.get((split, l, g, fit)), means.get((split, l, g, base))
-            if a is not None and b is not None and a["abs"] - b["abs"] > best:
-                best, where = a["abs"] - b["abs"], (l, g, a, b)
+            if a is not None and b is not None and a.abs - b.abs > best:
+                best, where = a.abs - b.abs, (l, g, a, b)
     return where

@@ -76,7 +76,7 @@ class AnswerSections:
             "floors": self.model_floors,
             "floor_order": section_words.ordering_sentences(self.records),
             "regions": [] if not self.regions else [
-                dict(zip(("split", "lighting", "region", "fit"), k), **v)
+                dict(zip(("split", "lighting", "region", "fit"), k), **v.to_json())
                 for k, v in sorted(self.regions.items())],
             "classes": self.classes,
             "every_metric": None if not self.every_metric else {

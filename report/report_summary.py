@@ -14,7 +14,7 @@ def judged_metrics(comparisons):
 
 
 def not_valid_reasons(summary, name):
-    return sorted({s["not_valid"] for s in summary if s["phenomenon"] == name and s.get("not_valid")})
+    return sorted({s.not_valid for s in summary if s.phenomenon == name and s.not_valid})
 
 
 def summary_markdown(study, summary, matrix, provenance, answers, data_floor_lines, fits, ngan,
@@ -65,11 +65,11 @@ def within_tolerance_lines(study, summary):
     for name, v in study["verdicts"].items():
         parts = []
         for label in labels:
-            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
-                      and s["reproduced"] is not None]
+            judged = [s for s in summary if s.phenomenon == name and s.fit == label
+                      and s.reproduced is not None]
             if not judged:
                 continue
-            good = [s["material"] for s in judged if s["reproduced"]]
+            good = [s.material for s in judged if s.reproduced]
             parts.append(f"{label}: {len(good)}/{len(judged)}")
         tol = f"{v['kind']} tolerance {v['tolerance']:g}"
         why = not_valid_reasons(summary, name)

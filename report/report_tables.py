@@ -98,15 +98,15 @@ def verdict_tables(study, summary, detail):
             "error", "tolerance", "reproduced"]
     rows = []
     for s in summary:
-        err_name = {"relative": "rel.", "absolute": "abs.", "max": "value"}[s["kind"]]
-        rows.append([s["phenomenon"], s["material"], s["fit"], s["quantity"], fmt(s["reference"]),
-                     fmt(s["model"]), fmt(s["error"], "{:.3g}"),
-                     f"{err_name} <= {s['tolerance']:g}", yes_no(s["reproduced"])])
+        err_name = {"relative": "rel.", "absolute": "abs.", "max": "value"}[s.kind]
+        rows.append([s.phenomenon, s.material, s.fit, s.quantity, fmt(s.reference),
+                     fmt(s.model), fmt(s.error, "{:.3g}"), f"{err_name} <= {s.tolerance:g}",
+                     yes_no(s.reproduced)])
     dcols = ["phenomenon", "material", "fit", "quantity", "reference", "model", "error",
              "tolerance", "reproduced"]
-    drows = [[d["phenomenon"], d["material"], d["fit"], d["quantity"], fmt(d["reference"]),
-              fmt(d["model"]), fmt(d["error"], "{:.3g}"), f"{d['kind']} {d['tolerance']:g}",
-              yes_no(d["reproduced"])] for d in detail]
+    drows = [[d.phenomenon, d.material, d.fit, d.quantity, fmt(d.reference), fmt(d.model),
+              fmt(d.error, "{:.3g}"), f"{d.kind} {d.tolerance:g}", yes_no(d.reproduced)]
+             for d in detail]
     # The matrix: phenomenon x fit -> materials reproduced / materials judged.
     labels = labels_of(study)
     mcols = ["phenomenon", "question"] + labels
@@ -114,9 +114,9 @@ def verdict_tables(study, summary, detail):
     for name, v in study["verdicts"].items():
         row = [name, v["question"]]
         for label in labels:
-            judged = [s for s in summary if s["phenomenon"] == name and s["fit"] == label
-                      and s["reproduced"] is not None]
-            good = sum(1 for s in judged if s["reproduced"])
+            judged = [s for s in summary if s.phenomenon == name and s.fit == label
+                      and s.reproduced is not None]
+            good = sum(1 for s in judged if s.reproduced)
             row.append(f"{good}/{len(judged)}" if judged else "n/a")
         mrows.append(row)
     return (cols, rows), (dcols, drows), (mcols, mrows)

@@ -1,12 +1,13 @@
 """Verdicts: each phenomenon x material x fit judged from the numbers with the study's
-tolerances (docs/studies.md, "Verdicts"), never written by hand. Computes only: their tables are
-report_tables.verdict_tables."""
+tolerances (docs/studies.md, "Verdicts"), never written by hand. Computes only: the records are
+report_records' ToleranceVerdict and ToleranceCheck, their tables report_tables.verdict_tables."""
 
 import fnmatch
 
 import numpy as np
 
 import answer_rules
+from report_records import ToleranceCheck, ToleranceVerdict
 from report_util import flatten, labels_of, materials_of, probe_numbers, to_float
 
 
@@ -25,7 +26,8 @@ def judge(kind, tol, ref, val, floor=0.0):
 
 
 def compute_verdicts(study, rows, probes):
-    """One record per phenomenon x material x fit (worst quantity), plus every quantity."""
+    """([ToleranceVerdict] per phenomenon x material x fit (its worst quantity), [ToleranceCheck]
+    per quantity judged)."""
     labels = labels_of(study)
     model_of = {f["label"]: f["model"] for f in study["fits"]}
     detail, summary = [], []
@@ -34,14 +36,11 @@ def compute_verdicts(study, rows, probes):
         for m in materials_of(study):
             why = answer_rules.not_valid_reason(study, source, m)
             for label in labels:
-                checks = []  # (quantity, reference, value, error, passed)
+                checks = []  # [ToleranceCheck]
                 if why:
                     # Not valid on this kind of reference: n/a with its reason, never judged.
-                    summary.append({"phenomenon": name, "question": v["question"],
-                                    "material": m, "fit": label, "quantity": "",
-                                    "reference": None, "model": None, "error": None,
-                                    "kind": kind, "tolerance": tol, "reproduced": None,
-                                    "quantities": 0, "not_valid": why})
+                    summary.append(ToleranceVerdict(name, v["question"], m, label, "", None,
+                                                    None, None, kind, tol, None, 0, why))
                     continue
                 if source == "metrics":
                     vals = [to_float(r[v["metric"]]) for r in rows
@@ -50,7 +49,9 @@ def compute_verdicts(study, rows, probes):
                     if vals:
                         val = float(np.mean(vals))
                         err, ok = judge("max", tol, 0.0, val)
-                        checks.append((f"{v['metric']} ({v['split']}, mean of {len(vals)})", 0.0, val, err, ok))
+                        checks.append(ToleranceCheck(
+                            name, m, label, f"{v['metric']} ({v['split']}, mean of {len(vals)})",
+                            0.0, val, err, kind, tol, ok))
                 else:
                     numbers = probe_numbers(probes, m, source)
                     if numbers:
@@ -64,7 +65,7 @@ def compute_verdicts(study, rows, probes):
                         # whether the model's form conserves energy over its parameter range.
                         sweep = (numbers.get("sweep") or {}).get(model_of.get(label, ""))
                         if sweep:
-                            mod.update(flatten({"sweep": sweep}))
+                            mod.update(flatten(sweep, "sweep."))
                         patterns = v.get("keys") or []
                         pool = list(mod.keys()) if kind == "max" else \
                             [k for k in ref if k in mod] + [k for k in mod if k not in ref]
@@ -75,22 +76,16 @@ def compute_verdicts(study, rows, probes):
                         for k in keys:
                             err, ok = judge(kind, tol, ref.get(k), mod.get(k),
                                             float(v.get("floor", 0.0)))
-                            checks.append((k, ref.get(k), mod.get(k), err, ok))
-                for q, r, val, err, ok in checks:
-                    detail.append({"phenomenon": name, "material": m, "fit": label, "quantity": q,
-                                   "reference": r, "model": val, "error": err, "kind": kind,
-                                   "tolerance": tol, "reproduced": ok})
-                judged = [c for c in checks if c[4] is not None]
+                            checks.append(ToleranceCheck(name, m, label, k, ref.get(k),
+                                                         mod.get(k), err, kind, tol, ok))
+                detail += checks
+                judged = [c for c in checks if c.reproduced is not None]
                 if not judged:
-                    summary.append({"phenomenon": name, "question": v["question"],
-                                    "material": m, "fit": label, "quantity": "", "reference": None,
-                                    "model": None, "error": None, "kind": kind, "tolerance": tol,
-                                    "reproduced": None, "quantities": 0})
+                    summary.append(ToleranceVerdict(name, v["question"], m, label, "", None,
+                                                    None, None, kind, tol, None, 0))
                     continue
-                worst = max(judged, key=lambda c: c[3] / tol if tol > 0 else c[3])
-                summary.append({"phenomenon": name, "question": v["question"],
-                                "material": m, "fit": label, "quantity": worst[0],
-                                "reference": worst[1], "model": worst[2], "error": worst[3],
-                                "kind": kind, "tolerance": tol,
-                                "reproduced": all(c[4] for c in judged), "quantities": len(judged)})
+                worst = max(judged, key=lambda c: c.error / tol if tol > 0 else c.error)
+                summary.append(ToleranceVerdict(
+                    name, v["question"], m, label, worst.quantity, worst.reference, worst.model,
+                    worst.error, kind, tol, all(c.reproduced for c in judged), len(judged)))
     return summary, detail

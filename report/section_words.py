@@ -84,11 +84,11 @@ def region_sentence(means, split, pair):
         return (f"{fit}'s mean absolute error is not larger than {base}'s in any region of the "
                 f"{split} lightings")
     l, g, a, b = where
-    side = "brighter" if a["signed"] > 0 else "darker"
+    side = "brighter" if a.signed > 0 else "darker"
     return (f"{fit}'s largest extra error over {base} is under {l} in the {g}: it is {side} "
-            f"than the reference there (mean signed {a['signed']:+.3g}, mean |error| "
-            f"{a['abs']:.3g}; {base}: {b['signed']:+.3g}, {b['abs']:.3g}; reference mean "
-            f"{a['ref']:.3g}, luminance over {a['materials']} materials)")
+            f"than the reference there (mean signed {a.signed:+.3g}, mean |error| "
+            f"{a.abs:.3g}; {base}: {b.signed:+.3g}, {b.abs:.3g}; reference mean "
+            f"{a.ref:.3g}, luminance over {a.materials} materials)")
 
 
 def region_lines(means, records):
@@ -105,8 +105,8 @@ def region_lines(means, records):
 def region_table(means):
     cols = ["split", "lighting", "region", "fit", "materials", "mean signed error",
             "mean |error|", "reference mean"]
-    rows = [[s, l, g, f, str(v["materials"]), f"{v['signed']:+.3g}", f"{v['abs']:.3g}",
-             f"{v['ref']:.3g}"] for (s, l, g, f), v in sorted(means.items())]
+    rows = [[s, l, g, f, str(v.materials), f"{v.signed:+.3g}", f"{v.abs:.3g}", f"{v.ref:.3g}"]
+            for (s, l, g, f), v in sorted(means.items())]
     return cols, rows
 
 
@@ -135,39 +135,43 @@ def pct(x):
 
 
 def data_floor_sentences(floor):
-    """The data floor (data_floor.compute_floor's record) in summary.md's and index.html's lines:
-    one per material and training set, each fit's test error against the floor's."""
+    """The data floor (data_floor.compute_floor's DataFloor) in summary.md's and index.html's
+    lines: one per material and training set, each fit's test error against the floor's."""
     lines = []
-    for rec in floor["materials"]:
-        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
-        head = (f"{name} (trained on {'+'.join(rec['train'])}): the best isotropic "
-                f"BRDF these photographs support (tabulated f(theta_h, theta_d), no model) has "
-                f"a test relative RMSE of {pct(rec['test_relative_rmse'])} "
-                f"(training {pct(rec['train_relative_rmse'])})")
-        dec = rec.get("decoding")
+    for rec in floor.materials:
+        head = (f"{floor_material_name(rec)} (trained on {'+'.join(rec.train)}): the best "
+                f"isotropic BRDF these photographs support (tabulated f(theta_h, theta_d), no "
+                f"model) has a test relative RMSE of {pct(rec.test_relative_rmse)} "
+                f"(training {pct(rec.train_relative_rmse)})")
+        dec = rec.decoding
         if dec:
-            how = dec["chosen"] + (f" {dec['gamma']:.3f}" if dec.get("gamma") else "")
-            head += f", in the decoding {dec['label']} chose ({how})"
+            how = dec.chosen + (f" {dec.gamma:.3f}" if dec.gamma else "")
+            head += f", in the decoding {dec.label} chose ({how})"
         head += "."
         parts = []
-        for f in rec["fits"]:
-            d = f["points_above_floor"]
+        for f in rec.fits:
+            d = f.points_above_floor
             if d is None:
-                parts.append(f"{f['label']}: no test error")
+                parts.append(f"{f.label}: no test error")
             elif d >= 0:
-                parts.append(f"{f['label']} is {d:.2f} points above what any isotropic BRDF "
-                             f"reaches on these photographs ({pct(f['test_relative_rmse'])})")
+                parts.append(f"{f.label} is {d:.2f} points above what any isotropic BRDF "
+                             f"reaches on these photographs ({pct(f.test_relative_rmse)})")
             else:
-                parts.append(f"{f['label']} is {-d:.2f} points below the floor "
-                             f"({pct(f['test_relative_rmse'])}; the table's grid and smoothing "
+                parts.append(f"{f.label} is {-d:.2f} points below the floor "
+                             f"({pct(f.test_relative_rmse)}; the table's grid and smoothing "
                              f"cost more than the model's error)")
-        above = any(f["points_above_floor"] is not None and f["points_above_floor"] >= 0
-                    for f in rec["fits"])
+        above = any(f.points_above_floor is not None and f.points_above_floor >= 0
+                    for f in rec.fits)
         tail = "; the rest is the setup." if above else "."
         lines.append(head + (" " + "; ".join(parts) + tail if parts else ""))
-    for s in floor.get("skipped", []):
+    for s in floor.skipped:
         lines.append(f"{s['reference']}: not in the floor ({s['why']}).")
     return lines
+
+
+def floor_material_name(rec):
+    """'red-plastic', or 'red-plastic on teapot' where the photographs show several objects."""
+    return rec.material + (f" on {rec.object}" if rec.object else "")
 
 
 def data_floor_table(floor):
@@ -175,13 +179,13 @@ def data_floor_table(floor):
     training set."""
     cols = ["material", "training", "fit", "test rel. RMSE", "floor", "points above"]
     rows = []
-    for rec in floor["materials"]:
-        train = "+".join(rec["train"])
-        name = rec["material"] + (f" on {rec['object']}" if rec.get("object") else "")
+    for rec in floor.materials:
+        train = "+".join(rec.train)
+        name = floor_material_name(rec)
         rows.append([name, train, "floor (tabulated, no model)",
-                     pct(rec["test_relative_rmse"]), pct(rec["test_relative_rmse"]), "0.00"])
-        for f in rec["fits"]:
-            d = f["points_above_floor"]
-            rows.append([name, train, f["label"], pct(f["test_relative_rmse"]),
-                         pct(rec["test_relative_rmse"]), "n/a" if d is None else f"{d:.2f}"])
+                     pct(rec.test_relative_rmse), pct(rec.test_relative_rmse), "0.00"])
+        for f in rec.fits:
+            d = f.points_above_floor
+            rows.append([name, train, f.label, pct(f.test_relative_rmse),
+                         pct(rec.test_relative_rmse), "n/a" if d is None else f"{d:.2f}"])
     return cols, rows

@@ -3,9 +3,11 @@
 compute the answers (the rules, statistics, judging set, model's floor, regions, classes,
 verdicts, the data floor and the study's answer set) import no file reader and no writer of
 words, tables, figures or pages, and open no file; every metric the report's own tables and
-words name is one of results.csv's metric columns (report/results_csv.py, the one list); and the
+words name is one of results.csv's metric columns (report/results_csv.py, the one list); the
 fit/baseline ratio is made from a comparison's effect in answer_rules only (no other module
-divides by an effect or its CI).
+divides by an effect or its CI) and a geometric mean of ratios there or in answer_stats only (no
+other module takes the exp of a mean); and what a compute module hands on is a record
+(report_records' dataclasses), not a dict with named keys.
 
     layers_test.py REPORT_DIR      exit 0 pass, 1 fail
 """
@@ -67,6 +69,43 @@ def inverts_effect(tree):
     return out
 
 
+# A record a compute module hands to the writers is a dataclass of report_records: inside a
+# function of a compute module, no dict display with a string key (what a dict record looks
+# like when it is made); tables of names live at module level. report_records' to_json methods,
+# which write the records as their JSON files have them, are the exception.
+RECORDS_HOME = {"report_records.py"}
+
+
+def dict_records(tree):
+    """(line, function) of each dict display with a string-constant key inside a function."""
+    out = []
+    for fn in ast.walk(tree):
+        if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            for node in ast.walk(fn):
+                if isinstance(node, ast.Dict) and any(
+                        isinstance(k, ast.Constant) and isinstance(k.value, str)
+                        for k in node.keys):
+                    out.append((node.lineno, getattr(fn, "name", "lambda")))
+    return sorted(set(out))
+
+
+def exp_of_mean(tree):
+    """Line numbers of an exp() whose argument takes a mean or a sum: a geometric mean made by
+    hand (answer_rules.geometric_mean_ratio makes the report's)."""
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and call_name(node) == "exp":
+            if any(isinstance(n, ast.Call) and call_name(n) in ("mean", "sum", "fsum", "average")
+                   for a in node.args for n in ast.walk(a)):
+                out.append(node.lineno)
+    return out
+
+
+def call_name(node):
+    f = node.func
+    return f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+
+
 def main(argv):
     report = argv[1]
     failures = []
@@ -76,6 +115,9 @@ def main(argv):
             for line in inverts_effect(tree):
                 failures.append(f"report/{name}:{line} divides by a comparison's effect or CI "
                                 "(the fit/baseline ratio is answer_rules.error_ratio's)")
+            for line in exp_of_mean(tree):
+                failures.append(f"report/{name}:{line} takes the exp of a mean (a geometric "
+                                "mean ratio is answer_rules.geometric_mean_ratio's)")
     for name in COMPUTE:
         tree = ast.parse(open(os.path.join(report, name), encoding="utf-8").read())
         bad = sorted(imports(tree) & FORBIDDEN)
@@ -84,6 +126,10 @@ def main(argv):
         bad = sorted(calls(tree) & FILE_CALLS)
         if bad:
             failures.append(f"report/{name} calls {', '.join(bad)} (reads or writes a file)")
+        if name not in RECORDS_HOME:
+            for line, fn in dict_records(tree):
+                failures.append(f"report/{name}:{line} ({fn}) makes a dict with named keys: a "
+                                "record handed on is a dataclass of report_records")
     sys.path.insert(0, report)
     import judging
     import report_tables
@@ -99,7 +145,8 @@ def main(argv):
     if not failures:
         print(f"PASS: {', '.join(COMPUTE)} import no reader or writer and open no file; every "
               "metric named is a results.csv column; no module but answer_rules turns a "
-              "comparison's effect round")
+              "comparison's effect round or makes a geometric mean; the compute modules make "
+              "no dict records")
     return 1 if failures else 0
 
 
