@@ -16,6 +16,7 @@ import json
 import multiprocessing
 import os
 import sys
+import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import answer_rules  # noqa: E402
@@ -277,13 +278,18 @@ def make_report(study_dir, quiet=True):
     # The per-material figures (most of the report's time) need the inputs only: their workers
     # start now, and this process computes the answers, writes the tables and draws the
     # study-level figures meanwhile.
-    material_figs = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes, fig_dir,
-                                    inp.jobs, progress.step)
-    try:
-        return _write_report(inp, report_dir, fig_dir, material_figs, progress)
-    except BaseException:
-        material_figs.abandon()
-        raise
+    # The PDFs' font subsets, made once for all the report's processes (report_figures).
+    with tempfile.TemporaryDirectory(prefix="shadefit-report-fonts-") as font_dir:
+        report_figures.share_font_subsets(font_dir)
+        material_figs = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes,
+                                        fig_dir, inp.jobs, progress.step)
+        try:
+            return _write_report(inp, report_dir, fig_dir, material_figs, progress)
+        except BaseException:
+            material_figs.abandon()
+            raise
+        finally:
+            report_figures.share_font_subsets(None)
 
 
 def _write_report(inp, report_dir, fig_dir, material_figs, progress):

@@ -11,6 +11,7 @@ with its text checks, image reading and bar fills. The figures themselves: repor
 """
 
 import functools
+import hashlib
 import io
 import math
 import os
@@ -171,20 +172,52 @@ def warm_up():
 
 
 # --- The PDF's embedded font ----------------------------------------------------------------------
-# matplotlib subsets the TrueType font (fontTools) for every PDF it writes: 60 ms per figure, a
-# tenth of the report's drawing time, and the figures of a study use a few sets of characters
+# matplotlib subsets the TrueType font (fontTools) for every PDF it writes: 60-90 ms per figure,
+# a tenth of the report's drawing time, and the figures of a study use a few sets of characters
 # over and over (the same labels, digits and units). The subset is a pure function of the font
-# file and the characters, so a subset made once per process and set is the same bytes.
+# file and the set of characters (fontTools takes them as a set; matplotlib passes a Python set's
+# order, which differs between equal sets), so a subset made once per set is the same bytes:
+# remembered per process, and shared between the report's processes through a folder
+# (share_font_subsets), where each would otherwise make the same ones again.
 _FONT_SUBSETS = {}
 _SUBSET_FONT = _backend_pdf_ps.get_glyphs_subset
+_FONT_SUBSET_DIR = None
+
+
+def share_font_subsets(folder):
+    """Font subsets are read from and written to `folder` (None: this process's memory only).
+    Set before the figure workers fork; the caller removes the folder."""
+    global _FONT_SUBSET_DIR
+    _FONT_SUBSET_DIR = folder
 
 
 def _font_subset(fontfile, characters):
-    """matplotlib's get_glyphs_subset, remembered per (font file, characters): the same bytes."""
-    key = (fontfile, characters)
+    """matplotlib's get_glyphs_subset, remembered per (font file, set of characters): the same
+    bytes."""
+    key = (fontfile, "".join(sorted(set(characters))))
     data = _FONT_SUBSETS.get(key)
+    if data is not None:
+        return io.BytesIO(data)
+    path = None
+    if _FONT_SUBSET_DIR:
+        path = os.path.join(_FONT_SUBSET_DIR,
+                            hashlib.sha256(repr(key).encode()).hexdigest() + ".ttf")
+        try:
+            with open(path, "rb") as f:
+                data = f.read()
+        except OSError:
+            data = None
     if data is None:
-        data = _FONT_SUBSETS[key] = _SUBSET_FONT(fontfile, characters).getvalue()
+        data = _SUBSET_FONT(fontfile, key[1]).getvalue()
+        if path:
+            tmp = f"{path}.{os.getpid()}.tmp"
+            try:
+                with open(tmp, "wb") as f:
+                    f.write(data)
+                os.replace(tmp, path)  # whole or absent for a reader in another process
+            except OSError:
+                pass
+    _FONT_SUBSETS[key] = data
     return io.BytesIO(data)
 
 
@@ -330,14 +363,15 @@ def linear_to_srgb(v):
 
 
 def opaque_rgba(rgb):
-    """A float RGB image as RGBA with alpha 1: the array imshow makes of it at every drawing
-    (matplotlib's _rgb_to_rgba, twice per drawing and two drawings per figure), made once. The
-    same pixels: an opaque RGBA image takes the same path from there."""
+    """A float RGB image in [0, 1] as opaque 8-bit RGBA, as imshow would make it after its
+    nearest-neighbour resampling ((v * 255).astype(uint8), matplotlib's to_rgba(bytes=True)):
+    the same pixels in the PNG and the same bytes in the PDF, for a quarter of the memory that
+    every drawing copies and resamples (twice per figure)."""
     if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind != "f":
         return rgb
-    rgba = np.empty(rgb.shape[:2] + (4,), dtype=rgb.dtype)
-    rgba[..., :3] = rgb
-    rgba[..., 3] = 1.0
+    rgba = np.empty(rgb.shape[:2] + (4,), dtype=np.uint8)
+    rgba[..., :3] = rgb * rgb.dtype.type(255)
+    rgba[..., 3] = 255
     return rgba
 
 
