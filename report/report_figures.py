@@ -24,6 +24,7 @@ import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.backends import _backend_pdf_ps  # noqa: E402
 import numpy as np  # noqa: E402
+import PIL.Image  # noqa: E402
 
 DPI = 200
 COLUMN_IN = 3.3  # One column of a two-column paper (ACM, IEEE: 3.3-3.5 in).
@@ -306,12 +307,25 @@ def _agg_draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
     self._renderer.draw_text_image(image, x, y + 1, angle, gc)
 
 
-if matplotlib.__version__.startswith("3.6."):
-    # The functions replaced are matplotlib 3.6's (their bodies copied above where needed); on
-    # another version the report runs on matplotlib's own, slower and the same.
-    _mtext._get_text_metrics_with_cache = _shared_text_metrics
-    _mathtext.MathTextParser._parse_cached = _shared_math_parse
-    _backend_agg.RendererAgg.draw_text = _agg_draw_text
+_AGG_DRAW_TEXT = _backend_agg.RendererAgg.draw_text
+
+
+def use_matplotlib_text(own):
+    """own=True: matplotlib's own text measuring, math parsing and Agg text drawing (for the test
+    that the shortcuts above draw the same pixels and bytes); False: the shortcuts (on 3.6)."""
+    if own or not matplotlib.__version__.startswith("3.6."):
+        _mtext._get_text_metrics_with_cache = _TEXT_METRICS
+        _mathtext.MathTextParser._parse_cached = _PARSE_CACHED
+        _backend_agg.RendererAgg.draw_text = _AGG_DRAW_TEXT
+    else:
+        # The functions replaced are matplotlib 3.6's (their bodies copied above where needed);
+        # on another version the report runs on matplotlib's own, slower and the same.
+        _mtext._get_text_metrics_with_cache = _shared_text_metrics
+        _mathtext.MathTextParser._parse_cached = _shared_math_parse
+        _backend_agg.RendererAgg.draw_text = _agg_draw_text
+
+
+use_matplotlib_text(False)
 
 
 # zlib's level for the figures' PNGs: 1 instead of Pillow's 6 deflates a report's ~200 page-wide
@@ -363,16 +377,34 @@ def linear_to_srgb(v):
 
 
 def opaque_rgba(rgb):
-    """A float RGB image in [0, 1] as opaque 8-bit RGBA, as imshow would make it after its
-    nearest-neighbour resampling ((v * 255).astype(uint8), matplotlib's to_rgba(bytes=True)):
-    the same pixels in the PNG and the same bytes in the PDF, for a quarter of the memory that
-    every drawing copies and resamples (twice per figure)."""
-    if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind != "f":
+    """An RGB image (float in [0, 1], or 8-bit from read_rgb8) as opaque 8-bit RGBA, as imshow
+    would make it after its nearest-neighbour resampling ((v * 255).astype(uint8), matplotlib's
+    to_rgba(bytes=True)): the same pixels in the PNG and the same bytes in the PDF, for a quarter
+    of the memory that every drawing copies and resamples (twice per figure). An 8-bit value k
+    is taken as is: its float, float32(k / 255), times 255 truncates to k again for every k
+    (figures_test checks it)."""
+    if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind not in "fu":
         return rgb
     rgba = np.empty(rgb.shape[:2] + (4,), dtype=np.uint8)
-    rgba[..., :3] = rgb * rgb.dtype.type(255)
+    rgba[..., :3] = rgb if rgb.dtype == np.uint8 else rgb * rgb.dtype.type(255)
     rgba[..., 3] = 255
     return rgba
+
+
+def read_rgb8(path):
+    """read_rgb's image as it is stored where the file holds 8-bit RGB or RGBA (as_float gives
+    read_rgb's floats exactly); read_rgb's floats otherwise. A grid reads ~6000 previews: the
+    float conversion and the copies of floats were a tenth of its time."""
+    with PIL.Image.open(path) as im:
+        if im.mode in ("RGB", "RGBA"):
+            return np.asarray(im)[..., :3]
+    return read_rgb(path)
+
+
+def as_float(img):
+    """read_rgb's floats of a read_rgb8 image: k / 255 in float32, as matplotlib's imread
+    divides an 8-bit PNG."""
+    return np.divide(img, 255, dtype=np.float32) if img.dtype == np.uint8 else img
 
 
 def read_rgb(path):

@@ -8,8 +8,8 @@ import types
 
 import numpy as np
 
-from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, linear_to_srgb, matplotlib,
-                            opaque_rgba, plt, read_rgb, save_figure, srgb_to_linear,
+from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, as_float, linear_to_srgb,
+                            matplotlib, opaque_rgba, plt, read_rgb8, save_figure, srgb_to_linear,
                             wrap_to_width)
 
 
@@ -27,7 +27,8 @@ def row_exposure(reference_rgb):
 
 
 def exposed(rgb, stops):
-    return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(rgb) * 2.0 ** stops)
+    """`rgb` (read_rgb8's or floats) brightened by whole stops; as it is at 0."""
+    return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(as_float(rgb)) * 2.0 ** stops)
 
 
 # 7 in page gives each image ~0.5 in. More fits split the grid into parts, one per training set
@@ -64,13 +65,16 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
     if not labels:
         return
     parts = grid_parts(study, labels)
+    # Every preview of the material read once, as stored (8-bit: a material's ~300 previews of
+    # 256^2 are ~60 MB).
+    read = functools.lru_cache(maxsize=None)(read_rgb8)
     for k, (suffix, part) in enumerate(parts):
         heading = ""
         if len(parts) > 1:
             train = next((f["train"] for f in study["fits"] if f["label"] == part[0]), None)
             heading = f"part {k + 1} of {len(parts)}" + (
                 f": fits trained on {', '.join(train)}" if train else "")
-        fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading)
+        fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading, read)
         save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
                     {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
                      "fits": part, "lightings": rows})
@@ -146,7 +150,7 @@ def object_box(images, threshold=1.5 / 255):
     return max(0, x0 - pad), max(0, y0 - pad), min(w, x1 + pad), min(h, y1 + pad)
 
 
-def grid_crop(study_dir, evals, labels, rows, read=read_rgb):
+def grid_crop(study_dir, evals, labels, rows, read=read_rgb8):
     """The crop box of a grid (object_box over every fit preview of its rows; the reference
     previews when there is no fit preview) and the frame's size (w, h); (None, None) when no
     preview can be read."""
@@ -162,7 +166,8 @@ def grid_crop(study_dir, evals, labels, rows, read=read_rgb):
         for img in previews(key, ls):
             frame = frame or (img.shape[1], img.shape[0])
             if (img.shape[1], img.shape[0]) == frame:
-                lit.append(img[..., :3].max(axis=2, keepdims=True))  # one channel: less memory
+                # One channel: less memory (the maximum of 8-bit values, then as floats).
+                lit.append(as_float(img[..., :3].max(axis=2, keepdims=True)))
         if frame is not None:
             return object_box(lit) or (0, 0, frame[0], frame[1]), frame
     return None, None
@@ -261,15 +266,15 @@ def row_colour_bar(fig, g, y0, error_scale, first_row):
                  ha="left", va="bottom", fontsize=FONT_PT - 2)
 
 
-def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, read=read_rgb):
+def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, read=read_rgb8):
     """Row i of the grid: the reference, each fit and each fit's error map under `light`, its
     label, and its colour bar. Returns the whole stops the row's images were brightened by.
-    `read`: reads a preview (read_rgb, or a cache of it)."""
+    `read`: reads a preview (read_rgb8, or a cache of it)."""
     y0 = g.height - g.top_in - (i + 1) * (g.cell_h + GRID_GAP_IN) + GRID_GAP_IN
     first = evals[labels[0]].get(light, {}).get("images", {})
     ref_path = os.path.join(study_dir, first["reference"]) if first.get("reference") else None
     ref = read(ref_path) if ref_path and os.path.exists(ref_path) else None
-    stops = row_exposure(cropped(ref)) if ref is not None else 0
+    stops = row_exposure(as_float(cropped(ref))) if ref is not None else 0
     panels = [("reference", first.get("reference"), False)]
     panels += [(l, evals[l].get(light, {}).get("images", {}).get("fit"), False) for l in labels]
     panels += [(f"|error| {l}", evals[l].get(light, {}).get("images", {}).get("error"), True)
@@ -319,7 +324,7 @@ def grid_caption(material, heading, exposures, box, frame, rows_note):
             + (f"; {rows_note}" if rows_note else "") + ".")
 
 
-def grid_figure(study_dir, study, fits, material, labels, heading):
+def grid_figure(study_dir, study, fits, material, labels, heading, read=None):
     """One grid figure over `labels`, and its caption; `heading` (a split grid's part) goes above
     the column titles and into the caption. Every frame is cropped to the object's bounds
     (grid_crop) and keeps its pixel aspect ratio; many lightings show a subset (grid_lightings)."""
@@ -327,9 +332,9 @@ def grid_figure(study_dir, study, fits, material, labels, heading):
     all_lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
                      for r in g["references"]]
     lightings, rows_note = grid_lightings(evals, labels, all_lightings)
-    # Each preview read once per figure: the crop reads the fits' previews and the rows read them
-    # again (a figure's ~80 previews of 256^2 are ~60 MB; a material's ~300 would be 4x that).
-    read = functools.lru_cache(maxsize=None)(read_rgb)
+    # Each preview read once per figure (`read`: image_grid's, once per material): the crop reads
+    # the fits' previews and the rows read them again, every part the references.
+    read = read or functools.lru_cache(maxsize=None)(read_rgb8)
     box, frame = grid_crop(study_dir, evals, labels, lightings, read)
     aspect = (box[3] - box[1]) / (box[2] - box[0]) if box else 1.0  # tile height / width
     g = grid_layout(study, labels, heading, aspect, len(lightings))

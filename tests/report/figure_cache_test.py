@@ -7,7 +7,10 @@ on the synthetic four-fit study of many_fits_test.py (2 materials, images and pr
   index.html bytes;
 - one preview image of one material rewritten with other pixels: that material's grids are
   drawn again, the other material's are not;
-- a figure file deleted: it is drawn again.
+- a figure file deleted: it is drawn again;
+- the drawing shortcuts (report_figures: text measured, math parsed and glyphs drawn once per
+  process, 8-bit opaque tiles, font subsets per set of characters) give the PNG pixels and PDF
+  bytes matplotlib's own functions and float tiles give.
 
     figure_cache_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -35,11 +38,60 @@ def read(d, name):
         return f.read()
 
 
+def drawn(rf, tile):
+    """The PNG pixels and PDF bytes of a small figure with what the shortcuts cover: texts, a
+    log axis's math tick labels, a legend, and an image tile."""
+    import io
+    import numpy as np
+    fig = rf.plt.figure(figsize=(3.3, 2.0), dpi=rf.DPI)
+    ax = fig.add_axes([0.2, 0.2, 0.5, 0.6])
+    ax.plot([1, 2, 3], [0.01, 1.0, 30.0], label="blinn-phong@key+mirror60")
+    ax.set_yscale("log")
+    ax.set_xlabel("theta_h (deg) \u207b\u00b2")
+    ax.set_title("gold: fresnel")
+    fig.legend(loc="lower right", frameon=False)
+    img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
+    img.set_axis_off()
+    img.imshow(tile, interpolation="nearest", aspect="auto")
+    fig.canvas.draw()
+    pixels = np.asarray(fig.canvas.buffer_rgba()).copy()
+    pdf = io.BytesIO()
+    fig.savefig(pdf, format="pdf", metadata={"CreationDate": None})
+    rf.plt.close(fig)
+    return pixels, pdf.getvalue()
+
+
+def check_shortcuts(report_src):
+    import numpy as np
+    import report_figures as rf  # noqa: E402
+    # Every 8-bit value as read_rgb8 keeps it and as read_rgb's float makes it, as imshow gets it.
+    k = np.arange(256, dtype=np.uint8).reshape(16, 16, 1).repeat(3, axis=2)
+    check(np.array_equal(rf.opaque_rgba(k), rf.opaque_rgba(rf.as_float(k))),
+          "opaque_rgba: an 8-bit value differs from its float's")
+    rng = np.random.default_rng(7)
+    tile8 = rng.integers(0, 256, (40, 30, 3), dtype=np.uint8)
+    tile = rf.as_float(tile8)
+    rf.use_matplotlib_text(False)
+    short = [drawn(rf, rf.opaque_rgba(tile8)) for _ in range(2)]  # the second from the caches
+    rf.use_matplotlib_text(True)
+    try:
+        own = drawn(rf, tile)
+    finally:
+        rf.use_matplotlib_text(False)
+    for n, (pixels, pdf) in enumerate(short):
+        check(np.array_equal(pixels, own[0]), f"shortcuts, drawing {n + 1}: other PNG pixels")
+        check(pdf == own[1], f"shortcuts, drawing {n + 1}: other PDF bytes")
+    font = rf.matplotlib.font_manager.findfont("DejaVu Sans")
+    check(rf._font_subset(font, "abc10").getvalue() == rf._SUBSET_FONT(font, "01cba").getvalue(),
+          "font subset: other bytes than matplotlib's for the same characters")
+
+
 def main(argv):
     report_src, out = argv[1], os.path.abspath(argv[2])
     here = os.path.dirname(os.path.abspath(__file__))
     sys.path.insert(0, report_src)
     sys.path.insert(0, here)
+    check_shortcuts(report_src)
     import make_report  # noqa: E402
     import many_fits_test as mf  # noqa: E402
 
@@ -83,7 +135,7 @@ def main(argv):
         print("FAILED: " + f)
     if not FAILURES:
         print("PASS: unchanged figures kept, a changed material's drawn again, a deleted one "
-              "redrawn")
+              "redrawn; the drawing shortcuts draw matplotlib's pixels and bytes")
     return 1 if FAILURES else 0
 
 
