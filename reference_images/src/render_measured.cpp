@@ -15,6 +15,7 @@
 #include "shadefit/base/files.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
+#include "shadefit/render/shadows.h"
 #include "shadefit/base/error.h"
 
 namespace shadefit::reference_images {
@@ -215,7 +216,11 @@ double EstimateDistant(const MeasuredShading& m, const ShadingPoint& sp, const F
     double pdf = m.distant.Pdf(dir) + wi.z / kPi;
     if (m.lobe_alpha > 0) pdf += LobePdf(m.lobe_alpha, wi, wo);
     if (!(pdf > 0)) return {0, 0, 0};
-    if (m.occlusion && Intersect(m.scene, Ray{p + sp.n * kRayEpsilon, dir}, 1e-4, 1e30, nullptr)) {
+    // Surface objects: the renderer's shadow rays (LightReaches); analytic ones as before.
+    if (m.scene.ray_caster
+            ? !LightReaches(m.scene, sp.object, sp.p, sp.n, dir, 1e30)
+            : m.occlusion &&
+                  Intersect(m.scene, Ray{p + sp.n * kRayEpsilon, dir}, 1e-4, 1e30, nullptr)) {
       return {0, 0, 0};
     }
     const Vec3d f = m.brdf.Eval(wi, wo);

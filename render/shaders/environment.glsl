@@ -83,8 +83,28 @@ float GgxLightPdf(vec3 n, vec3 v, vec3 l) {
 
 float CosinePdf(vec3 n, vec3 l) { return max(dot(n, l), 0.0) * kInvPi; }
 
-vec3 EnvContribution(vec3 p, vec3 n, vec3 v, vec3 l) {
-  if (dot(n, l) <= 0.0) return vec3(0.0);
+#if SHADEFIT_SURFACE
+// Surface objects: whether quadrature direction i of technique t (0 the light's, 1 cosine, 2
+// GGX) of this sample reaches the sky, ray cast on the CPU for these very directions
+// (render/src/surface_samples.h, EnvironmentVisibility): bit i % 32 of layer t * words + i / 32.
+uniform usampler2DArray u_surf_env_visibility;   // techniques 0 and 1
+uniform usampler2DArray u_surf_lobe_visibility;  // technique 2, at u_lobe_alpha
+uniform int u_surf_env_words;
+ivec2 g_surf_texel;  // The sample's texel, set by ShadeSample (render.frag).
+
+bool EnvVisible(int technique, int i) {
+  uint word = technique < 2
+      ? texelFetch(u_surf_env_visibility, ivec3(g_surf_texel, technique * u_surf_env_words + (i >> 5)), 0).r
+      : texelFetch(u_surf_lobe_visibility, ivec3(g_surf_texel, i >> 5), 0).r;
+  return ((word >> uint(i & 31)) & 1u) != 0u;
+}
+#else
+bool EnvVisible(int technique, int i) { return true; }
+#endif
+
+// `visible`: the surface path's ray-cast bit (true on analytic objects, which cast their own).
+vec3 EnvContribution(vec3 p, vec3 n, vec3 v, vec3 l, bool visible) {
+  if (dot(n, l) <= 0.0 || !visible) return vec3(0.0);
   vec3 f = Reflect(n, l, v);
   if (f == vec3(0.0)) return vec3(0.0);
   if (u_num_objects > 1 && Occluded(p + n * 1e-4, l, 1e30)) return vec3(0.0);
@@ -111,12 +131,12 @@ vec3 ShadeEnvironment(vec3 p, vec3 n, vec3 v) {
       float phi = 2.0 * kPi * xi.y;
       l_env = vec3(r * cos(phi), r * sin(phi), z);
     }
-    sum += EnvContribution(p, n, v, l_env);
+    sum += EnvContribution(p, n, v, l_env, EnvVisible(0, i));
     // 2. Cosine-weighted hemisphere (Malley's method).
     float r = sqrt(xi.x);
     float phi = 2.0 * kPi * xi.y;
     vec3 l_cos = frame * vec3(r * cos(phi), r * sin(phi), sqrt(max(1.0 - xi.x, 0.0)));
-    sum += EnvContribution(p, n, v, l_cos);
+    sum += EnvContribution(p, n, v, l_cos, EnvVisible(1, i));
     // 3. GGX half vectors with the model's lobe width, reflected about v.
     if (u_lobe_alpha > 0.0) {
       float a2 = u_lobe_alpha * u_lobe_alpha;
@@ -124,7 +144,7 @@ vec3 ShadeEnvironment(vec3 p, vec3 n, vec3 v) {
       float sin_t = sqrt(max(1.0 - cos2, 0.0));
       vec3 h = frame * vec3(sin_t * cos(phi), sin_t * sin(phi), sqrt(cos2));
       vec3 l_ggx = 2.0 * dot(v, h) * h - v;
-      sum += EnvContribution(p, n, v, l_ggx);
+      sum += EnvContribution(p, n, v, l_ggx, EnvVisible(2, i));
     }
   }
   return sum / float(count);

@@ -79,6 +79,7 @@ void ShadeSample(vec2 pixel, inout vec3 sum, inout vec3 background_sum, inout in
   ivec2 texel = ivec2(floor(pixel * float(max(u_supersample, 1))));
   vec4 surface = texelFetch(u_surf_position, texel, 0);
   if (surface.w > 0.5) {
+    g_surf_texel = texel;
     vec3 p = surface.xyz;
     vec3 v = u_cam_ortho != 0 ? -u_cam_forward : normalize(u_cam_pos - p);
     sum += ShadeDirect(p, texelFetch(u_surf_normal, texel, 0).xyz, v,

@@ -11,6 +11,7 @@
 #include "shadefit/render/environment.h"
 #include "shadefit/base/error.h"
 #include "shadefit/render/gbuffer.h"
+#include "shadefit/render/shadows.h"
 
 namespace shadefit {
 namespace {
@@ -100,8 +101,11 @@ void AttachEnvironmentSamples(const Scene& scene, const EnvironmentQuadrature& q
       double pdf = light.Pdf(l) + nol / kPi;
       for (double alpha : q.lobe_alphas) pdf += GgxLightPdf(sp.n, sp.v, l, alpha);
       if (!(pdf > 0)) continue;
-      if (occlusion &&
-          Intersect(scene, Ray{sp.p + sp.n * kOcclusionEpsilon, l}, 1e-4, 1e30, nullptr)) {
+      // Surface objects: the shadow rays of their point lights and of the GL render's
+      // environment visibility (LightReaches); analytic objects: as the shader casts them.
+      if (scene.ray_caster ? !LightReaches(scene, sp.object, sp.p, sp.n, l, 1e30)
+                           : occlusion && Intersect(scene, Ray{sp.p + sp.n * kOcclusionEpsilon, l},
+                                                    1e-4, 1e30, nullptr)) {
         continue;
       }
       const Vec3d radiance = light.Radiance(l);

@@ -26,6 +26,7 @@ std::vector<ShadingPoint> PrepareShading(const Scene& scene, const GBuffer& g,
       ShadingPoint sp;
       sp.x = x;
       sp.y = y;
+      sp.object = static_cast<int>(g.position.at(x, y, 3)) - 1;
       const Vec3d p{g.position.at(x, y, 0), g.position.at(x, y, 1), g.position.at(x, y, 2)};
       // Renormalised in double: float storage leaves |n| = 1 +- 1e-7, which a Blinn-Phong
       // exponent of 10^4 would turn into a 1e-3 error.

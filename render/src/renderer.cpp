@@ -87,6 +87,16 @@ constexpr int kMaxLights = 8;   // kMaxLights in render.frag.
 // environment samplers are bound to.
 constexpr int kScratchTextureUnit = 15;
 
+// The GGX proposal's width on surface objects: the model's lobe on a grid of 5% steps, so that
+// the proposal's visibility (ray cast per width) is made once per step, not once per render; the
+// estimator stays unbiased with any proposal width (docs/environment.md), and a proposal 2.5% off
+// the lobe is nearly as good.
+double SurfaceLobeAlpha(double alpha) {
+  if (!(alpha > 0)) return 0.0;
+  const double step = std::log(1.05);
+  return std::exp(std::round(std::log(alpha) / step) * step);
+}
+
 // The camera's uniforms, shared by scene.glsl's CameraRay and mesh.vert's projection.
 void BindCamera(GLuint program, const Camera& cam) {
   Vec3d right, up, forward;
@@ -282,18 +292,22 @@ struct Renderer::Impl {
     return tex;
   }
 
-  void BindEnvironment(GLuint program, const Scene& scene, ModelId model,
-                       const std::vector<double>& params) {
+  // Returns the GGX proposal's width the shader uses: the model's lobe, or on surface objects
+  // that lobe on a grid of 2% steps (SurfaceLobeAlpha), whose visibility is ray cast once per step.
+  float BindEnvironment(GLuint program, const Scene& scene, ModelId model,
+                        const std::vector<double>& params) {
     auto loc = [&](const char* n) { return glGetUniformLocation(program, n); };
     const int index = scene.EnvironmentLight();
-    if (index < 0) return;
+    if (index < 0) return 0.0f;
     const Light& light = scene.lights[index];
     glUniform1i(loc("u_env_count"), light.samples);
-    glUniform1f(loc("u_lobe_alpha"),
-                static_cast<float>(SpecularLobeAlpha(model, params.data())));
+    const double model_alpha = SpecularLobeAlpha(model, params.data());
+    const float lobe_alpha = static_cast<float>(
+        scene.HasSurfaceObjects() ? SurfaceLobeAlpha(model_alpha) : model_alpha);
+    glUniform1f(loc("u_lobe_alpha"), lobe_alpha);
     if (light.type == Light::Type::kUniform) {
       glUniform3f(loc("u_env_radiance"), light.value.x, light.value.y, light.value.z);
-      return;
+      return lobe_alpha;
     }
     auto map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
     if (map != env || env_samples != light.samples) {
@@ -322,6 +336,7 @@ struct Renderer::Impl {
       glBindTexture(GL_TEXTURE_2D, textures[i]);
       glUniform1i(loc(names[i]), i);
     }
+    return lobe_alpha;
   }
 
   void BindScene(GLuint program, const Scene& scene) {
@@ -631,6 +646,61 @@ struct Renderer::Impl {
     return tex;
   }
 
+  // A surface scene's environment visibility (internal::EnvironmentVisibility): the fixed
+  // techniques' per geometry and light, the GGX proposal's per lobe width too, kept with the
+  // point lights' visibility (same cache, same eviction, cleared with the geometry).
+  GLuint EnvironmentVisibilityTexture(const Scene& scene, internal::EnvTechniques which,
+                                      float lobe_alpha) {
+    const Light& light = scene.lights[scene.EnvironmentLight()];
+    const std::string key = fmt::format(
+        "{}|env {} {} {:.17g} {} {}|{}", internal::SurfaceGeometryKey(scene, surface_samples.ss),
+        light.type == Light::Type::kUniform ? "uniform" : light.file, light.samples,
+        light.rotation_z_deg, which == internal::EnvTechniques::kLobe ? "lobe" : "fixed",
+        lobe_alpha, light.type == Light::Type::kUniform ? 1 : 2);
+    auto it = visibility_tex.find(key);
+    if (it != visibility_tex.end()) return it->second;
+    int layers = 0;
+    const std::vector<std::uint32_t> bits =
+        internal::EnvironmentVisibility(scene, surface_samples, which, lobe_alpha, &layers);
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glActiveTexture(GL_TEXTURE0 + kScratchTextureUnit);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, tex);
+    glTexStorage3D(GL_TEXTURE_2D_ARRAY, 1, GL_R32UI, surface_samples.width,
+                   surface_samples.height, std::max(layers, 1));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    if (layers > 0) {
+      glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, surface_samples.width,
+                      surface_samples.height, layers, GL_RED_INTEGER, GL_UNSIGNED_INT,
+                      bits.data());
+    }
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    if (visibility_order.size() >= kVisibilityCache) {
+      glDeleteTextures(1, &visibility_tex[visibility_order.front()]);
+      visibility_tex.erase(visibility_order.front());
+      visibility_order.pop_front();
+    }
+    visibility_order.push_back(key);
+    visibility_tex[key] = tex;
+    return tex;
+  }
+
+  void BindSurfaceEnvironment(GLuint program, const Scene& scene, float lobe_alpha) {
+    if (scene.EnvironmentLight() < 0) return;
+    const GLuint textures[2] = {
+        EnvironmentVisibilityTexture(scene, internal::EnvTechniques::kLightAndCosine, 0.0f),
+        EnvironmentVisibilityTexture(scene, internal::EnvTechniques::kLobe, lobe_alpha)};
+    const char* names[2] = {"u_surf_env_visibility", "u_surf_lobe_visibility"};
+    for (int i = 0; i < 2; ++i) {
+      glActiveTexture(GL_TEXTURE6 + i);
+      glBindTexture(GL_TEXTURE_2D_ARRAY, textures[i]);
+      glUniform1i(glGetUniformLocation(program, names[i]), 6 + i);
+    }
+    glUniform1i(glGetUniformLocation(program, "u_surf_env_words"),
+                internal::EnvironmentVisibilityWords(scene));
+  }
+
   void BindSurface(GLuint program, GLuint visibility) {
     const GLuint textures[3] = {surface_tex[0], surface_tex[1], visibility};
     const char* names[3] = {"u_surf_position", "u_surf_normal", "u_surf_visibility"};
@@ -673,7 +743,8 @@ Image Renderer::Render(const Scene& scene, ModelId model, const std::vector<doub
   GLuint program = impl_->Program(model, term, false, scene);
   glUseProgram(program);
   impl_->BindScene(program, scene);
-  impl_->BindEnvironment(program, scene, model, params);
+  const float lobe_alpha = impl_->BindEnvironment(program, scene, model, params);
+  if (visibility) impl_->BindSurfaceEnvironment(program, scene, lobe_alpha);
   float p[kMaxParams] = {0};
   for (std::size_t i = 0; i < params.size(); ++i) p[i] = static_cast<float>(params[i]);
   glUniform1fv(glGetUniformLocation(program, "u_params"), kMaxParams, p);

@@ -476,11 +476,14 @@ Scene ParseScene(const std::string& text, const std::string& name) {
   if (scene.lights.size() > 8) top.Fail("lights", "at most 8 lights");
 
   if (scene.HasSurfaceObjects()) {
+    // Environment light on surface objects is occluded per quadrature direction by ray casting
+    // (a bit per direction and sample, render/src/surface_samples.h): bounded here.
     const int env = scene.EnvironmentLight();
-    if (env >= 0) {
-      top.Fail(fmt::format("lights[{}]", env),
-               "environment and uniform light on mesh or normal-map objects are not rendered yet "
-               "(point, directional and ambient lights are)");
+    if (env >= 0 && scene.lights[env].samples > kMaxSurfaceEnvironmentSamples) {
+      top.Fail(fmt::format("lights[{}].samples", env),
+               fmt::format("at most {} on mesh or normal-map objects (each sample's directions "
+                           "are ray cast once per geometry), got {}",
+                           kMaxSurfaceEnvironmentSamples, scene.lights[env].samples));
     }
     std::vector<RayCaster::Part> parts;
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {

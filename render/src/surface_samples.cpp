@@ -3,10 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <mutex>
 #include <thread>
 
+#include "shadefit/render/environment.h"
 #include "shadefit/render/pixel_surface.h"
 #include "shadefit/render/ray_caster.h"
 #include "shadefit/render/shadows.h"
@@ -141,6 +143,144 @@ std::vector<std::uint32_t> SampleVisibility(const Scene& scene, const SurfaceSam
         if (LightReaches(scene, object, p, n, l, dist)) b |= 1u << i;
       }
       bits[static_cast<std::size_t>(y) * samples.width + x] = b;
+    }
+  });
+  return bits;
+}
+
+namespace {
+
+// environment.glsl's RadicalInverse and PixelOffset, bit for bit (uint32 arithmetic, float out).
+float RadicalInverseF(std::uint32_t bits) {
+  bits = (bits << 16u) | (bits >> 16u);
+  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
+  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
+  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
+  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
+  return static_cast<float>(bits) * 2.3283064365386963e-10f;
+}
+
+// Pixel (x, row from the top) of a frame `height` rows high; the shader counts rows from the
+// bottom.
+void PixelOffsetF(std::uint32_t x, std::uint32_t row, std::uint32_t height, float* o1, float* o2) {
+  const std::uint32_t y = height - 1u - row;
+  std::uint32_t h = x * 1973u + y * 9277u + 26699u;
+  h = (h ^ (h >> 16u)) * 0x45d9f3bu;
+  h = (h ^ (h >> 16u)) * 0x45d9f3bu;
+  h ^= h >> 16u;
+  *o1 = static_cast<float>(h & 0xFFFFu) / 65536.0f;
+  *o2 = static_cast<float>(h >> 16u) / 65536.0f;
+}
+
+float FractF(float v) { return v - std::floor(v); }
+
+struct Vec3f {
+  float x, y, z;
+};
+Vec3f operator*(const Vec3f& a, float s) { return {a.x * s, a.y * s, a.z * s}; }
+Vec3f operator+(const Vec3f& a, const Vec3f& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+Vec3f operator-(const Vec3f& a, const Vec3f& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+float DotF(const Vec3f& a, const Vec3f& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec3f CrossF(const Vec3f& a, const Vec3f& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+Vec3f NormalizeF(const Vec3f& a) { return a * (1.0f / std::sqrt(DotF(a, a))); }
+Vec3f ToF(const Vec3d& v) {
+  return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+}
+Vec3d ToD(const Vec3f& v) { return {v.x, v.y, v.z}; }
+
+}  // namespace
+
+int EnvironmentVisibilityWords(const Scene& scene) {
+  const int index = scene.EnvironmentLight();
+  return index < 0 ? 0 : (scene.lights[index].samples + 31) / 32;
+}
+
+std::vector<std::uint32_t> EnvironmentVisibility(const Scene& scene, const SurfaceSamples& samples,
+                                                 EnvTechniques which, float lobe_alpha,
+                                                 int* layers) {
+  const int index = scene.EnvironmentLight();
+  const int words = EnvironmentVisibilityWords(scene);
+  const int techniques = which == EnvTechniques::kLightAndCosine ? 2 : 1;
+  *layers = techniques * words;
+  const std::size_t plane = static_cast<std::size_t>(samples.width) * samples.height;
+  std::vector<std::uint32_t> bits(plane * static_cast<std::size_t>(*layers), 0u);
+  if (index < 0) return bits;
+  const Light& light = scene.lights[index];
+  const int count = light.samples;
+  // The light's own directions in world space: map_to_world (the transpose of the row-major
+  // world_to_map) times the tabulated map-space directions; uniform light draws the sphere.
+  std::vector<Vec3f> light_dirs;
+  if (light.type == Light::Type::kEnvironment) {
+    const auto map = LoadEnvironmentCached(light.file, light.strength, light.rotation_z_deg);
+    const std::vector<float> tab = map->SampleSetMapSpace(count);
+    float m[9];
+    for (int i = 0; i < 9; ++i) m[i] = static_cast<float>(map->world_to_map()[i]);
+    for (int i = 0; i < count; ++i) {
+      const float* d = &tab[static_cast<std::size_t>(i) * 4];
+      light_dirs.push_back({m[0] * d[0] + m[3] * d[1] + m[6] * d[2],
+                            m[1] * d[0] + m[4] * d[1] + m[7] * d[2],
+                            m[2] * d[0] + m[5] * d[1] + m[8] * d[2]});
+    }
+  }
+  const Camera& cam = scene.camera;
+  Vec3d right, up, forward;
+  cam.Basis(&right, &up, &forward);
+  const Vec3f eye = ToF(cam.position), back = ToF(-forward);
+  const bool ortho = cam.type == Camera::Type::kOrthographic;
+  const int ss = std::max(1, samples.ss);
+  const float a2 = lobe_alpha * lobe_alpha;
+  constexpr float kPiF = 3.14159265358979f;
+  ForEachRow(samples.height, [&](int y) {
+    for (int x = 0; x < samples.width; ++x) {
+      if (!(samples.position.at(x, y, 3) > 0.5f)) continue;
+      const int object = static_cast<int>(samples.position.at(x, y, 3)) - 1;
+      const Vec3d p = At3(samples.position, x, y);
+      const Vec3f pf = ToF(p);
+      const Vec3f n = {samples.normal.at(x, y, 0), samples.normal.at(x, y, 1),
+                       samples.normal.at(x, y, 2)};
+      const Vec3d nd = Normalize(ToD(n));
+      const Vec3f v = ortho ? back : NormalizeF(eye - pf);
+      // environment.glsl's FrameAround(n): columns t, cross(n, t), n.
+      const Vec3f t = std::abs(n.z) < 0.999f ? NormalizeF(CrossF({0, 0, 1}, n))
+                                             : NormalizeF(CrossF({1, 0, 0}, n));
+      const Vec3f b = CrossF(n, t);
+      float o1, o2;
+      PixelOffsetF(static_cast<std::uint32_t>(x / ss), static_cast<std::uint32_t>(y / ss),
+                   static_cast<std::uint32_t>(cam.height_px), &o1, &o2);
+      const std::size_t at = static_cast<std::size_t>(y) * samples.width + x;
+      auto set = [&](int technique, int i, const Vec3f& l) {
+        const Vec3d ld = ToD(l);
+        if (!LightReaches(scene, object, p, nd, Normalize(ld), 1e30)) return;
+        const std::size_t layer = static_cast<std::size_t>(technique * words + i / 32);
+        bits[layer * plane + at] |= 1u << (i % 32);
+      };
+      for (int i = 0; i < count; ++i) {
+        const float xi1 = FractF((static_cast<float>(i) + 0.5f) / static_cast<float>(count) + o1);
+        const float xi2 = FractF(RadicalInverseF(static_cast<std::uint32_t>(i)) + o2);
+        const float phi = 2.0f * kPiF * xi2;
+        if (which == EnvTechniques::kLightAndCosine) {
+          Vec3f l_env;
+          if (light.type == Light::Type::kEnvironment) {
+            l_env = light_dirs[static_cast<std::size_t>(i)];
+          } else {
+            const float z = 1.0f - 2.0f * xi1;
+            const float r = std::sqrt(std::max(1.0f - z * z, 0.0f));
+            l_env = {r * std::cos(phi), r * std::sin(phi), z};
+          }
+          set(0, i, l_env);
+          const float r = std::sqrt(xi1);
+          set(1, i, t * (r * std::cos(phi)) + b * (r * std::sin(phi)) +
+                        n * std::sqrt(std::max(1.0f - xi1, 0.0f)));
+        } else if (lobe_alpha > 0.0f) {
+          const float cos2 = (1.0f - xi1) / (1.0f + (a2 - 1.0f) * xi1);
+          const float sin_t = std::sqrt(std::max(1.0f - cos2, 0.0f));
+          const Vec3f h = t * (sin_t * std::cos(phi)) + b * (sin_t * std::sin(phi)) +
+                          n * std::sqrt(cos2);
+          set(0, i, h * (2.0f * DotF(v, h)) - v);
+        }
+      }
     }
   });
   return bits;

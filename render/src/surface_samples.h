@@ -38,6 +38,25 @@ SurfaceSamples RayCastSurfaceSamples(const Scene& scene, int ss);
 // (LightReaches). Ray cast on 2 threads.
 std::vector<std::uint32_t> SampleVisibility(const Scene& scene, const SurfaceSamples& samples);
 
+// Environment (or uniform) light on surface objects: whether each of the quadrature directions
+// environment.glsl's ShadeEnvironment draws at a sample reaches the sky (LightReaches, as the
+// point lights' shadows), so that the shader occludes every quadrature sample of the
+// environment exactly as the CPU ray caster does (issue 45, docs/scenes.md, "Shadows"). The
+// directions are the shader's, computed here in the same float arithmetic from the same inputs
+// (the pixel's Cranley-Patterson offset, the radical inverse, the frame around n, the light's
+// tabulated directions and, for the GGX proposal, its width `lobe_alpha`): direction i of
+// technique t of a sample is bit i % 32 of word layer t * words + i / 32, words = ceil(samples /
+// 32). Techniques: 0 the light's own directions, 1 the cosine-weighted ones (both fixed per
+// geometry and light), 2 the GGX proposal of width lobe_alpha (EnvTechniques::kLobe alone).
+// Layer-major: layer k's words are samples.width * samples.height, row by row. Ray cast on 2
+// threads.
+enum class EnvTechniques { kLightAndCosine, kLobe };
+std::vector<std::uint32_t> EnvironmentVisibility(const Scene& scene, const SurfaceSamples& samples,
+                                                 EnvTechniques which, float lobe_alpha,
+                                                 int* layers);
+// Words per technique: ceil(the environment light's samples / 32).
+int EnvironmentVisibilityWords(const Scene& scene);
+
 // The image's G-buffer from the pixel-centre samples (ss = 1) and the coverage of `samples`.
 GBuffer SurfaceGBuffer(const Scene& scene, const SurfaceSamples& centres,
                        const SurfaceSamples& samples);

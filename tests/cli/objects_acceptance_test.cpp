@@ -93,6 +93,57 @@ TEST_P(ObjectsAgainstCycles, GgxRecoversTheTruthOnTheUnshadowedPixels) {
   EXPECT_LE(relative_rmse, 0.01) << c.name << " over " << lit << " lit pixels";
 }
 
+// Environment light on an object: Suzanne under the studio HDRI (Cycles, 1024 spp, direct light
+// only), where her ears, brow and eye sockets hide part of the sky from her own surface. The fit
+// (the fitter's quadrature) and its GL render (the per-direction visibility bits) must recover
+// the truth and reproduce Cycles on every whole pixel as on the sphere (the sphere under the same
+// light: relative RMSE 0.032, measured; here 0.031); without the occlusion the sockets and the
+// ears' inner sides are far too bright and neither holds.
+TEST(ObjectsAgainstCyclesEnvironment, GgxRecoversTheTruthUnderTheStudioHdri) {
+  const std::string name = "suzanne-red-plastic-env";
+  const std::string src = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/objects/";
+  const fs::path out = fs::path(SHADEFIT_TEST_OUTPUT) / "objects_acceptance" / name;
+  fs::create_directories(out);
+  const std::string cmd = std::string(SHADEFIT_EXE) + " fit --ref " + src + name +
+                          ".exr --model ggx --loss cuberoot --pixel-stride 2 -o " +
+                          (out / "fit.json").string() + " > " + (out / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream in(out / "fit.json");
+  const nlohmann::json fit = nlohmann::json::parse(in);
+  for (const auto& p : fit.at("parameters")) {
+    if (p.at("name") == "roughness") {
+      EXPECT_NEAR(p.at("value").get<double>(), 0.3, 0.02);
+    } else if (p.at("name") == "kd.r") {
+      EXPECT_NEAR(p.at("value").get<double>(), 0.8, 0.02);
+    }
+  }
+  const shadefit::Image ref = shadefit::ReadImage(src + name + ".exr");
+  const shadefit::Image img = shadefit::ReadImage((out / ("fit." + name + ".fit.exr")).string());
+  const shadefit::Scene scene = shadefit::LoadScene(src + "scenes/suzanne-env.toml");
+  double sum = 0;
+  long whole_pixels = 0;
+  for (int y = 0; y < ref.height; ++y) {
+    for (int x = 0; x < ref.width; ++x) {
+      bool whole = true;
+      for (int k = 0; k < 9 && whole; ++k) {
+        whole = shadefit::Intersect(scene, shadefit::CameraRay(scene.camera, x + (k % 3 + 0.5) / 3,
+                                                               y + (k / 3 + 0.5) / 3),
+                                    0, 1e30, nullptr);
+      }
+      if (!whole) continue;
+      ++whole_pixels;
+      for (int ch = 0; ch < 3; ++ch) {
+        const double r = ref.at(x, y, ch), t = img.at(x, y, ch);
+        sum += std::pow((t - r) / (std::abs(r) + 0.01), 2);
+      }
+    }
+  }
+  const double relative_rmse = std::sqrt(sum / (3.0 * whole_pixels));
+  RecordProperty("relative_rmse", std::to_string(relative_rmse));
+  EXPECT_GT(whole_pixels, 10000);
+  EXPECT_LE(relative_rmse, 0.035) << name << " over " << whole_pixels << " whole pixels";
+}
+
 INSTANTIATE_TEST_SUITE_P(
     Meshes, ObjectsAgainstCycles,
     ::testing::Values(Case{"suzanne-red-plastic-key", 0.3}, Case{"suzanne-gold-key", 0.25},

@@ -30,6 +30,7 @@ struct PixelLight {
 
 struct ShadingPoint {
   int x = 0, y = 0;
+  int object = -1;                 // the scene object hit (the G-buffer's position.w - 1)
   Vec3d p;                         // world position (occlusion rays start here)
   Vec3d n, v;
   Vec3d ambient;                   // ambient radiance (times ka for classic models)

@@ -11,6 +11,10 @@
 
 namespace shadefit {
 
+// Environment (or uniform) light samples per technique on mesh and normal-map objects, whose
+// occlusion is ray cast for every direction of every sample.
+inline constexpr int kMaxSurfaceEnvironmentSamples = 1024;
+
 struct Camera {
   enum class Type { kPerspective, kOrthographic };
   Type type = Type::kPerspective;
