@@ -356,6 +356,9 @@ FIT_JOB = Object({
         # record, of which results.csv takes the summary; its inside is not the report's.
         "metrics_full": Written(ANY),
         "metrics_none": Written(STRING),      # why "metrics" has no numbers
+        # Objects only: covered pixels outside the measured domain by reason (a shadow's edge,
+        # strong interreflection; docs/scenes.md, "Shadows"), worded on the material's page.
+        "excluded_pixels": Optional(Object({"shadow_edge": NUMBER, "interreflection": NUMBER})),
         "metrics_all_none": Written(STRING),  # why "metrics_all" has none
         "regions": Written(REGION_ERRORS, nullable=True),  # results.csv's region_* columns
         # Absent when the study writes no previews; "domain" on measured references only.

@@ -266,6 +266,20 @@ def rows_by_image(rows):
     return index
 
 
+def excluded_words(evaluation):
+    """An object's pixels outside the measured domain, by reason (fit_job.cpp's
+    excluded_pixels: a shadow's edge, strong interreflection), as a share of its covered pixels;
+    "" for a sphere or a plane, whose records have none."""
+    excluded, covered = evaluation.get("excluded_pixels"), evaluation.get("covered_pixels")
+    if not excluded or not covered:
+        return ""
+    parts = [f"{100 * excluded[k] / covered:.1f}% of the covered pixels {words}"
+             for k, words in (("shadow_edge", "on a shadow's edge"),
+                              ("interreflection", "with strong interreflection"))
+             if excluded.get(k)]
+    return f" (left out of fits and metrics: {', '.join(parts)})" if parts else ""
+
+
 def metric_of(row, key):
     """`key` of a results.csv row as a number; None without the row or a number."""
     if row is None:
@@ -299,7 +313,8 @@ def viewer_html(material, study, fits, row_of, labels):
            "min='-4' max='6' step='0.5' value='0'></label> <span class='ev'>0 EV</span></div>"]
     for light in lightings:
         first = evals[have[0]].get(light, {}).get("images", {})
-        panes = [("reference", first.get("reference"), "reference")]
+        panes = [("reference", first.get("reference"),
+                  "reference" + excluded_words(evals[have[0]].get(light, {})))]
         for l in have:
             e = evals[l].get(light, {})
             row = row_of.get((material, light, l))

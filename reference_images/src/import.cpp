@@ -273,6 +273,7 @@ nlohmann::json ImportSidecar(const ImportOptions& options, const LoadedImage& lo
       "Exposure and white balance of the source are unknown: a fit must free a global scale. "
       "RGB = linear value where valid (0 elsewhere); A = validity x G-buffer coverage.";
   if (result.has_sphere) sidecar["auto_sphere"] = AutoSphereJson(options, result.sphere);
+  if (options.direct_light_only) sidecar["direct_light_only"] = true;
   return sidecar;
 }
 

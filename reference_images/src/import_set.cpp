@@ -490,6 +490,7 @@ ImportSetResult ImportPhotometricSet(const ImportSetOptions& o, Renderer& render
       io.mask_path = mask_path.string();
       io.encoding = Encoding::kLinear;  // Photometric-stereo sets store linear radiance.
       io.clip_threshold = o.clip_threshold;
+      io.direct_light_only = o.direct_light_only;
       io.output = (out / "refs" / (stem + ".exr")).string();
       ImportReference(io, renderer);
     }

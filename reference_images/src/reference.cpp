@@ -83,6 +83,7 @@ void ReadMeasuredDomain(const nlohmann::json& domain, const fs::path& sidecar, R
 
 bool IsMeasuredPixel(const Reference& ref, int x, int y) {
   if (!ref.shadow_edge.empty() && ref.shadow_edge.at(x, y, 0) > 0.5f) return false;
+  if (!ref.interreflection.empty() && ref.interreflection.at(x, y, 0) > 0.5f) return false;
   return ref.extrapolated_share.empty() ||
          ref.extrapolated_share.at(x, y, 0) <= ref.measured_share_max;
 }
@@ -122,6 +123,16 @@ void ReadSidecarScene(const fs::path& sidecar, Reference* ref) {
   }
   ref->scene_path = scene_path.lexically_normal().string();
   if (meta.contains("measured_domain")) ReadMeasuredDomain(meta["measured_domain"], sidecar, ref);
+  // Direct light only: stated, a measured render, or a Cycles render without bounces.
+  const auto is_true = [&](const nlohmann::json& j, const char* key) {
+    return j.is_object() && j.contains(key) && j[key].is_boolean() && j[key].get<bool>();
+  };
+  const auto is_zero = [&](const nlohmann::json& j, const char* key) {
+    return j.is_object() && j.contains(key) && j[key].is_number() && j[key].get<double>() == 0;
+  };
+  ref->direct_light_only = is_true(meta, "direct_light_only") ||
+                           meta.contains("measured_domain") ||
+                           (meta.contains("cycles") && is_zero(meta["cycles"], "max_bounces"));
 }
 
 }  // namespace
@@ -161,6 +172,14 @@ Reference LoadReference(const std::string& image_path, const std::string& scene_
   ref.sha256["scene"] = Sha256File(ref.scene_path);
   // Objects' shadow edges are outside what the renderer reproduces (docs/scenes.md, "Shadows").
   ref.shadow_edge = ShadowEdgeMask(ref.scene);
+  // ... and so is strong interreflection, where the reference may hold it.
+  if (ref.scene.HasSurfaceObjects() && !ref.direct_light_only) {
+    const Image share = SelfOcclusion(ref.scene);
+    ref.interreflection = Image(share.width, share.height, 1);
+    for (std::size_t i = 0; i < share.data.size(); ++i) {
+      ref.interreflection.data[i] = share.data[i] > kInterreflectionShareMax ? 1.0f : 0.0f;
+    }
+  }
   if (ref.scene.camera.width != ref.image.width || ref.scene.camera.height_px != ref.image.height) {
     throw Error(
         image_path, "resolution",

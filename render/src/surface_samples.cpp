@@ -411,4 +411,48 @@ Image ShadowEdgeMask(const Scene& scene) {
   return cache.emplace(key, std::move(mask)).first->second;
 }
 
+Image SelfOcclusion(const Scene& scene) {
+  if (!scene.HasSurfaceObjects()) return Image();
+  const std::string key = internal::SurfaceGeometryKey(scene, 1);
+  static std::mutex mutex;
+  static std::map<std::string, Image> cache;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+  }
+  const internal::SurfaceSamples centres =
+      scene.objects.front().type == SceneObject::Type::kNormalMap
+          ? internal::PixelSurfaceSamples(scene, 1)
+          : internal::RayCastSurfaceSamples(scene, 1);
+  // A 16 x 16 stratified grid over the unit square, mapped to the cosine-weighted hemisphere
+  // (Malley's method): every direction carries the same weight.
+  constexpr int kSide = 16;
+  Image share(centres.width, centres.height, 1);
+  internal::ForEachRow(centres.height, [&](int y) {
+    for (int x = 0; x < centres.width; ++x) {
+      if (!(centres.position.at(x, y, 3) > 0.5f)) continue;
+      const int object = static_cast<int>(centres.position.at(x, y, 3)) - 1;
+      const Vec3d p{centres.position.at(x, y, 0), centres.position.at(x, y, 1),
+                    centres.position.at(x, y, 2)};
+      const Vec3d n = Normalize(Vec3d{centres.normal.at(x, y, 0), centres.normal.at(x, y, 1),
+                                      centres.normal.at(x, y, 2)});
+      const Vec3d t = Normalize(std::abs(n.z) < 0.999 ? Cross(Vec3d{0, 0, 1}, n)
+                                                      : Cross(Vec3d{1, 0, 0}, n));
+      const Vec3d b = Cross(n, t);
+      int hidden = 0;
+      for (int i = 0; i < kSide * kSide; ++i) {
+        const double u1 = (i % kSide + 0.5) / kSide, u2 = (i / kSide + 0.5) / kSide;
+        const double r = std::sqrt(u1), phi = 2 * kPi * u2;
+        const Vec3d l = Normalize(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) +
+                                  n * std::sqrt(std::max(0.0, 1.0 - u1)));
+        hidden += !LightReaches(scene, object, p, n, l, 1e30);
+      }
+      share.at(x, y, 0) = static_cast<float>(hidden) / (kSide * kSide);
+    }
+  });
+  std::lock_guard<std::mutex> lock(mutex);
+  return cache.emplace(key, std::move(share)).first->second;
+}
+
 }  // namespace shadefit

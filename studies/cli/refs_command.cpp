@@ -110,6 +110,9 @@ void AddImport(CLI::App& refs) {
       ->check(CLI::IsMember({"auto", "srgb", "linear"}));
   cmd->add_option("--clip-threshold", opt->clip_threshold,
                   "8-bit code at or above which a channel counts as clipped (256: off)");
+  cmd->add_flag("--direct-light-only", opt->direct_light_only,
+                "The image holds direct light only (a render without bounces): keep the pixels "
+                "of strong interreflection, which a photograph's fit leaves out");
   cmd->add_option("-o,--output", opt->output, "Output EXR (sidecar: same name, .json)")->required();
   cmd->callback([opt, encoding] {
     opt->encoding = reference_images::ParseEncoding(*encoding);
@@ -161,6 +164,9 @@ void AddImportSet(CLI::App& refs) {
                   "8-bit code at or above which a channel counts as clipped (256: off)");
   cmd->add_option("--pixel-stride", opt->pixel_stride, "The study's training pixel stride")
       ->check(CLI::Range(1, 64));
+  cmd->add_flag("--direct-light-only", opt->direct_light_only,
+                "The images hold direct light only (a synthetic set rendered without bounces): "
+                "keep the pixels of strong interreflection, which photographs' fits leave out");
   cmd->callback([opt] {
     GlContext context;
     Renderer renderer(context);

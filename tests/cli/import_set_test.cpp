@@ -60,7 +60,18 @@ std::vector<std::map<std::string, std::string>> ReadCsv(const std::string& path)
 TEST(ImportSet, TwoObjectsImportAndTheirStudyRunsAsItIs) {
   const std::string out = Out("set");
   std::string log;
-  ASSERT_EQ(Shadefit("refs import-set " + kSet + " -o " + out + " --train 5", &log), 0) << log;
+  // The set is a Cycles render without bounces: no interreflection to leave out (a photograph's
+  // import would; ObjectsAgainstCyclesInterreflection holds that rule).
+  ASSERT_EQ(Shadefit("refs import-set " + kSet + " -o " + out + " --train 5 --direct-light-only",
+                     &log),
+            0)
+      << log;
+  {
+    std::ifstream sidecar(fs::path(out) / "refs" / "suzanne-L001.json");
+    std::stringstream text;
+    text << sidecar.rdbuf();
+    EXPECT_NE(text.str().find("\"direct_light_only\": true"), std::string::npos) << text.str();
+  }
   // The normals' convention is checked against Lambertian photometric stereo on the images.
   EXPECT_NE(log.find("suzanne: 12 lights"), std::string::npos) << log;
   EXPECT_NE(log.find("(y up;"), std::string::npos) << log;

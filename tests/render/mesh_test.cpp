@@ -282,6 +282,43 @@ TEST(Mesh, EnvironmentLightIsOccludedPerQuadratureDirection) {
   }
 }
 
+// SelfOcclusion against geometry: from a point on a ground plane, a sphere of radius r whose
+// centre lies D away, at angle theta from the normal and wholly above the horizon, hides
+// sin^2(asin(r / D)) cos(theta) = (r / D)^2 cos(theta) of the cosine-weighted hemisphere (its
+// projected solid angle over pi). Here on a ground quad under a ball of triangles.
+TEST(Mesh, SelfOcclusionIsTheHiddenShareOfTheCosineWeightedHemisphere) {
+  const std::string ground = QuadObj("occ_ground.obj", 2.0, -1.0);
+  const std::string ball = SphereObj("occ_ball.obj", 0.5, {0, 0, -0.45}, 96, 192);
+  const Scene scene = ParseScene(
+      "[camera]\nposition = [0.0, -7.0, 5.0]\nlook_at = [0.0, 0.0, -0.8]\nup = [0.0, 0.0, 1.0]\n"
+      "fov_y = 22.0\nresolution = [80, 64]\n[[objects]]\ntype = \"mesh\"\nfile = \"" + ground +
+          "\"\n[[objects]]\ntype = \"mesh\"\nfile = \"" + ball +
+          "\"\n[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 3.0]\nintensity = 20.0\n",
+      "occ.toml");
+  const Image share = SelfOcclusion(scene);
+  const GBuffer g = testing::SharedRenderer().RenderGBuffer(scene);
+  ASSERT_EQ(share.width, g.width);
+  int checked = 0;
+  double worst = 0;
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      if (!g.Hit(x, y) || static_cast<int>(g.position.at(x, y, 3)) != 1) continue;
+      const Vec3d p = At3(g.position, x, y);
+      const Vec3d to_centre = Vec3d{0, 0, -0.45} - p;
+      const double d = Length(to_centre), cos_theta = to_centre.z / d;
+      const double expected = (0.5 / d) * (0.5 / d) * cos_theta;
+      worst = std::max(worst, std::abs(share.at(x, y, 0) - expected));
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  // 256 directions a pixel: a share is a multiple of 1/256 with a stratification error of a few.
+  EXPECT_LT(worst, 0.03);
+  // Analytic objects: no surface object, no share.
+  const Image empty = SelfOcclusion(ParseScene(testing::SphereSceneToml(8, 8, ""), "sphere.toml"));
+  EXPECT_TRUE(empty.empty());
+}
+
 TEST(Mesh, NormalMapTiltsTheNormalAsItsTexelSays) {
   // A constant normal map: tangent-space (0.6, 0, 0.8) along +u, i.e. world (+X) on a +Z quad.
   Image map(4, 4, 3);

@@ -365,7 +365,8 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   record.metrics_all = all.report ? MetricsSummary(*all.report) : NullMetricsSummary();
   json& e = record.details;
   e = {{"rmse_fitter", rmse},
-            {"metrics_pixels", ref.extrapolated_share.empty() && ref.shadow_edge.empty()
+            {"metrics_pixels", ref.extrapolated_share.empty() && ref.shadow_edge.empty() &&
+                                       ref.interreflection.empty()
                                    ? "covered"
                                    : "covered and measured"},
             {"covered_pixels", covered_pixels},
@@ -375,6 +376,19 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
             {"metrics_masked", main.report ? json(main.masked) : json(nullptr)},
             {"metrics_all_masked", all.report ? json(all.masked) : json(nullptr)},
             {"metrics_full", main.report ? metrics::MetricsToJson(*main.report) : json(nullptr)}};
+  // Covered pixels left out of the measured domain for a reason of the object's (none on
+  // spheres and planes: their records are unchanged): a shadow's edge, strong interreflection.
+  if (!ref.shadow_edge.empty() || !ref.interreflection.empty()) {
+    std::size_t edge = 0, bounce = 0;
+    for (int y = 0; y < covered.height; ++y) {
+      for (int x = 0; x < covered.width; ++x) {
+        if (!(covered.at(x, y, 0) > 0.5f)) continue;
+        edge += !ref.shadow_edge.empty() && ref.shadow_edge.at(x, y, 0) > 0.5f;
+        bounce += !ref.interreflection.empty() && ref.interreflection.at(x, y, 0) > 0.5f;
+      }
+    }
+    e["excluded_pixels"] = {{"shadow_edge", edge}, {"interreflection", bounce}};
+  }
   if (!main.report) e["metrics_none"] = main.why_none;
   // Where the error lies, over the same pixels as "metrics": none where that pass has none.
   e["regions"] = main.report ? RegionErrors(ref_rgb, fit_rgb, measured,

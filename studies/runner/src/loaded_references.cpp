@@ -9,7 +9,7 @@ std::size_t BytesOf(const Image& im) { return im.data.size() * sizeof(float); }
 
 std::size_t BytesOf(const reference_images::Reference& r) {
   return BytesOf(r.image) + BytesOf(r.mask) + BytesOf(r.extrapolated_share) +
-         BytesOf(r.shadow_edge);
+         BytesOf(r.shadow_edge) + BytesOf(r.interreflection);
 }
 
 }  // namespace

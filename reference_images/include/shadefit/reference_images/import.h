@@ -99,6 +99,9 @@ struct ImportOptions {
   int clip_threshold = 254;  // 8-bit code; any channel >= threshold / 255 is excluded
   bool auto_sphere = false;  // write <output>.toml from DetectSphere and use it
   std::string output;        // .exr; the sidecar is <output>.json
+  // The image holds direct light only (a synthetic render without bounces): the sidecar says
+  // so and strong interreflection is not left out (reference.h, Reference::interreflection).
+  bool direct_light_only = false;
 };
 
 struct ImportCounts {

@@ -27,6 +27,7 @@ struct ImportSetOptions {
   std::vector<std::string> models = {"ggx", "blinn-phong", "blinn-phong-normalized", "beckmann",
                                      "cook-torrance"};
   int pixel_stride = 2;       // The study's training stride (metrics see every pixel).
+  bool direct_light_only = false;  // ImportOptions::direct_light_only, for every image.
 };
 
 struct ImportedObject {

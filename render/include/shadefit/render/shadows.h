@@ -28,4 +28,13 @@ constexpr double kRayEpsilon = 1e-4;
 // cast); cached by geometry and lights.
 Image ShadowEdgeMask(const Scene& scene);
 
+// One channel, the frame's size: at each pixel centre on a surface object, the share of the
+// cosine-weighted hemisphere about its normal that the scene's geometry hides (LightReaches along
+// 256 stratified directions, the same for every pixel); 0 elsewhere and empty for a scene
+// without surface objects. Light from those directions, in a real scene, is light reflected by
+// the object itself: where the share is large, interreflection (which this renderer, direct light
+// only, does not reproduce) is strong (reference_images/reference.h, kInterreflectionShareMax).
+// CPU only (ray cast); cached by geometry.
+Image SelfOcclusion(const Scene& scene);
+
 }  // namespace shadefit
