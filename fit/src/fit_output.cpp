@@ -71,6 +71,7 @@ json StartsJson(const FitResult& r) {
                       {"final_cost", Num(s.final_cost)},
                       {"iterations", s.iterations},
                       {"termination", TerminationName(s.termination)},
+                      {"converged", s.converged},
                       {"coarse_cost", Num(s.coarse_cost)},
                       {"polished", s.polished},
                       {"reached_best", s.reached_best}});

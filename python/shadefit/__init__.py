@@ -123,6 +123,11 @@ def metrics(reference, test, mask=None, *, exposure=0.0, ppd=67.0, itp_white=100
                              float(exposure), float(ppd), float(itp_white), bool(maps))
 
 
+def _number(x):
+    """A number of fit.json, where JSON's null stands for NaN (not computed)."""
+    return float("nan") if x is None else x
+
+
 class FitResult:
     """A fit's outcome (fit::FitResult; the CLI's fit.json is FitResult.json).
 
@@ -140,24 +145,45 @@ class FitResult:
     starts_reached_best, covariance_status.
     references: per reference a dict (name, pixels, rmse, prediction: the fitted render
     (H, W, 4) float32 or None, abs_error: |prediction - reference| with alpha = validity).
-    json: the whole result as the CLI writes it (schema in docs/fitting.md).
+    json: the whole result as the CLI writes it (schema in docs/fitting.md); every attribute
+    above but values and references is read from it.
     """
 
     def __init__(self, raw):
+        # Every attribute but the arrays is read from the one record of a fit result, the CLI's
+        # fit.json (fit/src/fit_output.cpp, FitResultToJson): a field renamed there fails here.
         j = raw["json"]
         self.json = j
-        self.model = raw["model"]
+        self.model = j["model"]
         self.values = raw["values"]
-        self.estimates = raw["estimates"]
+        self.estimates = [{"name": p["name"], "value": p["value"],
+                           "std_error": _number(p["std_error"]), "fixed": p["fixed"],
+                           "fixed_by": p["fixed_by"], "undetermined": p["undetermined"],
+                           "at_bound": p["at_bound"], "spread_min": _number(p["spread"]["min"]),
+                           "spread_max": _number(p["spread"]["max"]),
+                           "spread_std": _number(p["spread"]["std"])}
+                          for p in j["parameters"]]
         self.parameters = {e["name"]: e["value"] for e in self.estimates}
         self.std_errors = {e["name"]: e["std_error"] for e in self.estimates}
-        self.starts = raw["starts"]
+        self.starts = [dict(s) for s in j["starts"]["results"]]
         self.references = raw["references"]
-        for key in ("loss", "path", "solver", "exposure", "exposure_std_error", "exposure_free",
-                    "initial_cost", "final_cost", "rmse", "iterations", "termination",
-                    "converged", "solver_message", "seconds", "starts_reached_best",
-                    "covariance_status"):
-            setattr(self, key, raw[key])
+        self.loss = j["loss"]["name"]
+        self.path = j["derivative_path"]
+        solver = j["solver"]
+        self.solver = solver["method"]
+        self.iterations = solver["iterations"]
+        self.termination = solver["termination"]
+        self.solver_message = solver["message"]
+        self.seconds = solver["seconds"]
+        self.converged = j["converged"]
+        self.exposure = _number(j["exposure"]["value"])
+        self.exposure_std_error = _number(j["exposure"]["std_error"])
+        self.exposure_free = j["exposure"]["mode"] == "free"
+        self.initial_cost = _number(j["cost"]["initial"])
+        self.final_cost = _number(j["cost"]["final"])
+        self.rmse = _number(j["rmse"]["overall"])
+        self.starts_reached_best = j["starts"]["reached_best"]
+        self.covariance_status = j["covariance"]["status"]
 
     @property
     def params(self):

@@ -128,60 +128,13 @@ fit::FitOptions OptionsFromPy(const py::dict& o) {
   return f;
 }
 
+// The result as Python gets it: the CLI's fit.json record (FitResultToJson, the one schema of a
+// fit result; shadefit.FitResult reads its attributes from it), the flattened parameters as an
+// array, and each reference's images, which the record names but does not hold.
 py::dict ResultToPy(fit::FitResult&& r) {
   py::dict d;
   d["json"] = JsonToPy(fit::FitResultToJson(r));
-  d["model"] = r.model->name;
-  d["loss"] = fit::LossName(r.loss);
-  d["path"] = fit::PathName(r.path);
-  d["solver"] = r.solver_name;
-  d["exposure"] = r.exposure;
-  d["exposure_std_error"] = r.exposure_std_error;
-  d["exposure_free"] = r.exposure_free;
-  d["initial_cost"] = r.initial_cost;
-  d["final_cost"] = r.final_cost;
-  d["rmse"] = r.rmse;
-  d["iterations"] = r.iterations;
-  d["termination"] = fit::TerminationName(r.termination);
-  d["converged"] = r.converged;
-  d["solver_message"] = r.solver_message;
-  d["seconds"] = r.seconds;
-  d["starts_reached_best"] = r.starts_reached_best;
-  d["covariance_status"] = r.CovarianceStatusText();
   d["values"] = py::array_t<double>(static_cast<py::ssize_t>(r.values.size()), r.values.data());
-  py::list estimates;
-  for (const fit::ParameterEstimate& p : r.parameters) {
-    py::dict e;
-    e["name"] = p.name;
-    e["value"] = p.value;
-    e["std_error"] = p.std_error;
-    e["fixed"] = p.fixed;
-    e["fixed_by"] = p.fixed_by;
-    e["undetermined"] = p.undetermined;
-    e["at_bound"] = p.at_bound;
-    e["spread_min"] = p.spread_min;
-    e["spread_max"] = p.spread_max;
-    e["spread_std"] = p.spread_std;
-    estimates.append(e);
-  }
-  d["estimates"] = estimates;
-  py::list starts;
-  for (const fit::StartResult& s : r.start_results) {
-    py::dict e;
-    e["start"] = s.start;
-    e["params"] = s.params;
-    e["exposure"] = s.exposure;
-    e["initial_cost"] = s.initial_cost;
-    e["final_cost"] = s.final_cost;
-    e["iterations"] = s.iterations;
-    e["termination"] = fit::TerminationName(s.termination);
-    e["converged"] = s.converged;
-    e["reached_best"] = s.reached_best;
-    e["coarse_cost"] = s.coarse_cost;
-    e["polished"] = s.polished;
-    starts.append(e);
-  }
-  d["starts"] = starts;
   py::list refs;
   for (fit::ReferenceResult& rr : r.references) {
     py::dict e;

@@ -40,6 +40,19 @@ def test_fit_equals_the_cli_fit(cli, cli_fit, model):
     for mine, theirs in zip(result.starts, expected["starts"]["results"]):
         assert mine["final_cost"] == pytest.approx(theirs["final_cost"], rel=1e-9)
     assert result.json["values"].keys() == expected["values"].keys()
+    # The attributes FitResult reads from the record, against the CLI's record and the options.
+    assert result.loss == "cuberoot" and result.exposure_free is False
+    assert result.path == expected["derivative_path"]
+    assert (result.iterations, result.termination, result.solver) == (
+        expected["solver"]["iterations"], expected["solver"]["termination"],
+        expected["solver"]["method"])
+    assert result.starts_reached_best == expected["starts"]["reached_best"]
+    assert all(s["converged"] in (True, False) for s in result.starts)
+
+
+def test_free_exposure_is_said():
+    result = shadefit.fit(str(REF), "ggx", exposure="free", **OPTIONS)
+    assert result.exposure_free is True and result.json["exposure"]["mode"] == "free"
 
 
 def _value(fit_json, entry):
