@@ -32,13 +32,16 @@ int SampleCdf(const double* cdf, int n, double x, double* frac) {
 
 }  // namespace
 
-double RadicalInverseBase2(std::uint32_t bits) {
+std::uint32_t ReverseBits32(std::uint32_t bits) {
   bits = (bits << 16u) | (bits >> 16u);
   bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
   bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
   bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-  return static_cast<double>(bits) * 2.3283064365386963e-10;
+  return ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
+}
+
+double RadicalInverseBase2(std::uint32_t bits) {
+  return static_cast<double>(ReverseBits32(bits)) * 2.3283064365386963e-10;
 }
 
 double DistantLight::Pdf(const Vec3d& d) const {

@@ -152,12 +152,7 @@ namespace {
 
 // environment.glsl's RadicalInverse and PixelOffset, bit for bit (uint32 arithmetic, float out).
 float RadicalInverseF(std::uint32_t bits) {
-  bits = (bits << 16u) | (bits >> 16u);
-  bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-  bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-  bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-  bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-  return static_cast<float>(bits) * 2.3283064365386963e-10f;
+  return static_cast<float>(ReverseBits32(bits)) * 2.3283064365386963e-10f;
 }
 
 // Pixel (x, row from the top) of a frame `height` rows high; the shader counts rows from the

@@ -29,6 +29,28 @@ struct Case {
 
 class ObjectsAgainstCycles : public ::testing::TestWithParam<Case> {};
 
+// Whether every one of 3 x 3 camera rays through the pixel hits (a CPU ray cast of the scene).
+bool WholePixel(const shadefit::Scene& scene, int x, int y) {
+  for (int k = 0; k < 9; ++k) {
+    if (!shadefit::Intersect(scene, shadefit::CameraRay(scene.camera, x + (k % 3 + 0.5) / 3,
+                                                        y + (k / 3 + 0.5) / 3),
+                             0, 1e30, nullptr)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The pixel's squared relative error summed over RGB (the relative RMSE's, offset 0.01).
+double RelativeSquaredError(const shadefit::Image& ref, const shadefit::Image& img, int x, int y) {
+  double sum = 0;
+  for (int ch = 0; ch < 3; ++ch) {
+    const double r = ref.at(x, y, ch), t = img.at(x, y, ch);
+    sum += std::pow((t - r) / (std::abs(r) + 0.01), 2);
+  }
+  return sum;
+}
+
 TEST_P(ObjectsAgainstCycles, GgxRecoversTheTruthOnTheUnshadowedPixels) {
   const Case c = GetParam();
   const std::string src = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/objects/";
@@ -58,12 +80,7 @@ TEST_P(ObjectsAgainstCycles, GgxRecoversTheTruthOnTheUnshadowedPixels) {
   for (int y = 0; y < ref.height; ++y) {
     for (int x = 0; x < ref.width; ++x) {
       // Whole pixels only: every one of 3 x 3 rays hits.
-      bool whole = true;
-      for (int k = 0; k < 9 && whole; ++k) {
-        whole = shadefit::Intersect(scene, shadefit::CameraRay(scene.camera, x + (k % 3 + 0.5) / 3,
-                                                               y + (k / 3 + 0.5) / 3),
-                                    0, 1e30, nullptr);
-      }
+      const bool whole = WholePixel(scene, x, y);
       if (!whole || edges.at(x, y, 0) > 0.5f) continue;
       shadefit::Hit hit;
       shadefit::Intersect(scene, shadefit::CameraRay(scene.camera, x + 0.5, y + 0.5), 0, 1e30, &hit);
@@ -80,10 +97,7 @@ TEST_P(ObjectsAgainstCycles, GgxRecoversTheTruthOnTheUnshadowedPixels) {
       }
       if (!shadefit::LightReaches(scene, hit.object, hit.position, hit.normal, l, dist)) continue;
       ++lit;
-      for (int ch = 0; ch < 3; ++ch) {
-        const double r = ref.at(x, y, ch), t = img.at(x, y, ch);
-        sum += std::pow((t - r) / (std::abs(r) + 0.01), 2);
-      }
+      sum += RelativeSquaredError(ref, img, x, y);
     }
   }
   const double relative_rmse = std::sqrt(sum / (3.0 * lit));
@@ -124,18 +138,10 @@ TEST(ObjectsAgainstCyclesEnvironment, GgxRecoversTheTruthUnderTheStudioHdri) {
   long whole_pixels = 0;
   for (int y = 0; y < ref.height; ++y) {
     for (int x = 0; x < ref.width; ++x) {
-      bool whole = true;
-      for (int k = 0; k < 9 && whole; ++k) {
-        whole = shadefit::Intersect(scene, shadefit::CameraRay(scene.camera, x + (k % 3 + 0.5) / 3,
-                                                               y + (k / 3 + 0.5) / 3),
-                                    0, 1e30, nullptr);
-      }
+      const bool whole = WholePixel(scene, x, y);
       if (!whole) continue;
       ++whole_pixels;
-      for (int ch = 0; ch < 3; ++ch) {
-        const double r = ref.at(x, y, ch), t = img.at(x, y, ch);
-        sum += std::pow((t - r) / (std::abs(r) + 0.01), 2);
-      }
+      sum += RelativeSquaredError(ref, img, x, y);
     }
   }
   const double relative_rmse = std::sqrt(sum / (3.0 * whole_pixels));

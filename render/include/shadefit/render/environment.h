@@ -48,6 +48,8 @@ class EnvironmentMap {
   double world_to_map_[9];
 };
 
+// The 32 bits of `bits` in reverse order (environment.glsl's RadicalInverse reverses them too).
+std::uint32_t ReverseBits32(std::uint32_t bits);
 // Van der Corput radical inverse in base 2 (bit reversal): the second coordinate of the
 // Hammersley point sets of the environment samplers.
 double RadicalInverseBase2(std::uint32_t bits);
