@@ -651,12 +651,12 @@ struct Renderer::Impl {
   // point lights' visibility (same cache, same eviction, cleared with the geometry).
   GLuint EnvironmentVisibilityTexture(const Scene& scene, internal::EnvTechniques which,
                                       float lobe_alpha) {
+    // The cache is emptied with every new geometry (PrepareSurface): the light is the key.
     const Light& light = scene.lights[scene.EnvironmentLight()];
     const std::string key = fmt::format(
-        "{}|env {} {} {:.17g} {} {}|{}", internal::SurfaceGeometryKey(scene, surface_samples.ss),
-        light.type == Light::Type::kUniform ? "uniform" : light.file, light.samples,
-        light.rotation_z_deg, which == internal::EnvTechniques::kLobe ? "lobe" : "fixed",
-        lobe_alpha, light.type == Light::Type::kUniform ? 1 : 2);
+        "env {} {} {:.17g} {} {}", light.type == Light::Type::kUniform ? "uniform" : light.file,
+        light.samples, light.rotation_z_deg,
+        which == internal::EnvTechniques::kLobe ? "lobe" : "fixed", lobe_alpha);
     auto it = visibility_tex.find(key);
     if (it != visibility_tex.end()) return it->second;
     int layers = 0;
