@@ -105,3 +105,23 @@ void BM_FlipHdr512(benchmark::State& state) {
 BENCHMARK(BM_FlipHdr512)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
+
+// HDR-FLIP as a study job runs it: one metrics thread per worker, the reference's half from
+// the cache (every fit of a material is compared with the same references), so each call
+// computes the test image's half at every exposure and combines.
+void BM_FlipHdr512CachedReferenceOneThread(benchmark::State& state) {
+  const int threads_before = m::MetricsThreads();
+  m::SetMetricsThreads(1);
+  m::FlipReferenceCache cache(std::size_t{1} << 30);
+  m::FlipParameters p;
+  p.reference_cache = &cache;
+  int exposures = 0;
+  for (auto _ : state) {
+    const m::FlipResult f = m::FlipHdr(Reference(), Test(), p);
+    exposures = f.num_exposures;
+    benchmark::DoNotOptimize(f.mean);
+  }
+  m::SetMetricsThreads(threads_before);
+  state.counters["exposures"] = exposures;
+}
+BENCHMARK(BM_FlipHdr512CachedReferenceOneThread)->Unit(benchmark::kMillisecond)->UseRealTime();

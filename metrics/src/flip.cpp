@@ -22,9 +22,11 @@ namespace {
 
 using internal::CombineSides;
 using internal::ComputeSide;
+using internal::Exposure;
 using internal::FlipSide;
 using internal::Plane;
 using internal::RowSpans;
+using internal::SideScratch;
 
 // 64-bit hash of an image's size and pixel bits (splitmix64's finaliser per 32-bit word).
 std::uint64_t HashPixels(const Image& image) {
@@ -107,16 +109,15 @@ FlipReferenceCache::Stats FlipReferenceCache::stats() const {
 
 namespace {
 
-// The reference's half: from `cache` when it holds `key`, else computed from make_reference()
-// (and kept there when there is a cache).
-template <typename MakeReference>
+// The reference's half: from `cache` when it holds `key`, else computed (and kept there when
+// there is a cache).
 std::shared_ptr<const FlipSide> ReferenceSide(FlipReferenceCache* cache,
-                                              const FlipReferenceCache::Impl::Key& key, double ppd,
-                                              const RowSpans& wanted,
-                                              MakeReference make_reference) {
+                                              const FlipReferenceCache::Impl::Key& key,
+                                              const Image& reference, double ppd,
+                                              const RowSpans& wanted, const Exposure& exposure) {
   std::shared_ptr<const FlipSide> side = cache ? cache->impl().Find(key) : nullptr;
   if (!side) {
-    side = std::make_shared<const FlipSide>(ComputeSide(make_reference(), ppd, wanted));
+    side = std::make_shared<const FlipSide>(ComputeSide(reference, ppd, wanted, exposure));
     if (cache) cache->impl().Insert(key, side);
   }
   return side;
@@ -163,14 +164,9 @@ Image ToImage(const Plane& plane, int w, int h) {
   return image;
 }
 
-// Tone mappers as y = (c0 x^2 + c1 x + c2) / (c3 x^2 + c4 x + c5), per channel.
-// ACES: Narkowicz 2015, "ACES Filmic Tone Mapping Curve", x(2.51x + 0.03) / (x(2.43x + 0.59) +
-// 0.14), applied to 0.6 x (the fit includes a 0.6 pre-exposure that HDR-FLIP cancels).
-constexpr std::array<float, 6> kAces = {0.6f * 0.6f * 2.51f, 0.6f * 0.03f, 0.0f,
-                                        0.6f * 0.6f * 2.43f, 0.6f * 0.59f, 0.14f};
-
 // Input x with tonemap(x) = t: the larger root of (c0 - t c3) x^2 + (c1 - t c4) x + (c2 - t c5).
 double ToneMapInverse(FlipToneMapper tm, double t) {
+  using internal::kAces;
   if (tm == FlipToneMapper::kReinhard) return t / (1.0 - t);  // x / (1 + x) = t.
   const double a = kAces[0] - t * kAces[3];
   const double b = kAces[1] - t * kAces[4];
@@ -179,26 +175,6 @@ double ToneMapInverse(FlipToneMapper tm, double t) {
   const double mid = -0.5 * b / a;
   return mid + std::sqrt(mid * mid - c / a);
 }
-
-void ToneMap(Image& image, FlipToneMapper tm) {
-  for (std::size_t i = 0; i < image.PixelCount(); ++i) {
-    float* p = &image.data[i * 3];
-    if (tm == FlipToneMapper::kReinhard) {
-      // Reinhard et al. 2002, global operator on luminance.
-      const float l = 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
-      for (int c = 0; c < 3; ++c) p[c] /= 1.0f + l;
-    } else {
-      for (int c = 0; c < 3; ++c) {
-        const float x = p[c];
-        p[c] = (kAces[0] * x * x + kAces[1] * x + kAces[2]) /
-               (kAces[3] * x * x + kAces[4] * x + kAces[5]);
-      }
-    }
-    for (int c = 0; c < 3; ++c) p[c] = std::clamp(p[c], 0.0f, 1.0f);
-  }
-}
-
-Image FirstThree(const Image& image) { return image.channels == 3 ? image : image.Channels(0, 3); }
 
 // The pixels a map is computed at: the mask's (what Pool reads) unless a whole map is returned.
 RowSpans WantedSpans(const Image& ref, const Image* mask, bool whole_map) {
@@ -211,14 +187,13 @@ RowSpans WantedSpans(const Image& ref, const Image* mask, bool whole_map) {
 FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
                    Image* flip_map) {
   ValidateInputs(reference, test, p.mask, 3);
-  const Image ref = FirstThree(reference);
+  const Image& ref = reference;  // The halves read the first three channels.
   const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr);
   const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0,
                                           internal::HashSpans(wanted), p.ppd, 0, 1.0f};
-  const auto ref_side = ReferenceSide(p.reference_cache, key, p.ppd, wanted,
-                                      [&]() -> const Image& { return ref; });
-  const Plane map = CombineSides(*ref_side, ComputeSide(FirstThree(test), p.ppd, wanted),
-                                 ref.width, ref.height, wanted);
+  const auto ref_side = ReferenceSide(p.reference_cache, key, ref, p.ppd, wanted, {});
+  const Plane map =
+      CombineSides(*ref_side, ComputeSide(test, p.ppd, wanted), ref.width, ref.height, wanted);
   FlipResult result = Pool(map, p.mask);
   if (flip_map) *flip_map = ToImage(map, reference.width, reference.height);
   return result;
@@ -227,8 +202,7 @@ FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParamete
 FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParameters& p,
                    Image* flip_map, Image* exposure_map) {
   ValidateInputs(reference, test, p.mask, 3);
-  const Image ref = FirstThree(reference);
-  const Image tst = FirstThree(test);
+  const Image& ref = reference;  // The halves read the first three channels.
   const std::size_t n = ref.PixelCount();
   // Exposure range from the reference (Andersson et al. 2021, Sec. 3): the start exposure maps
   // the brightest reference pixel, the stop exposure the median one, to 0.85 after tone mapping.
@@ -242,7 +216,7 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
     float y_max = 0.0f;
     for (std::size_t i = 0; i < n; ++i) {
       if (!internal::IsValid(p.mask, i)) continue;
-      const float* c = &ref.data[3 * i];
+      const float* c = &ref.data[ref.channels * i];
       luminance.push_back(0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]);
       y_max = std::max(y_max, luminance.back());
     }
@@ -270,24 +244,25 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
   const std::uint64_t ref_hash = p.reference_cache ? HashPixels(ref) : 0;
   const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr || exposure_map != nullptr);
   const std::uint64_t spans_hash = internal::HashSpans(wanted);
+  // The test image's half and the map at one exposure, in planes kept across the exposures.
+  SideScratch scratch;
+  FlipSide test_side;
+  Plane map;
   for (int e = 0; e < count; ++e) {
-    const float scale = static_cast<float>(std::exp2(start + e * step));
-    const auto exposed = [&](const Image& image) {
-      Image out = image;
-      for (float& v : out.data) v *= scale;
-      ToneMap(out, p.tone_mapper);
-      return out;
-    };
+    const Exposure exposure{true, static_cast<float>(std::exp2(start + e * step)), p.tone_mapper};
     const FlipReferenceCache::Impl::Key key{ref_hash, spans_hash, p.ppd,
-                                            1 + static_cast<int>(p.tone_mapper), scale};
-    const auto ref_side =
-        ReferenceSide(p.reference_cache, key, p.ppd, wanted, [&] { return exposed(ref); });
-    const Plane map = CombineSides(*ref_side, ComputeSide(exposed(tst), p.ppd, wanted),
-                                   ref.width, ref.height, wanted);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (map[i] > worst[i]) {
-        worst[i] = map[i];
-        worst_index[i] = static_cast<float>(e) / (count - 1);
+                                            1 + static_cast<int>(p.tone_mapper), exposure.scale};
+    const auto ref_side = ReferenceSide(p.reference_cache, key, ref, p.ppd, wanted, exposure);
+    ComputeSide(test, p.ppd, wanted, exposure, scratch, test_side);
+    CombineSides(*ref_side, test_side, ref.width, wanted, map);
+    // Outside `wanted` the map is not written and `worst` stays 0, as a map of 0 there leaves it.
+    for (std::size_t y = 0; y < wanted.begin.size(); ++y) {
+      for (int x = wanted.begin[y]; x < wanted.end[y]; ++x) {
+        const std::size_t i = y * ref.width + x;
+        if (map[i] > worst[i]) {
+          worst[i] = map[i];
+          worst_index[i] = static_cast<float>(e) / (count - 1);
+        }
       }
     }
   }

@@ -86,41 +86,57 @@ const ColorSpace& Srgb() {
   return space;
 }
 
-Float3 Apply(const Mat3& m, float a, float b, float c) {
-  Float3 out;
-  for (int r = 0; r < 3; ++r) {
-    out.v[r] = static_cast<float>(m[r][0]) * a + static_cast<float>(m[r][1]) * b +
-               static_cast<float>(m[r][2]) * c;
-  }
-  return out;
-}
-
-// Cube root of t > 0 without libm's cbrtf (the hottest call of FLIP's colour pipeline): an
-// exponent-dividing bit trick (error < 4 %) refined by two Halley steps y <- y (y^3 + 2t) /
-// (2y^3 + t) in double; the cubic convergence leaves a relative error far below float epsilon.
-float Cbrt(float t) {
+// CIELAB's f(t) (CIE 15): t^(1/3) above (6/29)^3, linear below. The cube root without libm's
+// cbrtf (the hottest call of FLIP's colour pipeline): an exponent-dividing bit trick (error
+// < 4 %) refined by two Halley steps y <- y (y^3 + 2t) / (2y^3 + t) in double; the cubic
+// convergence leaves a relative error far below float epsilon. Both sides are computed and one
+// kept by a mask, not a branch, so that a row of it vectorises (HuntLabRow); t >= 0.
+inline float LabF(float t) {
+  constexpr float kDelta = 6.0f / 29.0f;
   const std::uint32_t bits = std::bit_cast<std::uint32_t>(t) / 3u + 709921077u;
   double y = std::bit_cast<float>(bits);
-  for (int i = 0; i < 2; ++i) {
-    const double y3 = y * y * y;
-    y *= (y3 + 2.0 * t) / (2.0 * y3 + t);
-  }
-  return static_cast<float>(y);
+  double y3 = y * y * y;
+  y *= (y3 + 2.0 * t) / (2.0 * y3 + t);
+  y3 = y * y * y;
+  y *= (y3 + 2.0 * t) / (2.0 * y3 + t);
+  const float cube_root = static_cast<float>(y);
+  const float linear = t / (3.0f * kDelta * kDelta) + 4.0f / 29.0f;
+  const std::uint32_t keep = 0u - static_cast<std::uint32_t>(t > kDelta * kDelta * kDelta);
+  return std::bit_cast<float>((std::bit_cast<std::uint32_t>(cube_root) & keep) |
+                              (std::bit_cast<std::uint32_t>(linear) & ~keep));
 }
 
-float LabF(float t) {
-  constexpr float kDelta = 6.0f / 29.0f;
-  return t > kDelta * kDelta * kDelta ? Cbrt(t) : t / (3.0f * kDelta * kDelta) + 4.0f / 29.0f;
+// The colour space's numbers in the float precision the per-pixel conversions use.
+struct HuntLabConstants {
+  float white_x, white_z;
+  float to_rgb[3][3], to_xyz[3][3];
+};
+
+const HuntLabConstants& HuntLabK() {
+  static const HuntLabConstants k = [] {
+    const ColorSpace& s = Srgb();
+    HuntLabConstants c;
+    c.white_x = static_cast<float>(s.white[0]);
+    c.white_z = static_cast<float>(s.white[2]);
+    for (int r = 0; r < 3; ++r) {
+      for (int j = 0; j < 3; ++j) {
+        c.to_rgb[r][j] = static_cast<float>(s.xyz_to_rgb[r][j]);
+        c.to_xyz[r][j] = static_cast<float>(s.rgb_to_xyz[r][j]);
+      }
+    }
+    return c;
+  }();
+  return k;
 }
 
-// Linear RGB -> CIELAB (D65), then the Hunt adjustment a, b *= 0.01 L (Andersson et al. 2020,
-// Sec. 4.1): chroma matters less in dark regions.
-Float3 LinearRgbToHuntLab(float r, float g, float b) {
-  const ColorSpace& s = Srgb();
-  const Float3 xyz = Apply(s.rgb_to_xyz, r, g, b);
-  const float fx = LabF(xyz.v[0] / static_cast<float>(s.white[0]));
-  const float fy = LabF(xyz.v[1] / static_cast<float>(s.white[1]));
-  const float fz = LabF(xyz.v[2] / static_cast<float>(s.white[2]));
+// Linear RGB -> CIELAB (D65, white Y = 1), then the Hunt adjustment a, b *= 0.01 L (Andersson et
+// al. 2020, Sec. 4.1): chroma matters less in dark regions.
+inline Float3 LinearRgbToHuntLab(const HuntLabConstants& k, float r, float g, float b) {
+  float xyz[3];
+  for (int i = 0; i < 3; ++i) xyz[i] = k.to_xyz[i][0] * r + k.to_xyz[i][1] * g + k.to_xyz[i][2] * b;
+  const float fx = LabF(xyz[0] / k.white_x);
+  const float fy = LabF(xyz[1]);
+  const float fz = LabF(xyz[2] / k.white_z);
   const float l = 116.0f * fy - 16.0f;
   return {{l, 0.01f * l * 500.0f * (fx - fy), 0.01f * l * 200.0f * (fy - fz)}};
 }
@@ -133,7 +149,8 @@ float HyAB(const Float3& x, const Float3& y) {
 
 // Largest colour difference, between Hunt-adjusted green and blue, raised to q_c (Sec. 4.1).
 float MaxColorDifference() {
-  return std::pow(HyAB(LinearRgbToHuntLab(0, 1, 0), LinearRgbToHuntLab(0, 0, 1)), kQc);
+  const HuntLabConstants& k = HuntLabK();
+  return std::pow(HyAB(LinearRgbToHuntLab(k, 0, 1, 0), LinearRgbToHuntLab(k, 0, 0, 1)), kQc);
 }
 
 // Runs body(pixel index) for every pixel of `spans`, rows split across threads.
@@ -190,7 +207,7 @@ RowSpans WidenColumns(RowSpans spans, int radius, int w) {
 void FilterRows(const Plane& in, Plane& out, int w, const RowSpans& wanted,
                 const std::vector<float>& taps) {
   const int r = static_cast<int>(taps.size()) / 2;
-  out.assign(in.size(), 0.0f);
+  out.resize(in.size());  // Cleared and written at the pixels of `wanted`, the only ones read.
   internal::ParallelRows(static_cast<int>(wanted.begin.size()), [&](int begin, int end) {
     std::vector<float> padded(w + 2 * r);
     for (int y = begin; y < end; ++y) {
@@ -202,6 +219,7 @@ void FilterRows(const Plane& in, Plane& out, int w, const RowSpans& wanted,
       // Tap-outer loop: the inner loop runs along x and vectorises (a sum over taps would not,
       // without reassociating floating-point additions).
       float* o = &out[static_cast<std::size_t>(y) * w + x0];
+      std::fill(o, o + (x1 - x0), 0.0f);
       for (int k = 0; k < 2 * r + 1; ++k) AddScaled(o, padded.data() + k, taps[k], x1 - x0);
     }
   });
@@ -213,12 +231,13 @@ void FilterColumns(const Plane& in, Plane& out, int w, const RowSpans& wanted,
                    const std::vector<float>& taps) {
   const int r = static_cast<int>(taps.size()) / 2;
   const int h = static_cast<int>(wanted.begin.size());
-  out.assign(in.size(), 0.0f);
+  out.resize(in.size());  // Cleared and written at the pixels of `wanted`, the only ones read.
   internal::ParallelRows(h, [&](int begin, int end) {
     for (int y = begin; y < end; ++y) {
       const int x0 = wanted.begin[y], x1 = wanted.end[y];
       if (x0 >= x1) continue;
       float* o = &out[static_cast<std::size_t>(y) * w + x0];
+      std::fill(o, o + (x1 - x0), 0.0f);
       for (int k = -r; k <= r; ++k) {
         const float* row = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w + x0];
         AddScaled(o, row, taps[k + r], x1 - x0);
@@ -239,12 +258,11 @@ SideSpans SpansFor(const RowSpans& wanted, int radius, int w) {
   return s;
 }
 
-Plane Filter2D(const Plane& in, int w, const SideSpans& spans,
-               const std::vector<float>& row_taps, const std::vector<float>& column_taps) {
-  Plane tmp, out;
+// `out` at the pixels of spans.wanted; `tmp` holds the row pass.
+void Filter2D(const Plane& in, int w, const SideSpans& spans, const std::vector<float>& row_taps,
+              const std::vector<float>& column_taps, Plane& tmp, Plane& out) {
   FilterRows(in, tmp, w, spans.rows, row_taps);
   FilterColumns(tmp, out, w, spans.wanted, column_taps);
-  return out;
 }
 
 // 1-D factors of the CSF filters. The radius covers 3 standard deviations of the widest
@@ -321,66 +339,113 @@ FeatureFilters MakeFeatureFilters(double ppd) {
   return f;
 }
 
-// Linear RGB (first three channels, clamped to [0, 1]) -> YCxCz planes (Sec. 4.1): the linearised
+// A pixel's linear colour after `e`, each channel clamped to [0, 1].
+std::array<float, 3> Exposed(const float* p, const Exposure& e) {
+  std::array<float, 3> c = {p[0], p[1], p[2]};
+  if (e.tone_map) {
+    for (float& v : c) v *= e.scale;
+    if (e.tone_mapper == FlipToneMapper::kReinhard) {
+      // Reinhard et al. 2002, global operator on luminance.
+      const float l = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
+      for (float& v : c) v /= 1.0f + l;
+    } else {
+      for (float& x : c) {
+        x = (kAces[0] * x * x + kAces[1] * x + kAces[2]) /
+            (kAces[3] * x * x + kAces[4] * x + kAces[5]);
+      }
+    }
+  }
+  for (float& v : c) v = std::clamp(v, 0.0f, 1.0f);
+  return c;
+}
+
+// Linear RGB (first three channels, after `e`) -> YCxCz planes (Sec. 4.1): the linearised
 // CIELAB of Flohr et al., Y = 116 Y/Yn - 16, Cx = 500 (X/Xn - Y/Yn), Cz = 200 (Y/Yn - Z/Zn).
-std::array<Plane, 3> ToYCxCz(const Image& rgb, const RowSpans& spans) {
-  const ColorSpace& s = Srgb();
+void ToYCxCz(const Image& rgb, const RowSpans& spans, const Exposure& e, std::array<Plane, 3>& out) {
+  const HuntLabConstants& k = HuntLabK();
   const std::size_t n = rgb.PixelCount();
-  std::array<Plane, 3> out = {Plane(n), Plane(n), Plane(n)};
+  for (Plane& plane : out) plane.resize(n);  // Written at the pixels of `spans`.
   ForEachPixel(rgb.width, spans, [&](std::size_t i) {
-    const float* p = &rgb.data[i * rgb.channels];
-    const Float3 xyz = Apply(s.rgb_to_xyz, std::clamp(p[0], 0.0f, 1.0f),
-                             std::clamp(p[1], 0.0f, 1.0f), std::clamp(p[2], 0.0f, 1.0f));
-    const float x = xyz.v[0] / static_cast<float>(s.white[0]);
-    const float y = xyz.v[1];
-    const float z = xyz.v[2] / static_cast<float>(s.white[2]);
+    const std::array<float, 3> c = Exposed(&rgb.data[i * rgb.channels], e);
+    float xyz[3];
+    for (int r = 0; r < 3; ++r) {
+      xyz[r] = k.to_xyz[r][0] * c[0] + k.to_xyz[r][1] * c[1] + k.to_xyz[r][2] * c[2];
+    }
+    const float x = xyz[0] / k.white_x;
+    const float y = xyz[1];
+    const float z = xyz[2] / k.white_z;
     out[0][i] = 116.0f * y - 16.0f;
     out[1][i] = 500.0f * (x - y);
     out[2][i] = 200.0f * (y - z);
   });
-  return out;
 }
 
-// Colour pipeline output per pixel, Hunt-adjusted CIELAB of the CSF-filtered image.
-std::vector<Float3> FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w,
-                                    const SideSpans& spans, const CsfFilters& f) {
-  const Plane y = Filter2D(ycxcz[0], w, spans, f.y, f.y);
-  const Plane cx = Filter2D(ycxcz[1], w, spans, f.cx, f.cx);
-  const Plane cz1 = Filter2D(ycxcz[2], w, spans, f.cz1, f.cz1);
-  const Plane cz2 = Filter2D(ycxcz[2], w, spans, f.cz2, f.cz2);
-  const ColorSpace& s = Srgb();
-  std::vector<Float3> lab(y.size(), Float3{{0.0f, 0.0f, 0.0f}});
-  ForEachPixel(w, spans.wanted, [&](std::size_t i) {
-    // Back to linear RGB, clamped to [0, 1] (filtered colours can leave the gamut), then CIELAB.
+// One row of the colour pipeline's end (Sec. 4.1): filtered YCxCz back to linear RGB, clamped to
+// [0, 1] (filtered colours can leave the gamut), then Hunt-adjusted CIELAB; the operations of
+// LinearRgbToHuntLab in its order, so the same bits. Also built for AVX2 (no fused multiply-add:
+// same rounding), chosen at run time: the Halley steps' divisions are this pipeline's hottest.
+[[gnu::target_clones("avx2", "default")]] void HuntLabRow(
+    const HuntLabConstants& k, const float* __restrict y, const float* __restrict cx,
+    const float* __restrict cz1, const float* __restrict cz2, int n, float* __restrict l_out,
+    float* __restrict a_out, float* __restrict b_out) {
+  for (int i = 0; i < n; ++i) {
     const float yy = (y[i] + 16.0f) / 116.0f;
-    const float xx = (yy + cx[i] / 500.0f) * static_cast<float>(s.white[0]);
-    const float zz = (yy - (cz1[i] + cz2[i]) / 200.0f) * static_cast<float>(s.white[2]);
-    const Float3 rgb = Apply(s.xyz_to_rgb, xx, yy, zz);
-    lab[i] = LinearRgbToHuntLab(std::clamp(rgb.v[0], 0.0f, 1.0f), std::clamp(rgb.v[1], 0.0f, 1.0f),
-                                std::clamp(rgb.v[2], 0.0f, 1.0f));
-  });
-  return lab;
+    const float xx = (yy + cx[i] / 500.0f) * k.white_x;
+    const float zz = (yy - (cz1[i] + cz2[i]) / 200.0f) * k.white_z;
+    float rgb[3];
+    for (int r = 0; r < 3; ++r) {
+      rgb[r] = std::clamp(k.to_rgb[r][0] * xx + k.to_rgb[r][1] * yy + k.to_rgb[r][2] * zz, 0.0f,
+                          1.0f);
+    }
+    const Float3 lab = LinearRgbToHuntLab(k, rgb[0], rgb[1], rgb[2]);
+    l_out[i] = lab.v[0];
+    a_out[i] = lab.v[1];
+    b_out[i] = lab.v[2];
+  }
 }
 
-Features DetectFeatures(const Plane& y_channel, int w, const SideSpans& spans,
-                        const FeatureFilters& f) {
-  Plane gray(y_channel.size());
+// Colour pipeline output per pixel, Hunt-adjusted CIELAB of the CSF-filtered image, into `lab`
+// at the pixels of spans.wanted.
+void FilteredHuntLab(const std::array<Plane, 3>& ycxcz, int w, const SideSpans& spans,
+                     const CsfFilters& f, SideScratch& s, std::vector<Float3>& lab) {
+  Filter2D(ycxcz[0], w, spans, f.y, f.y, s.tmp, s.y);
+  Filter2D(ycxcz[1], w, spans, f.cx, f.cx, s.tmp, s.cx);
+  Filter2D(ycxcz[2], w, spans, f.cz1, f.cz1, s.tmp, s.cz1);
+  Filter2D(ycxcz[2], w, spans, f.cz2, f.cz2, s.tmp, s.cz2);
+  const HuntLabConstants& k = HuntLabK();
+  for (Plane& plane : s.lab) plane.resize(static_cast<std::size_t>(w));
+  lab.resize(s.y.size(), Float3{{0.0f, 0.0f, 0.0f}});
+  const RowSpans& wanted = spans.wanted;
+  for (std::size_t row = 0; row < wanted.begin.size(); ++row) {
+    const int x0 = wanted.begin[row], x1 = wanted.end[row];
+    if (x0 >= x1) continue;
+    const std::size_t i0 = row * w + x0;
+    HuntLabRow(k, &s.y[i0], &s.cx[i0], &s.cz1[i0], &s.cz2[i0], x1 - x0, s.lab[0].data(),
+               s.lab[1].data(), s.lab[2].data());
+    for (int x = 0; x < x1 - x0; ++x) lab[i0 + x] = {{s.lab[0][x], s.lab[1][x], s.lab[2][x]}};
+  }
+}
+
+// Edge and point features into `out` at the pixels of spans.wanted.
+void DetectFeatures(const Plane& y_channel, int w, const SideSpans& spans, const FeatureFilters& f,
+                    SideScratch& s, Features& out) {
+  Plane& gray = s.gray;
+  gray.resize(y_channel.size());
   ForEachPixel(w, spans.columns, [&](std::size_t i) { gray[i] = (y_channel[i] + 16.0f) / 116.0f; });
-  Plane hg, hdg, hddg;
-  FilterRows(gray, hg, w, spans.rows, f.g);
-  FilterRows(gray, hdg, w, spans.rows, f.dg);
-  FilterRows(gray, hddg, w, spans.rows, f.ddg);
-  Plane ex, ey, px, py;
-  FilterColumns(hdg, ex, w, spans.wanted, f.g);   // d/dx
-  FilterColumns(hg, ey, w, spans.wanted, f.dg);   // d/dy
-  FilterColumns(hddg, px, w, spans.wanted, f.g);  // d2/dx2
-  FilterColumns(hg, py, w, spans.wanted, f.ddg);  // d2/dy2
-  Features out{Plane(gray.size()), Plane(gray.size())};
+  FilterRows(gray, s.hg, w, spans.rows, f.g);
+  FilterRows(gray, s.hdg, w, spans.rows, f.dg);
+  FilterRows(gray, s.hddg, w, spans.rows, f.ddg);
+  FilterColumns(s.hdg, s.ex, w, spans.wanted, f.g);   // d/dx
+  FilterColumns(s.hg, s.ey, w, spans.wanted, f.dg);   // d/dy
+  FilterColumns(s.hddg, s.px, w, spans.wanted, f.g);  // d2/dx2
+  FilterColumns(s.hg, s.py, w, spans.wanted, f.ddg);  // d2/dy2
+  out.edge.resize(gray.size(), 0.0f);
+  out.point.resize(gray.size(), 0.0f);
+  const Plane &ex = s.ex, &ey = s.ey, &px = s.px, &py = s.py;
   ForEachPixel(w, spans.wanted, [&](std::size_t i) {
     out.edge[i] = std::sqrt(ex[i] * ex[i] + ey[i] * ey[i]);
     out.point[i] = std::sqrt(px[i] * px[i] + py[i] * py[i]);
   });
-  return out;
 }
 
 }  // namespace
@@ -417,25 +482,39 @@ std::uint64_t HashSpans(const RowSpans& spans) {
   return h;
 }
 
-FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted) {
+void ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted, const Exposure& exposure,
+                 SideScratch& scratch, FlipSide& side) {
   const CsfFilters csf = MakeCsfFilters(ppd);
   const FeatureFilters features = MakeFeatureFilters(ppd);
   // The widest filter's radius bounds what every filter reads.
   const int radius = static_cast<int>(std::max(csf.y.size(), features.g.size())) / 2;
   const SideSpans spans = SpansFor(wanted, radius, rgb.width);
-  const std::array<Plane, 3> ycxcz = ToYCxCz(rgb, spans.columns);
+  ToYCxCz(rgb, spans.columns, exposure, scratch.ycxcz);
+  FilteredHuntLab(scratch.ycxcz, rgb.width, spans, csf, scratch, side.lab);
+  DetectFeatures(scratch.ycxcz[0], rgb.width, spans, features, scratch, side.features);
+}
+
+FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted,
+                     const Exposure& exposure) {
+  SideScratch scratch;
   FlipSide side;
-  side.lab = FilteredHuntLab(ycxcz, rgb.width, spans, csf);
-  side.features = DetectFeatures(ycxcz[0], rgb.width, spans, features);
+  ComputeSide(rgb, ppd, wanted, exposure, scratch, side);
   return side;
 }
 
-// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
 Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int /*h*/,
                    const RowSpans& wanted) {
-  const float c_max = MaxColorDifference();
-  const float pc_cmax = kPc * c_max;
   Plane flip(ref.lab.size(), 0.0f);
+  CombineSides(ref, tst, w, wanted, flip);
+  return flip;
+}
+
+// The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4).
+void CombineSides(const FlipSide& ref, const FlipSide& tst, int w, const RowSpans& wanted,
+                  Plane& flip) {
+  static const float c_max = MaxColorDifference();
+  const float pc_cmax = kPc * c_max;
+  flip.resize(ref.lab.size());
   ForEachPixel(w, wanted, [&](std::size_t i) {
     // Eq. 4-5: HyAB^q_c, remapped so the lower p_c of the range covers [0, p_t].
     float color = std::pow(HyAB(ref.lab[i], tst.lab[i]), kQc);
@@ -451,7 +530,6 @@ Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int /*h*/,
     // Eq. 7: feature differences amplify the colour error.
     flip[i] = std::pow(color, 1.0f - feature);
   });
-  return flip;
 }
 
 }  // namespace shadefit::metrics::internal

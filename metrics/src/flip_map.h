@@ -2,10 +2,12 @@
 // in flip_map.cpp; flip.cpp caches the reference's half, pools the map and runs HDR-FLIP on it.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "shadefit/metrics/flip.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics::internal {
@@ -47,13 +49,44 @@ RowSpans MaskSpans(const Image* mask, int w, int h);
 // A hash of the spans, for cache keys.
 std::uint64_t HashSpans(const RowSpans& spans);
 
-// The reference's or the test image's half (linear RGB in the first three channels, clamped to
-// [0, 1]) for an observer at `ppd` pixels per degree, valid at the pixels of `wanted` (0
-// elsewhere).
-FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted);
+// Tone mappers as y = (c0 x^2 + c1 x + c2) / (c3 x^2 + c4 x + c5), per channel.
+// ACES: Narkowicz 2015, "ACES Filmic Tone Mapping Curve", x(2.51x + 0.03) / (x(2.43x + 0.59) +
+// 0.14), applied to 0.6 x (the fit includes a 0.6 pre-exposure that HDR-FLIP cancels).
+constexpr std::array<float, 6> kAces = {0.6f * 0.6f * 2.51f, 0.6f * 0.03f, 0.0f,
+                                        0.6f * 0.6f * 2.43f, 0.6f * 0.59f, 0.14f};
+
+// What is done to each pixel's linear colour before its half is computed. LDR-FLIP: nothing
+// (clamped to [0, 1]). HDR-FLIP (Andersson et al. 2021, Sec. 3): scaled by 2^exposure, tone
+// mapped, clamped to [0, 1]; applied where the half reads, so no exposed copy of the image is made.
+struct Exposure {
+  bool tone_map = false;
+  float scale = 1.0f;
+  FlipToneMapper tone_mapper = FlipToneMapper::kAces;
+};
+
+// The planes ComputeSide works in, kept by a caller that computes many halves of one frame size
+// (HDR-FLIP's exposures) so that they are allocated once. Only the pixels a stage writes are
+// ever read, so the planes are not cleared between uses.
+struct SideScratch {
+  std::array<Plane, 3> ycxcz;
+  Plane tmp, y, cx, cz1, cz2, gray, hg, hdg, hddg, ex, ey, px, py;
+  std::array<Plane, 3> lab;  // HuntLab's rows, as planes before they are interleaved.
+};
+
+// The reference's or the test image's half (linear RGB in the first three channels, after
+// `exposure`) for an observer at `ppd` pixels per degree, valid at the pixels of `wanted`. `side`
+// is resized to the frame; its pixels outside `wanted` keep what they held (0 when it was empty).
+void ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted, const Exposure& exposure,
+                 SideScratch& scratch, FlipSide& side);
+// The same into a new half (0 outside `wanted`).
+FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted,
+                     const Exposure& exposure = {});
 
 // The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4) at the pixels of `wanted`
 // (0 elsewhere).
 Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h, const RowSpans& wanted);
+// The same into `flip`, resized to the frame, written at the pixels of `wanted` only.
+void CombineSides(const FlipSide& ref, const FlipSide& tst, int w, const RowSpans& wanted,
+                  Plane& flip);
 
 }  // namespace shadefit::metrics::internal

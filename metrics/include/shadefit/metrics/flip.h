@@ -24,7 +24,6 @@ class FlipReferenceCache;
 
 enum class FlipToneMapper {
   kAces,      // Narkowicz's fit of ACES, with 0.6 pre-exposure cancelled (the HDR-FLIP default).
-  kHable,     // Hable's "Uncharted 2" curve.
   kReinhard,  // Reinhard's global operator on luminance, L / (1 + L).
 };
 
