@@ -9,8 +9,9 @@ on the synthetic four-fit study of many_fits_test.py (2 materials, images and pr
   drawn again, the other material's are not;
 - a figure file deleted: it is drawn again;
 - the drawing shortcuts (report_figures: text measured, math parsed and glyphs drawn once per
-  process, 8-bit opaque tiles, font subsets per set of characters) give the PNG pixels and PDF
-  bytes matplotlib's own functions and float tiles give.
+  process, 8-bit opaque tiles, font subsets per set of characters, made from a subset of the
+  font to the figures' characters) give the PNG pixels and PDF bytes matplotlib's own functions,
+  float tiles and the whole font give.
 
     figure_cache_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -84,6 +85,31 @@ def check_shortcuts(report_src):
     font = rf.matplotlib.font_manager.findfont("DejaVu Sans")
     check(rf._font_subset(font, "abc10").getvalue() == rf._SUBSET_FONT(font, "01cba").getvalue(),
           "font subset: other bytes than matplotlib's for the same characters")
+    check_subset_of_base(rf, font)
+
+
+def check_subset_of_base(rf, font):
+    """Subsets made from the base subset (a shared folder set, as make_report does) are the bytes
+    of the same subsets of the whole font: random sets of the base characters, the whole base,
+    one character, and a set with a character outside the base (made from the whole font)."""
+    import random
+    import tempfile
+    rng = random.Random(46)
+    base = sorted(rf.SUBSET_BASE_CHARACTERS)
+    sets = [rng.sample(base, k) for k in (1, 3, 8, 20, 40, 70)] + [base, ["x"], ["a", "\u00e9"]]
+    sets.append(list("grid-alum-bronze, part 1 of 5: |error| 0.037 W m\u207b\u00b2 sr\u207b\u00b9"))
+    with tempfile.TemporaryDirectory(prefix="shadefit-fonts-test-") as folder:
+        rf.share_font_subsets(folder)
+        try:
+            for chars in sets:
+                made = rf._font_subset(font, "".join(chars)).getvalue()
+                whole = rf._SUBSET_FONT(font, "".join(sorted(set(chars)))).getvalue()
+                check(made == whole, f"font subset of {''.join(sorted(set(chars)))!r} from the "
+                      "base subset: other bytes than from the whole font")
+            check(any(n.startswith("base-") for n in os.listdir(folder)),
+                  "font subsets: no base subset made in the shared folder")
+        finally:
+            rf.share_font_subsets(None)
 
 
 def main(argv):
