@@ -244,10 +244,11 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
   const std::uint64_t ref_hash = p.reference_cache ? HashPixels(ref) : 0;
   const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr || exposure_map != nullptr);
   const std::uint64_t spans_hash = internal::HashSpans(wanted);
-  // The test image's half and the map at one exposure, in planes kept across the exposures.
-  SideScratch scratch;
-  FlipSide test_side;
-  Plane map;
+  // The test image's half and the map at one exposure, kept across the exposures and, with
+  // the scratch planes, across calls on this thread (a new plane is memory cleared first).
+  thread_local FlipSide test_side;
+  thread_local Plane map;
+  SideScratch& scratch = internal::ThreadScratch();
   for (int e = 0; e < count; ++e) {
     const Exposure exposure{true, static_cast<float>(std::exp2(start + e * step)), p.tone_mapper};
     const FlipReferenceCache::Impl::Key key{ref_hash, spans_hash, p.ppd,

@@ -339,34 +339,33 @@ FeatureFilters MakeFeatureFilters(double ppd) {
   return f;
 }
 
-// A pixel's linear colour after `e`, each channel clamped to [0, 1].
-std::array<float, 3> Exposed(const float* p, const Exposure& e) {
-  std::array<float, 3> c = {p[0], p[1], p[2]};
-  if (e.tone_map) {
-    for (float& v : c) v *= e.scale;
-    if (e.tone_mapper == FlipToneMapper::kReinhard) {
-      // Reinhard et al. 2002, global operator on luminance.
-      const float l = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
-      for (float& v : c) v /= 1.0f + l;
-    } else {
+// One row of linear RGB (the first three of `channels` per pixel) after the exposure `e`, each
+// channel clamped to [0, 1], to YCxCz (Sec. 4.1): the linearised CIELAB of Flohr et al.,
+// Y = 116 Y/Yn - 16, Cx = 500 (X/Xn - Y/Yn), Cz = 200 (Y/Yn - Z/Zn). The tone mapper is a
+// template argument so that each variant is one loop the compiler vectorises; built for AVX2 too
+// (no fused multiply-add: the same bits everywhere).
+template <int kToneMap>  // 0: none (LDR-FLIP), 1: ACES, 2: Reinhard.
+[[gnu::always_inline]] inline void YCxCzRowOf(const HuntLabConstants& k, const float* __restrict p,
+                                              int channels, int n, float scale,
+                                              float* __restrict y_out, float* __restrict cx_out,
+                                              float* __restrict cz_out) {
+  for (int i = 0; i < n; ++i) {
+    float c[3] = {p[i * channels], p[i * channels + 1], p[i * channels + 2]};
+    if constexpr (kToneMap != 0) {
+      for (float& v : c) v *= scale;
+    }
+    if constexpr (kToneMap == 1) {
+      // Narkowicz's ACES fit (kAces), per channel.
       for (float& x : c) {
         x = (kAces[0] * x * x + kAces[1] * x + kAces[2]) /
             (kAces[3] * x * x + kAces[4] * x + kAces[5]);
       }
+    } else if constexpr (kToneMap == 2) {
+      // Reinhard et al. 2002, global operator on luminance.
+      const float l = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
+      for (float& v : c) v /= 1.0f + l;
     }
-  }
-  for (float& v : c) v = std::clamp(v, 0.0f, 1.0f);
-  return c;
-}
-
-// Linear RGB (first three channels, after `e`) -> YCxCz planes (Sec. 4.1): the linearised
-// CIELAB of Flohr et al., Y = 116 Y/Yn - 16, Cx = 500 (X/Xn - Y/Yn), Cz = 200 (Y/Yn - Z/Zn).
-void ToYCxCz(const Image& rgb, const RowSpans& spans, const Exposure& e, std::array<Plane, 3>& out) {
-  const HuntLabConstants& k = HuntLabK();
-  const std::size_t n = rgb.PixelCount();
-  for (Plane& plane : out) plane.resize(n);  // Written at the pixels of `spans`.
-  ForEachPixel(rgb.width, spans, [&](std::size_t i) {
-    const std::array<float, 3> c = Exposed(&rgb.data[i * rgb.channels], e);
+    for (float& v : c) v = std::clamp(v, 0.0f, 1.0f);
     float xyz[3];
     for (int r = 0; r < 3; ++r) {
       xyz[r] = k.to_xyz[r][0] * c[0] + k.to_xyz[r][1] * c[1] + k.to_xyz[r][2] * c[2];
@@ -374,9 +373,38 @@ void ToYCxCz(const Image& rgb, const RowSpans& spans, const Exposure& e, std::ar
     const float x = xyz[0] / k.white_x;
     const float y = xyz[1];
     const float z = xyz[2] / k.white_z;
-    out[0][i] = 116.0f * y - 16.0f;
-    out[1][i] = 500.0f * (x - y);
-    out[2][i] = 200.0f * (y - z);
+    y_out[i] = 116.0f * y - 16.0f;
+    cx_out[i] = 500.0f * (x - y);
+    cz_out[i] = 200.0f * (y - z);
+  }
+}
+
+[[gnu::target_clones("avx2", "default")]] void YCxCzRow(const HuntLabConstants& k,
+                                                         const Exposure& e, const float* p,
+                                                         int channels, int n, float* y_out,
+                                                         float* cx_out, float* cz_out) {
+  if (!e.tone_map) {
+    YCxCzRowOf<0>(k, p, channels, n, 1.0f, y_out, cx_out, cz_out);
+  } else if (e.tone_mapper == FlipToneMapper::kReinhard) {
+    YCxCzRowOf<2>(k, p, channels, n, e.scale, y_out, cx_out, cz_out);
+  } else {
+    YCxCzRowOf<1>(k, p, channels, n, e.scale, y_out, cx_out, cz_out);
+  }
+}
+
+// The image's pixels in `spans` after the exposure `e` as YCxCz planes (YCxCzRow).
+void ToYCxCz(const Image& rgb, const RowSpans& spans, const Exposure& e, std::array<Plane, 3>& out) {
+  const HuntLabConstants& k = HuntLabK();
+  const std::size_t n = rgb.PixelCount();
+  for (Plane& plane : out) plane.resize(n);  // Written at the pixels of `spans`.
+  internal::ParallelRows(static_cast<int>(spans.begin.size()), [&](int begin, int end) {
+    for (int y = begin; y < end; ++y) {
+      const int x0 = spans.begin[y], x1 = spans.end[y];
+      if (x0 >= x1) continue;
+      const std::size_t i0 = static_cast<std::size_t>(y) * rgb.width + x0;
+      YCxCzRow(k, e, &rgb.data[i0 * rgb.channels], rgb.channels, x1 - x0, &out[0][i0],
+               &out[1][i0], &out[2][i0]);
+    }
   });
 }
 
@@ -496,10 +524,14 @@ void ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted, const Exp
 
 FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted,
                      const Exposure& exposure) {
-  SideScratch scratch;
   FlipSide side;
-  ComputeSide(rgb, ppd, wanted, exposure, scratch, side);
+  ComputeSide(rgb, ppd, wanted, exposure, ThreadScratch(), side);
   return side;
+}
+
+SideScratch& ThreadScratch() {
+  thread_local SideScratch scratch;
+  return scratch;
 }
 
 Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int /*h*/,

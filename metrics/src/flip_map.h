@@ -64,14 +64,18 @@ struct Exposure {
   FlipToneMapper tone_mapper = FlipToneMapper::kAces;
 };
 
-// The planes ComputeSide works in, kept by a caller that computes many halves of one frame size
-// (HDR-FLIP's exposures) so that they are allocated once. Only the pixels a stage writes are
-// ever read, so the planes are not cleared between uses.
+// The planes ComputeSide works in, allocated once per thread and frame size (ThreadScratch):
+// HDR-FLIP computes a half at each of up to 22 exposures, a study thousands, and a new plane is
+// memory the allocator and the kernel clear first. Only the pixels a stage writes are ever read,
+// so the planes are not cleared between uses.
 struct SideScratch {
   std::array<Plane, 3> ycxcz;
   Plane tmp, y, cx, cz1, cz2, gray, hg, hdg, hddg, ex, ey, px, py;
   std::array<Plane, 3> lab;  // HuntLab's rows, as planes before they are interleaved.
 };
+
+// This thread's scratch planes (they grow to the largest frame the thread has seen and stay).
+SideScratch& ThreadScratch();
 
 // The reference's or the test image's half (linear RGB in the first three channels, after
 // `exposure`) for an observer at `ppd` pixels per degree, valid at the pixels of `wanted`. `side`
