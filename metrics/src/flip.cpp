@@ -28,20 +28,33 @@ using internal::Plane;
 using internal::RowSpans;
 using internal::SideScratch;
 
-// 64-bit hash of an image's size and pixel bits (splitmix64's finaliser per 32-bit word).
+// 64-bit hash of an image's size and pixel bits: splitmix64's finaliser over 64-bit words (two
+// floats), in four independent lanes so that the mixes of neighbouring words overlap instead of
+// waiting on each other (it runs on every FLIP call, over the whole frame), lanes mixed at the end.
 std::uint64_t HashPixels(const Image& image) {
   const auto mix = [](std::uint64_t z) {
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return z ^ (z >> 31);
   };
-  std::uint64_t h = mix((static_cast<std::uint64_t>(image.width) << 32) ^
-                        (static_cast<std::uint64_t>(image.height) << 8) ^
-                        static_cast<std::uint64_t>(image.channels));
-  for (const float v : image.data) {
-    h = mix(h ^ std::bit_cast<std::uint32_t>(v)) + 0x9E3779B97F4A7C15ull;
+  constexpr std::uint64_t kStep = 0x9E3779B97F4A7C15ull;
+  std::uint64_t lane[4];
+  lane[0] = mix((static_cast<std::uint64_t>(image.width) << 32) ^
+                (static_cast<std::uint64_t>(image.height) << 8) ^
+                static_cast<std::uint64_t>(image.channels));
+  for (int l = 1; l < 4; ++l) lane[l] = mix(lane[l - 1] + kStep);
+  const std::size_t n = image.data.size();
+  const auto word = [&](std::size_t i) {  // Floats i and i + 1 (0 past the end).
+    const std::uint64_t lo = std::bit_cast<std::uint32_t>(image.data[i]);
+    const std::uint64_t hi = i + 1 < n ? std::bit_cast<std::uint32_t>(image.data[i + 1]) : 0u;
+    return lo | hi << 32;
+  };
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    for (int l = 0; l < 4; ++l) lane[l] = mix(lane[l] ^ word(i + 2 * l)) + kStep;
   }
-  return h;
+  for (int l = 0; i < n; i += 2, ++l) lane[l] = mix(lane[l] ^ word(i)) + kStep;
+  return mix(lane[0] ^ mix(lane[1] ^ mix(lane[2] ^ mix(lane[3] ^ n))));
 }
 
 }  // namespace

@@ -231,11 +231,14 @@ TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
   FlipReferenceCache::Stats s = cache.stats();
   EXPECT_EQ(s.misses, static_cast<std::uint64_t>(exposures + 1));   // First call: HDR + LDR.
   EXPECT_EQ(s.hits, static_cast<std::uint64_t>(2 * (exposures + 1)));
-  // Another reference (one pixel changed) finds nothing.
-  Image other = ref;
-  other.at(5, 5, 1) += 0.5f;
-  FlipHdr(other, test_a, cached);
-  EXPECT_EQ(cache.stats().hits, s.hits);
+  // Another reference (one value changed: the first, one in the middle at an odd index, the
+  // last) finds nothing.
+  for (const std::size_t i : {std::size_t{0}, std::size_t{5 * 48 * 3 + 17}, ref.data.size() - 1}) {
+    Image other = ref;
+    other.data[i] += 0.5f;
+    FlipHdr(other, test_a, cached);
+    EXPECT_EQ(cache.stats().hits, s.hits) << "value " << i;
+  }
   // A budget below one entry keeps only the newest.
   FlipReferenceCache tiny(1);
   cached.reference_cache = &tiny;
