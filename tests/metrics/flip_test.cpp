@@ -294,6 +294,46 @@ TEST(FlipTest, MaskedPixelsOnlyGiveTheWholeFramesBits) {
   expect_same(FlipHdr(ref, test, cached), hdr_masked, "HDR, cache warm with the whole frame");
 }
 
+// One exposure of HDR-FLIP is LDR-FLIP of the two images scaled by 2^c and tone mapped. With the
+// range pinned to a single exposure c, HDR-FLIP must equal LDR-FLIP of images tone mapped here,
+// by the published curves written out independently: ACES as Narkowicz's x(2.51x + 0.03) /
+// (x(2.43x + 0.59) + 0.14) of 0.6 x (HDR-FLIP cancels the fit's 0.6 pre-exposure), and Reinhard's
+// global operator c / (1 + L) with L the Rec. 709 luminance.
+TEST(FlipTest, OneExposureIsLdrFlipOfTheToneMappedImages) {
+  const Image ref = testing::HdrScene(64, 48);
+  const Image test = testing::HdrDistorted(ref, 0.2f, 9);
+  const auto aces = [](const Image& image, double c) {
+    Image out = image;
+    for (float& v : out.data) {
+      const double x = 0.6 * std::exp2(c) * v;
+      v = static_cast<float>(
+          std::clamp(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0));
+    }
+    return out;
+  };
+  const auto reinhard = [](const Image& image, double c) {
+    Image out = image;
+    for (std::size_t i = 0; i < out.PixelCount(); ++i) {
+      float* p = &out.data[3 * i];
+      const double s = std::exp2(c);
+      const double l = s * (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]);
+      for (int ch = 0; ch < 3; ++ch) p[ch] = static_cast<float>(std::clamp(s * p[ch] / (1.0 + l), 0.0, 1.0));
+    }
+    return out;
+  };
+  for (const double c : {-1.5, 0.0, 2.0}) {
+    FlipParameters p;
+    p.start_exposure = p.stop_exposure = c;  // Two exposures, both c.
+    p.tone_mapper = FlipToneMapper::kAces;
+    EXPECT_NEAR(FlipHdr(ref, test, p).mean, FlipLdr(aces(ref, c), aces(test, c)).mean, 2e-4)
+        << "ACES, exposure " << c;
+    p.tone_mapper = FlipToneMapper::kReinhard;
+    EXPECT_NEAR(FlipHdr(ref, test, p).mean, FlipLdr(reinhard(ref, c), reinhard(test, c)).mean,
+                2e-4)
+        << "Reinhard, exposure " << c;
+  }
+}
+
 TEST(FlipTest, PercentilesAreOrdered) {
   const Image ref = testing::LdrScene(64, 64);
   const FlipResult r = FlipLdr(ref, testing::LdrDistorted(ref, 0.05f, 1));
