@@ -223,27 +223,20 @@ def _font_subset(fontfile, characters):
 SUBSET_BASE_CHARACTERS = frozenset(chr(c) for c in range(32, 127)) | frozenset(
     "\u00b0\u00b1\u00b2\u00b3\u00b9\u00d7\u2013\u2014\u2212\u207b\u2070\u2074\u2075\u2076"
     "\u2077\u2078\u2079\u03b1\u03b8\u03c6\u03c1")
-_SUBSET_BASES = {}  # (folder, font file) -> the path of the font's base subset in the folder
 
 
 def _subset_source(fontfile, characters):
-    """The font file to subset to `characters`: the font's base subset (in the shared folder) where
-    it holds every one of them, else the font itself."""
+    """The font file to subset to `characters`: the font's base subset (in the shared folder,
+    made by the first process that needs it) where it holds every one of them, else the font."""
     if (not _FONT_SUBSET_DIR or fontfile.endswith(".ttc")
             or not SUBSET_BASE_CHARACTERS.issuperset(characters)):
         return fontfile
-    key = (_FONT_SUBSET_DIR, fontfile)
-    path = _SUBSET_BASES.get(key)
-    if path is None:
-        path = os.path.join(_FONT_SUBSET_DIR, "base-" + hashlib.sha256(
-            fontfile.encode()).hexdigest() + ".ttf")
-        if not os.path.exists(path):
-            _write_bytes(path, _SUBSET_FONT(fontfile, "".join(sorted(SUBSET_BASE_CHARACTERS)))
-                         .getvalue())
-            if not os.path.exists(path):
-                return fontfile  # not written (a full disk): the whole font
-        _SUBSET_BASES[key] = path
-    return path
+    path = os.path.join(_FONT_SUBSET_DIR,
+                        "base-" + hashlib.sha256(fontfile.encode()).hexdigest() + ".ttf")
+    if not os.path.exists(path):
+        _write_bytes(path, _SUBSET_FONT(fontfile, "".join(sorted(SUBSET_BASE_CHARACTERS)))
+                     .getvalue())
+    return path if os.path.exists(path) else fontfile  # not written (a full disk): the font
 
 
 def _read_bytes(path):
