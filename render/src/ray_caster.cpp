@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <memory>
+#include <vector>
 #include <limits>
 #include <mutex>
 
@@ -116,6 +118,31 @@ bool RayCaster::Occluded(const Ray& ray, double t_min, double t_max) const {
   rtcInitIntersectContext(&context);
   rtcOccluded1(impl_->scene, &context, &rh.ray);
   return rh.ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit.
+}
+
+std::shared_ptr<const RayCaster> SharedRayCaster(std::vector<RayCaster::Part> parts) {
+  static std::mutex mutex;
+  // Held weakly: a ray caster lives as long as its scenes. While it lives, its parts keep their
+  // meshes alive, so a mesh's address cannot be another mesh's: identity is a sound key.
+  static std::vector<std::weak_ptr<const RayCaster>> built;
+  const auto same = [&parts](const RayCaster& r) {
+    if (r.parts().size() != parts.size()) return false;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      if (r.parts()[i].object != parts[i].object || r.parts()[i].mesh != parts[i].mesh) {
+        return false;
+      }
+    }
+    return true;
+  };
+  std::lock_guard<std::mutex> lock(mutex);
+  std::erase_if(built, [](const std::weak_ptr<const RayCaster>& w) { return w.expired(); });
+  for (const std::weak_ptr<const RayCaster>& w : built) {
+    if (std::shared_ptr<const RayCaster> r = w.lock(); r && same(*r)) return r;
+  }
+  // Built under the lock: two workers loading scenes of one mesh wait for one build.
+  auto made = std::make_shared<const RayCaster>(std::move(parts));
+  built.push_back(made);
+  return made;
 }
 
 }  // namespace shadefit

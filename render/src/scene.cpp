@@ -489,7 +489,7 @@ Scene ParseScene(const std::string& text, const std::string& name) {
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
       if (scene.objects[i].mesh) parts.push_back({static_cast<int>(i), scene.objects[i].mesh});
     }
-    scene.ray_caster = std::make_shared<const RayCaster>(std::move(parts));
+    scene.ray_caster = SharedRayCaster(std::move(parts));
   }
 
   if (const toml::table* bg = root["background"].as_table()) {

@@ -12,6 +12,7 @@
 #include "shadefit/base/error.h"
 #include "shadefit/render/gbuffer.h"
 #include "shadefit/render/pixel_surface.h"
+#include "shadefit/render/ray_caster.h"
 #include "shadefit/render/shadows.h"
 #include "test_util.h"
 
@@ -217,6 +218,30 @@ TEST(Mesh, CastShadowsFallWhereGeometrySaysAndTheTwinAgrees) {
 // rays against the exact shapes, for the same quadrature (Lambert: the light's and the cosine
 // directions; GGX: its lobe's too). Without the bits the ground under the ball sees the whole
 // sky (twice as bright there).
+// Scenes of the same meshes differ in their lights only (a photometric-stereo set: one scene per
+// light): they share one ray caster instead of building the same Embree structure each; other
+// meshes get their own, and the shared one still answers for either scene.
+TEST(Mesh, ScenesOfTheSameMeshesShareOneRayCaster) {
+  const std::string ground = QuadObj("share_ground.obj", 3.0, -1.0);
+  const std::string ball = SphereObj("share_ball.obj", 0.5, {0, 0, 0.2}, 16, 32);
+  const auto scene_text = [&](bool with_ball, const std::string& light) {
+    std::string t = Camera(32, 32) + "[[objects]]\ntype = \"mesh\"\nfile = \"" + ground + "\"\n";
+    if (with_ball) t += "[[objects]]\ntype = \"mesh\"\nfile = \"" + ball + "\"\n";
+    return t + "[[lights]]\ntype = \"point\"\nposition = " + light + "\nintensity = 20.0\n";
+  };
+  const Scene a = ParseScene(scene_text(true, "[0.0, 0.0, 3.0]"), "a.toml");
+  const Scene b = ParseScene(scene_text(true, "[2.0, -1.0, 3.0]"), "b.toml");
+  const Scene ground_only = ParseScene(scene_text(false, "[0.0, 0.0, 3.0]"), "c.toml");
+  ASSERT_TRUE(a.ray_caster && b.ray_caster && ground_only.ray_caster);
+  EXPECT_EQ(a.ray_caster, b.ray_caster);
+  EXPECT_NE(a.ray_caster, ground_only.ray_caster);
+  // Straight up from the ground under the ball: the ball is in the way; beside it, nothing is.
+  const Ray up_under{{0, 0, -0.99}, {0, 0, 1}}, up_beside{{2, 2, -0.99}, {0, 0, 1}};
+  EXPECT_TRUE(b.ray_caster->Occluded(up_under, 1e-6, 1e30));
+  EXPECT_FALSE(b.ray_caster->Occluded(up_beside, 1e-6, 1e30));
+  EXPECT_FALSE(ground_only.ray_caster->Occluded(up_under, 1e-6, 1e30));
+}
+
 TEST(Mesh, EnvironmentLightIsOccludedPerQuadratureDirection) {
   const std::string ground = QuadObj("env_ground.obj", 2.0, -1.0);
   const std::string ball = SphereObj("env_ball.obj", 0.5, {0, 0, -0.45}, 96, 192);

@@ -43,4 +43,11 @@ class RayCaster {
   std::vector<Part> parts_;
 };
 
+// The ray caster of `parts`: the one already built for the same meshes (the same objects, by
+// identity: meshes are shared per file and transform, normal-map surfaces per content of their
+// files) while any scene still holds it, else a new one. A photometric-stereo set's 96 scenes
+// differ in their light only; each used to build its own Embree structure over the same depth
+// mesh. Thread-safe.
+std::shared_ptr<const RayCaster> SharedRayCaster(std::vector<RayCaster::Part> parts);
+
 }  // namespace shadefit
