@@ -8,7 +8,9 @@
 # names (<name>, <name>-r2, ...), each a set of symbolic links to the shared files; the project
 # has no other 80. Every copy is a material of its own to the runner (its own references, fits,
 # probes, report pages); what a copy cannot have is its own Ngan 2005 row or Lavoue class, which
-# are keyed by the MERL name (the report leaves those rows out).
+# are keyed by the MERL name (the report leaves those rows out). It measures time, not findings:
+# five copies of a material are not five samples, so the report's significance counts and
+# intervals over these 100 mean nothing (run studies/ngan2005_models.toml for the answers).
 # Models: studies/ngan2005_models.toml's first seven, Ngan's seven with GGX in the place of He et
 # al. 1991 (not implemented): blinn-phong-normalized, ward, ward-duer, ashikhmin-shirley,
 # lafortune, cook-torrance, ggx. Training sets: key + mirror60 (images) and brdf (the measured
@@ -62,6 +64,7 @@ done
 study=$work/merl100_ngan7.toml
 sed -e "s#^name = \"ngan2005_models\"#name = \"merl100_ngan7\"#" \
     -e "s#^folder = .*#folder = \"$folder\"#" \
+    -e "s#^description = .*#description = \"Timing benchmark (bench/merl100/run.sh): Ngan 2005's seven models (GGX for He's) on the shared measured materials $copies times over; not findings\"#" \
     -e "s#\"\.\./reference_images/#\"$repo/reference_images/#g" \
     -e '/^models = \[/,/\]/c\models = ["blinn-phong-normalized", "ward", "ward-duer", "ashikhmin-shirley", "lafortune", "cook-torrance", "ggx"]' \
     "$repo/studies/ngan2005_models.toml" >"$study"
