@@ -3,7 +3,6 @@
 #include "shadefit/metrics/flip.h"
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>

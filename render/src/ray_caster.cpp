@@ -4,10 +4,10 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <memory>
-#include <vector>
 #include <limits>
+#include <memory>
 #include <mutex>
+#include <vector>
 
 #include "shadefit/base/error.h"
 #include "shadefit/render/scene.h"

@@ -16,7 +16,7 @@ namespace {
 // fit job on a 96-light photo set touches hundreds), from several worker threads. glibc's
 // defaults hand blocks above its mmap threshold to the kernel on every free and trim the heap
 // top as soon as it passes 128 kB, so each new image is a fresh mapping the kernel zeroes page
-// by page. Keeping freed memory for reuse instead: the 96-light photo job ran 154.9 -> 135.0 CPU-s
+// by page. Keeping freed memory for reuse instead: the 96-light photo job ran 154.9 -> 133.1 CPU-s
 // (BENCHMARKS.md). The cost is that the process keeps its peak memory until it exits.
 void KeepFreedMemory() {
 #if defined(__GLIBC__)
