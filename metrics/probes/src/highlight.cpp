@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "probe_common.h"
 #include "shadefit/base/error.h"
@@ -13,9 +12,8 @@
 namespace shadefit::probes {
 namespace {
 
+using internal::kNaN;
 using internal::Num;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Shape {
   double peak = kNaN, peak_x = kNaN, peak_y = kNaN, mirror_x = kNaN, mirror_y = kNaN;

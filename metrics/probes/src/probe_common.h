@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,8 @@ namespace shadefit::probes::internal {
 inline double Luma(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
 
 inline constexpr double kRadToDeg = 57.29577951308232;
+// What a probe reports for a quantity it could not measure (JSON null on output).
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Throws shadefit::Error "<label>: <field>: <problem>" for an unknown model, a wrong parameter
 // count, non-finite or out-of-table parameters, or a non-positive exposure.
