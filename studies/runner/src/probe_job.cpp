@@ -87,6 +87,7 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   std::vector<std::string> without_fit;
   in.models = FittedModels(context, job, jobs, &without_fit);
   in.truth = probes::TruthOfReference(g.references.front().sidecar_path);
+  clock.Lap("probe_inputs");
   const fs::path probe_dir = context.paths.dir / "probes" / g.material;
   fs::create_directories(probe_dir);
   ProbeJobRecord record;
@@ -101,12 +102,14 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
       in.models.empty() ? std::vector<probes::ProbeKind>{} : context.spec.probes;
   std::unique_ptr<reference_images::MeasuredBrdf> measured;
   for (const probes::ProbeKind kind : kinds) {
+    const std::string stage = std::string("probe_") + probes::ProbeName(kind);
     if (kind == probes::ProbeKind::kBrdf) {
       // Only a measured material has a BRDF to read; a [[group]] of images says so and goes on.
       const std::string path = MeasuredBrdfPath(context.spec, g.material);
       if (path.empty()) {
         record.probes_skipped.push_back(
             {{"probe", "brdf"}, {"why", "not a [[measured]] material"}});
+        clock.Lap(stage);
         continue;
       }
       if (!measured) measured = reference_images::LoadMeasuredBrdf(path);
@@ -119,8 +122,8 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
       const fs::path p = probe_dir / (std::string(probes::ProbeName(r.probe)) + ext);
       if (fs::exists(p)) record.outputs.push_back(fs::relative(p, context.paths.dir).string());
     }
+    clock.Lap(stage);
   }
-  clock.Lap("probes");
   WriteTiming(context, job, clock, -1.0);
   WriteJobJson(context.paths.JobJson(job), ToJson(record).dump(1) + "\n");
 }

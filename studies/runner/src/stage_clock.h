@@ -29,7 +29,14 @@ inline const std::vector<std::string> kStageNames = {
     "regions",     // where the error lies (a G-buffer per lighting, region_errors.h)
     "previews",    // the reference, fit and error PNGs
     "write",       // the job's record
-    "probes",      // a probe job's probes
+    // A probe job: its inputs (the references' G-buffers, the fits' records), then one stage per
+    // probe (probes::ProbeName), each with the figures and JSON it writes.
+    "probe_inputs",
+    "probe_fresnel",
+    "probe_highlight",
+    "probe_energy",
+    "probe_portability",
+    "probe_brdf",
 };
 
 class StageClock {
