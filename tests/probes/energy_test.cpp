@@ -81,5 +81,34 @@ TEST(EnergyProbe, SweepClassicFluxVariesNormalisedFollowsClosedForm) {
   EXPECT_LT(s["ggx"]["flux_max"].get<double>(), 1.0 + 3e-3);
 }
 
+// The sweep does not depend on the models, so the energy probes of one process share it per
+// shininess list and strata (LobeWidthSweep): a probe with other sweep options gets its own.
+TEST(EnergyProbe, SweepIsSharedOnlyBetweenProbesWithTheSameSweepOptions) {
+  probes::ProbeInputs in;  // no renderer: no furnace, only the quadrature and the sweep
+  in.models.push_back(MakeModel("lambert", "lambert", {"kd=0.5"}));
+  probes::EnergyOptions o;
+  o.strata_per_axis = o.max_strata_per_axis = 8;
+  o.sweep_shininess = {10, 100};
+  o.sweep_strata_per_axis = 16;
+  const auto sweep = [&](const probes::EnergyOptions& options) {
+    const probes::ProbeResult r = probes::EnergyProbe(in, options);
+    std::vector<double> x;
+    for (const probes::ProbeCurve& c : r.curves) {
+      if (c.kind == probes::CurveKind::kLobeWidthSweep && c.series.rfind("ggx", 0) == 0) x = c.x;
+    }
+    return std::pair{r.numbers["sweep"], x};
+  };
+  const auto first = sweep(o);
+  EXPECT_EQ(sweep(o), first);
+  probes::EnergyOptions finer = o;
+  finer.sweep_strata_per_axis = 32;
+  EXPECT_NE(sweep(finer).first, first.first) << "other strata, other estimates";
+  probes::EnergyOptions wider = o;
+  wider.sweep_shininess = {10, 1000};
+  const auto wide = sweep(wider);
+  EXPECT_EQ(wide.second, (std::vector<double>{10, 1000}));
+  EXPECT_NE(wide.first, first.first);
+}
+
 }  // namespace
 }  // namespace shadefit::testing

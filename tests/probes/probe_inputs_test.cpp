@@ -152,6 +152,35 @@ TEST(ProbeOutputs, CurvesAreWrittenAsRecords) {
 }
 
 // Probe names are parsed once into kinds; every kind's name parses back to it.
+// Kept renders (ModelRenders, as a study's probe job keeps them across its probes) give the
+// numbers of fresh renders, and a model with other parameters under the same label and name is
+// rendered anew rather than given the kept image.
+TEST(ProbeInputs, KeptRendersGiveTheNumbersOfFreshRenders) {
+  probes::ProbeInputs in;
+  in.renderer = &SharedRenderer();
+  in.truth = MakeModel("ggx", "ggx", {"kd=0.4,0.3,0.2", "f0=0.04", "roughness=0.3"});
+  for (const char* l : {"key", "side"}) in.references.push_back(MakeReference(*in.truth, l, 48));
+  const probes::ModelUnderTest sharp = MakeModel("fit", "ggx", {"kd=0.4", "roughness=0.15"});
+  probes::ModelUnderTest broad = MakeModel("fit", "ggx", {"kd=0.4", "roughness=0.6"});
+  broad.trained_on = {in.references.front().name};
+  probes::ModelRenders renders;
+  in.models = {sharp};
+  in.renders = &renders;
+  probes::FresnelProbe(in);
+  EXPECT_EQ(renders.size(), 2u);  // one per reference
+  in.models = {broad};
+  for (const probes::ProbeKind kind : {probes::ProbeKind::kFresnel, probes::ProbeKind::kHighlight,
+                                       probes::ProbeKind::kPortability}) {
+    in.renders = &renders;
+    const nlohmann::json kept = probes::ProbeResultToJson(probes::RunProbe(kind, in));
+    in.renders = nullptr;
+    const nlohmann::json fresh = probes::ProbeResultToJson(probes::RunProbe(kind, in));
+    EXPECT_TRUE(kept == fresh) << probes::ProbeName(kind) << ": kept renders changed a number";
+  }
+  // Both models and the truth (portability's) under both references, each rendered once.
+  EXPECT_EQ(renders.size(), 6u);
+}
+
 TEST(ProbeKind, NamesRoundTrip) {
   ASSERT_EQ(probes::AllProbeKinds().size(), 5u);
   for (probes::ProbeKind kind : probes::AllProbeKinds()) {

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -198,9 +200,17 @@ double NormalizedBlinnPhongFlux(double n) {
                       (1.0 - std::pow(2.0, -(n + 2.0) / 2.0)) / (n + 2.0));
 }
 
+// What the sweep adds to the probe's result: its curves, numbers["sweep"] and a note.
+struct SweepOutputs {
+  std::vector<ProbeCurve> curves;
+  nlohmann::json numbers;
+  std::string note;
+};
+
 // The sweep: specular-only albedo at normal view over the shininess list for classic and
 // normalised Blinn-Phong and GGX, plus normalised Blinn-Phong's closed form as a check.
-void LobeWidthSweep(const EnergyOptions& o, ProbeResult* result) {
+SweepOutputs ComputeLobeWidthSweep(const EnergyOptions& o) {
+  SweepOutputs out;
   struct Series {
     std::string name, model;
   };
@@ -209,7 +219,7 @@ void LobeWidthSweep(const EnergyOptions& o, ProbeResult* result) {
                                       {"ggx (f0 = 1, alpha = sqrt(2 / (n + 2)))", "ggx"}};
   AlbedoOptions ao;
   ao.strata_per_axis = o.sweep_strata_per_axis;
-  nlohmann::json& numbers = result->numbers["sweep"];
+  nlohmann::json& numbers = out.numbers;
   for (const Series& s : series) {
     const ModelInfo& info = FindModel(s.model);
     ProbeCurve curve{.series = s.name,
@@ -244,16 +254,41 @@ void LobeWidthSweep(const EnergyOptions& o, ProbeResult* result) {
         worst = std::max(worst, std::abs(curve.y[i] - closed.y.back()));
       }
       n["max_abs_error_vs_closed_form"] = worst;
-      result->curves.push_back(std::move(curve));
-      result->curves.push_back(std::move(closed));
+      out.curves.push_back(std::move(curve));
+      out.curves.push_back(std::move(closed));
     } else {
-      result->curves.push_back(std::move(curve));
+      out.curves.push_back(std::move(curve));
     }
   }
-  result->notes.push_back(fmt::format(
+  out.note = fmt::format(
       "sweep: specular-only albedo at normal view, {}^2 strata; GGX roughness from n by Walter "
       "et al. 2007 sec. 5.2",
-      o.sweep_strata_per_axis));
+      o.sweep_strata_per_axis);
+  return out;
+}
+
+// The sweep depends on its options alone, not on the models under test, so the probes of one
+// process (a study's energy probe per material) share one computation per shininess list and
+// strata: the same numbers, computed once instead of once per material.
+// (A list holding NaN, which orders no map, is computed every time.)
+void LobeWidthSweep(const EnergyOptions& o, ProbeResult* result) {
+  const auto add = [result](const SweepOutputs& sweep) {
+    result->curves.insert(result->curves.end(), sweep.curves.begin(), sweep.curves.end());
+    result->numbers["sweep"] = sweep.numbers;
+    result->notes.push_back(sweep.note);
+  };
+  if (std::any_of(o.sweep_shininess.begin(), o.sweep_shininess.end(),
+                  [](double n) { return std::isnan(n); })) {
+    add(ComputeLobeWidthSweep(o));
+    return;
+  }
+  static std::mutex mutex;
+  static std::map<std::pair<std::vector<double>, int>, SweepOutputs> done;
+  const std::lock_guard<std::mutex> lock(mutex);
+  const auto key = std::make_pair(o.sweep_shininess, o.sweep_strata_per_axis);
+  auto it = done.find(key);
+  if (it == done.end()) it = done.emplace(key, ComputeLobeWidthSweep(o)).first;
+  add(it->second);
 }
 
 }  // namespace

@@ -73,14 +73,14 @@ struct LabelState {
   explicit LabelState(int n) : theta_d(n) {}
 };
 
-// One image (the reference or a model's render) under one reference: its theta_v curve and
-// centre/rim numbers go to `result`, its theta_d sums into the label's pooled state.
+// One image (the reference or a model's render) under one reference, whose shading points are
+// `points`: its theta_v curve and centre/rim numbers go to `result`, its theta_d sums into the
+// label's pooled state.
 void MeasureImage(const FresnelOptions& o, const std::string& label, const ModelUnderTest* known,
-                  const ProbeReference& ref, const Image& image, LabelState* st,
-                  ProbeResult* result) {
+                  const ProbeReference& ref, const std::vector<ShadingPoint>& points,
+                  const Image& image, LabelState* st, ProbeResult* result) {
   const int nbins = static_cast<int>(st->theta_d.num.size());
   const double w = o.bin_width_deg;
-  const auto points = PrepareShading(ref.scene, ref.gbuffer, static_cast<float>(o.min_coverage));
   const internal::Decomposition dec =
       internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
   st->has_lobe = dec.has_lobe;
@@ -192,13 +192,19 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
       fmt::format("{}", o.lobe_min_fraction) +
       " x the image's max lobe; theta_d = acos(l.h) of the dominant light");
 
+  // Each reference's shading points (its scene and G-buffer), shared by every image under it.
+  std::vector<std::vector<ShadingPoint>> points;
+  for (const ProbeReference* ref : refs) {
+    points.push_back(
+        PrepareShading(ref->scene, ref->gbuffer, static_cast<float>(o.min_coverage)));
+  }
   // The reference first, then every model.
   std::vector<std::pair<std::string, LabelState>> states;
   {
     LabelState st(nbins);
     const ModelUnderTest* truth = inputs.truth ? &*inputs.truth : nullptr;
-    for (const ProbeReference* ref : refs) {
-      MeasureImage(o, "reference", truth, *ref, ref->image, &st, &result);
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      MeasureImage(o, "reference", truth, *refs[i], points[i], refs[i]->image, &st, &result);
     }
     if (!truth) {
       result.notes.push_back(
@@ -209,8 +215,9 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
   }
   for (const ModelUnderTest& m : inputs.models) {
     LabelState st(nbins);
-    for (const ProbeReference* ref : refs) {
-      MeasureImage(o, m.label, &m, *ref, internal::RenderModel(inputs, m, *ref), &st, &result);
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      MeasureImage(o, m.label, &m, *refs[i], points[i], internal::RenderModel(inputs, m, *refs[i]),
+                   &st, &result);
     }
     states.emplace_back(m.label, std::move(st));
   }

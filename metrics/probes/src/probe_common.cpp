@@ -52,6 +52,23 @@ void ValidateReference(const ProbeReference& reference, double min_coverage) {
   }
 }
 
+ModelRenders::Key ModelRenders::KeyOf(const ModelUnderTest& model,
+                                      const ProbeReference& reference) {
+  return {model.label, model.model ? model.model->name : std::string(), reference.name,
+          model.params, model.exposure};
+}
+
+const Image* ModelRenders::Find(const ModelUnderTest& model,
+                                const ProbeReference& reference) const {
+  const auto it = renders_.find(KeyOf(model, reference));
+  return it == renders_.end() ? nullptr : &it->second;
+}
+
+const Image& ModelRenders::Keep(const ModelUnderTest& model, const ProbeReference& reference,
+                                Image image) {
+  return renders_.insert_or_assign(KeyOf(model, reference), std::move(image)).first->second;
+}
+
 namespace internal {
 
 const ModelInfo& ValidateModel(const ModelUnderTest& model) {
@@ -81,6 +98,9 @@ const ModelInfo& ValidateModel(const ModelUnderTest& model) {
 Image RenderModel(const ProbeInputs& inputs, const ModelUnderTest& model,
                   const ProbeReference& reference) {
   const ModelInfo& info = ValidateModel(model);
+  if (inputs.renders != nullptr) {
+    if (const Image* kept = inputs.renders->Find(model, reference)) return *kept;
+  }
   Image image;
   if (inputs.renderer != nullptr) {
     image = inputs.renderer->Render(reference.scene, info.id, model.params);
@@ -98,6 +118,7 @@ Image RenderModel(const ProbeInputs& inputs, const ModelUnderTest& model,
       image.data[i * image.channels + c] *= static_cast<float>(model.exposure);
     }
   }
+  if (inputs.renders != nullptr) return inputs.renders->Keep(model, reference, std::move(image));
   return image;
 }
 

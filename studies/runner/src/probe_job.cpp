@@ -83,6 +83,8 @@ void RunProbeJob(const RunContext& context, const Job& job, const std::vector<Jo
   StageClock clock;
   probes::ProbeInputs in;
   in.renderer = &renderer;
+  probes::ModelRenders renders;  // each fit under each reference, rendered once for all probes
+  in.renders = &renders;
   in.references = ProbeReferences(context, g, renderer);
   std::vector<std::string> without_fit;
   in.models = FittedModels(context, job, jobs, &without_fit);

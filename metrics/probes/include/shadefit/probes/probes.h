@@ -10,6 +10,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -57,6 +58,29 @@ struct ModelUnderTest {                 // a model with parameters: a fit, or th
 std::optional<ModelUnderTest> TruthOfReference(const std::string& sidecar_path,
                                                std::string* why_not = nullptr);
 
+// Renders of models under references, kept for the other probes of the same inputs: the
+// Fresnel, highlight and portability probes each render every model under every reference, the
+// same image three times. Found by the model's label, name, parameters and exposure and the
+// reference's name (names are unique among one ProbeInputs' references). Not thread-safe: one
+// per ProbeInputs, used on the thread that renders.
+class ModelRenders {
+ public:
+  // The kept render, or null.
+  const Image* Find(const ModelUnderTest& model, const ProbeReference& reference) const;
+  const Image& Keep(const ModelUnderTest& model, const ProbeReference& reference, Image image);
+  std::size_t size() const { return renders_.size(); }
+
+ private:
+  struct Key {
+    std::string label, model, reference;
+    std::vector<double> params;
+    double exposure = 1.0;
+    auto operator<=>(const Key&) const = default;
+  };
+  static Key KeyOf(const ModelUnderTest& model, const ProbeReference& reference);
+  std::map<Key, Image> renders_;
+};
+
 struct ProbeInputs {
   std::vector<ProbeReference> references;
   std::vector<ModelUnderTest> models;
@@ -64,6 +88,9 @@ struct ProbeInputs {
   Renderer* renderer = nullptr;         // GL context current on the calling thread
   const reference_images::MeasuredBrdf* measured_brdf =
       nullptr;  // the BRDF itself (brdf probe only)
+  // Optional: keeps each model's render under each reference for the next probe of these
+  // inputs (a study's probe job runs several). The numbers are the same without it.
+  ModelRenders* renders = nullptr;
 };
 
 // What a curve measures. CurveKindName is the curve's "kind" in the JSON and its panel's title.
