@@ -179,6 +179,13 @@ TEST(ProbeInputs, KeptRendersGiveTheNumbersOfFreshRenders) {
   }
   // Both models and the truth (portability's) under both references, each rendered once.
   EXPECT_EQ(renders.size(), 6u);
+  // Past its byte budget a ModelRenders keeps nothing more, and the numbers stay the same.
+  probes::ModelRenders small(1);
+  in.renders = &small;
+  const nlohmann::json unkept = probes::ProbeResultToJson(probes::FresnelProbe(in));
+  in.renders = nullptr;
+  EXPECT_TRUE(unkept == probes::ProbeResultToJson(probes::FresnelProbe(in)));
+  EXPECT_EQ(small.size(), 0u);
 }
 
 TEST(ProbeKind, NamesRoundTrip) {

@@ -64,9 +64,11 @@ const Image* ModelRenders::Find(const ModelUnderTest& model,
   return it == renders_.end() ? nullptr : &it->second;
 }
 
-const Image& ModelRenders::Keep(const ModelUnderTest& model, const ProbeReference& reference,
-                                Image image) {
-  return renders_.insert_or_assign(KeyOf(model, reference), std::move(image)).first->second;
+void ModelRenders::Keep(const ModelUnderTest& model, const ProbeReference& reference,
+                        const Image& image) {
+  const std::size_t bytes = image.data.size() * sizeof(float);
+  if (bytes_ + bytes > budget_) return;
+  if (renders_.try_emplace(KeyOf(model, reference), image).second) bytes_ += bytes;
 }
 
 namespace internal {
@@ -118,7 +120,7 @@ Image RenderModel(const ProbeInputs& inputs, const ModelUnderTest& model,
       image.data[i * image.channels + c] *= static_cast<float>(model.exposure);
     }
   }
-  if (inputs.renders != nullptr) return inputs.renders->Keep(model, reference, std::move(image));
+  if (inputs.renders != nullptr) inputs.renders->Keep(model, reference, image);
   return image;
 }
 

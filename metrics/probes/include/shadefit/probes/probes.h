@@ -61,13 +61,18 @@ std::optional<ModelUnderTest> TruthOfReference(const std::string& sidecar_path,
 // Renders of models under references, kept for the other probes of the same inputs: the
 // Fresnel, highlight and portability probes each render every model under every reference, the
 // same image three times. Found by the model's label, name, parameters and exposure and the
-// reference's name (names are unique among one ProbeInputs' references). Not thread-safe: one
-// per ProbeInputs, used on the thread that renders.
+// reference's name (names are unique among one ProbeInputs' references). Renders past the byte
+// budget are not kept (a photo set of 96 frames of 612x512 makes 5 MB per render): they are
+// rendered again when asked. Not thread-safe: one per ProbeInputs, used on the thread that
+// renders.
 class ModelRenders {
  public:
+  explicit ModelRenders(std::size_t byte_budget = std::size_t{512} << 20)
+      : budget_(byte_budget) {}
   // The kept render, or null.
   const Image* Find(const ModelUnderTest& model, const ProbeReference& reference) const;
-  const Image& Keep(const ModelUnderTest& model, const ProbeReference& reference, Image image);
+  // Keeps a copy of `image` while the kept renders stay within the budget.
+  void Keep(const ModelUnderTest& model, const ProbeReference& reference, const Image& image);
   std::size_t size() const { return renders_.size(); }
 
  private:
@@ -78,6 +83,7 @@ class ModelRenders {
     auto operator<=>(const Key&) const = default;
   };
   static Key KeyOf(const ModelUnderTest& model, const ProbeReference& reference);
+  std::size_t budget_, bytes_ = 0;
   std::map<Key, Image> renders_;
 };
 
