@@ -174,7 +174,7 @@ FresnelRise MeasureFresnel(const BrdfFn& f, double floor, const BrdfSpaceOptions
 
 // --- Energy -------------------------------------------------------------------------------------
 
-struct MeasuredAlbedoCurve {
+struct BrdfAlbedoCurve {
   std::vector<double> theta_o;                // degrees
   std::vector<double> y;                      // Y of E(theta_o)
   std::vector<double> max_channel;            // largest channel of E(theta_o)
@@ -187,8 +187,8 @@ struct MeasuredAlbedoCurve {
 // midpoints of albedo_theta_steps cells (dtheta_h = pi x dx), phi_h at midpoints over 2 pi:
 // samples crowd at h = n, where every specular peak of a measured table lies. theta_d = the
 // angle between wo and h, so the extrapolated share is read off the same sum.
-MeasuredAlbedoCurve MeasuredAlbedo(const BrdfFn& f, const BrdfSpaceOptions& o) {
-  MeasuredAlbedoCurve a;
+BrdfAlbedoCurve MeasuredAlbedo(const BrdfFn& f, const BrdfSpaceOptions& o) {
+  BrdfAlbedoCurve a;
   const int nx = o.albedo_theta_steps, np = o.albedo_phi_steps;
   const double dx = 1.0 / nx, dphi = 2 * kPi / np;
   const double cos_limit = std::cos(o.extrapolated_theta_d_deg * kDegToRad);
@@ -225,9 +225,9 @@ MeasuredAlbedoCurve MeasuredAlbedo(const BrdfFn& f, const BrdfSpaceOptions& o) {
   return a;
 }
 
-MeasuredAlbedoCurve ModelAlbedo(const ModelUnderTest& m, const BrdfSpaceOptions& o) {
+BrdfAlbedoCurve ModelAlbedo(const ModelUnderTest& m, const BrdfSpaceOptions& o) {
   const ModelInfo& info = *m.model;
-  MeasuredAlbedoCurve a;
+  BrdfAlbedoCurve a;
   AlbedoOptions ao;
   ao.strata_per_axis = o.model_strata_per_axis;
   for (const double theta_o : o.view_angles_deg) {
@@ -249,7 +249,7 @@ struct SeriesResult {
   bool measured = false;
   Highlight highlight;
   FresnelRise fresnel;
-  MeasuredAlbedoCurve albedo;
+  BrdfAlbedoCurve albedo;
 };
 
 BrdfFn ModelBrdf(const ModelUnderTest& m) {
@@ -275,7 +275,7 @@ nlohmann::json SeriesNumbers(const SeriesResult& s) {
   n["highlight_peak_f"] = Num(h.peak_f);
   n["highlight_hwhm_deg"] = Num(h.hwhm_deg);
   n["highlight_tail_fraction"] = Num(h.tail_fraction);
-  const MeasuredAlbedoCurve& a = s.albedo;
+  const BrdfAlbedoCurve& a = s.albedo;
   n["albedo_normal"] = Num(a.y.front());
   double max_y = -1, max_ch = -1, at = kNaN;
   bool max_extrapolated = false;
