@@ -274,10 +274,14 @@ struct CsfFilters {
   std::vector<float> y, cx, cz1, cz2;
 };
 
-CsfFilters MakeCsfFilters(double ppd) {
+double CsfRadius(double ppd) {
   double b_max = 0.0;
   for (const Csf& c : {kCsfY, kCsfCx, kCsfCz}) b_max = std::max({b_max, c.b1, c.b2});
-  const int radius = static_cast<int>(std::ceil(3.0 * std::sqrt(b_max / (2.0 * kPi * kPi)) * ppd));
+  return std::ceil(3.0 * std::sqrt(b_max / (2.0 * kPi * kPi)) * ppd);
+}
+
+CsfFilters MakeCsfFilters(double ppd) {
+  const int radius = static_cast<int>(CsfRadius(ppd));
   const int n = 2 * radius + 1;
   std::vector<double> y(n), cx(n), cz1(n), cz2(n);
   double sy = 0, scx = 0, s1 = 0, s2 = 0;
@@ -315,9 +319,12 @@ struct FeatureFilters {
   std::vector<float> g, dg, ddg;
 };
 
+double FeatureSigma(double ppd) { return 0.5 * kFeatureWidthDegrees * ppd; }
+double FeatureRadius(double ppd) { return std::ceil(3.0 * FeatureSigma(ppd)); }
+
 FeatureFilters MakeFeatureFilters(double ppd) {
-  const double sigma = 0.5 * kFeatureWidthDegrees * ppd;
-  const int radius = static_cast<int>(std::ceil(3.0 * sigma));
+  const double sigma = FeatureSigma(ppd);
+  const int radius = static_cast<int>(FeatureRadius(ppd));
   const int n = 2 * radius + 1;
   std::vector<double> g(n), dg(n), ddg(n);
   double g_sum = 0, dg_pos = 0, dg_neg = 0, ddg_pos = 0, ddg_neg = 0;
@@ -499,6 +506,8 @@ RowSpans MaskSpans(const Image* mask, int w, int h) {
   return spans;
 }
 
+double SideRadius(double ppd) { return std::max(CsfRadius(ppd), FeatureRadius(ppd)); }
+
 std::uint64_t HashSpans(const RowSpans& spans) {
   std::uint64_t h = 0x9E3779B97F4A7C15ull ^ spans.begin.size();
   for (std::size_t y = 0; y < spans.begin.size(); ++y) {
@@ -514,8 +523,7 @@ void ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted, const Exp
                  SideScratch& scratch, FlipSide& side) {
   const CsfFilters csf = MakeCsfFilters(ppd);
   const FeatureFilters features = MakeFeatureFilters(ppd);
-  // The widest filter's radius bounds what every filter reads.
-  const int radius = static_cast<int>(std::max(csf.y.size(), features.g.size())) / 2;
+  const int radius = static_cast<int>(SideRadius(ppd));
   const SideSpans spans = SpansFor(wanted, radius, rgb.width);
   ToYCxCz(rgb, spans.columns, exposure, scratch.ycxcz);
   FilteredHuntLab(scratch.ycxcz, rgb.width, spans, csf, scratch, side.lab);

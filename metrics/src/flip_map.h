@@ -46,6 +46,9 @@ RowSpans FullSpans(int w, int h);
 // Per row, the columns from the first to the last pixel `mask` keeps (internal::IsValid); every
 // pixel without a mask.
 RowSpans MaskSpans(const Image* mask, int w, int h);
+// The widest filter's radius in pixels (the CSF's or the feature detectors'): a side reads its
+// input within this distance of the pixels it is wanted at, clamped at the frame's edges.
+double SideRadius(double ppd);
 // A hash of the spans, for cache keys.
 std::uint64_t HashSpans(const RowSpans& spans);
 

@@ -9,6 +9,7 @@
 
 #include "shadefit/base/error.h"
 #include "shadefit/metrics/false_color.h"
+#include "shadefit/metrics/pixel_metrics.h"
 #include "test_images.h"
 
 namespace shadefit::metrics {
@@ -93,6 +94,116 @@ TEST(ReportTest, ErrorsNameTheFile) {
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_STREQ(e.what(), "m.png: pixels: empty mask (no pixel > 0.5)");
+  }
+}
+
+// A mask for the window tests: an ellipse (centre, radii); when `scattered`, with holes and with
+// single pixels over the whole frame.
+Image EllipseMask(int w, int h, double cx, double cy, double rx, double ry, bool scattered) {
+  Image mask(w, h, 1, 0.0f);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const double u = (x + 0.5 - cx) / rx, v = (y + 0.5 - cy) / ry;
+      const bool hole = scattered && testing::HashNoise(x, y, 0, 7) < -0.995f;
+      const bool inside = u * u + v * v <= 1.0 && !hole;
+      const bool speck = scattered && testing::HashNoise(x, y, 1, 9) > 0.995f;
+      mask.at(x, y, 0) = inside || speck ? 1.0f : 0.0f;
+    }
+  }
+  return mask;
+}
+
+// ComputeMetrics works on a window around the mask (metrics/src/report.cpp, MaskWindow): it must
+// give the bits of each metric computed on the whole frame, whichever edges the mask touches and
+// whatever the observer's filter widths. The expected values call the metric functions on the
+// frame, as ComputeMetrics did before it had a window.
+TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
+  struct Case {
+    const char* name;
+    int w, h;
+    double cx, cy, rx, ry;
+    bool scattered;
+    double ppd;
+    float exposure_stops;
+    int min_scales;  // MS-SSIM's scales at least (a pyramid for the window to keep aligned).
+  };
+  const Case cases[] = {
+      {"centre", 203, 161, 97.3, 83.1, 41.0, 30.0, false, 67.0, 0.0f, 3},
+      {"top-left edges", 160, 120, 10.0, 6.0, 55.0, 40.0, false, 67.0, -1.0f, 2},
+      {"bottom-right edges", 150, 170, 140.0, 165.0, 60.0, 45.0, false, 30.0, 0.5f, 2},
+      {"narrow observer", 256, 192, 131.0, 95.0, 70.0, 62.0, false, 8.0, 0.0f, 3},
+      {"scattered", 220, 180, 120.0, 90.0, 35.0, 28.0, true, 67.0, 0.0f, 1},
+      {"wide observer", 230, 200, 110.0, 96.0, 60.0, 50.0, false, 120.0, 0.0f, 3},
+      {"small object", 240, 240, 171.0, 57.0, 12.0, 9.0, false, 67.0, 0.0f, 1},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Image ref = testing::HdrScene(c.w, c.h);
+    const Image tst = testing::HdrDistorted(ref, 0.15f, 3);
+    const Image mask = EllipseMask(c.w, c.h, c.cx, c.cy, c.rx, c.ry, c.scattered);
+
+    MetricsReport expected;
+    expected.width = c.w;
+    expected.height = c.h;
+    expected.masked = true;
+    expected.valid_pixels = CountValidPixels(&mask, c.w, c.h);
+    expected.exposure_stops = c.exposure_stops;
+    expected.ppd = c.ppd;
+    const PixelMetricParameters pixel{&mask, expected.relative_epsilon};
+    expected.rmse = Rmse(ref, tst, pixel);
+    expected.relative_rmse = RelativeRmse(ref, tst, pixel);
+    expected.log_rmse = LogRmse(ref, tst, pixel);
+    expected.mae = MeanAbsoluteError(ref, tst, pixel);
+    expected.psnr = Psnr(ref, tst, {c.exposure_stops, &mask});
+    SsimParameters ssim;
+    ssim.mask = &mask;
+    const Image ref_y = DisplayEncode(Luminance(ref), c.exposure_stops);
+    const Image tst_y = DisplayEncode(Luminance(tst), c.exposure_stops);
+    expected.ssim_luminance = Ssim(ref_y, tst_y, ssim);
+    expected.ssim_rgb =
+        Ssim(DisplayEncode(ref, c.exposure_stops), DisplayEncode(tst, c.exposure_stops), ssim);
+    MsSsimParameters ms;
+    ms.ssim = ssim;
+    expected.ms_ssim = MsSsim(ref_y, tst_y, ms);
+    DeltaE2000Parameters de;
+    de.exposure_stops = c.exposure_stops;
+    de.mask = &mask;
+    Image ciede2000_map, itp_map;
+    expected.ciede2000 = DeltaE2000(ref, tst, de, &ciede2000_map);
+    DeltaEItpParameters itp;
+    itp.mask = &mask;
+    expected.delta_e_itp = DeltaEItp(ref, tst, itp, &itp_map);
+    FlipParameters flip;
+    flip.ppd = c.ppd;
+    flip.mask = &mask;
+    expected.flip_ldr = FlipLdr(ExposeAndClip(ref, c.exposure_stops),
+                                ExposeAndClip(tst, c.exposure_stops), flip);
+    expected.flip_hdr = FlipHdr(ref, tst, flip);
+    EXPECT_GE(expected.ms_ssim.scales_used, c.min_scales);
+
+    MetricsParameters p;
+    p.ppd = c.ppd;
+    p.exposure_stops = c.exposure_stops;
+    p.maps_wanted = kAbsoluteErrorMap | kCiede2000Map | kDeltaEItpMap;
+    FlipReferenceCache cache(64 << 20);
+    p.flip_reference_cache = &cache;
+    for (int call = 0; call < 2; ++call) {  // The second finds the reference's FLIP halves kept.
+      MetricsMaps maps;
+      const MetricsReport got = ComputeMetrics(ref, tst, &mask, p, &maps);
+      EXPECT_EQ(MetricsToJson(got).dump(), MetricsToJson(expected).dump());
+      ASSERT_EQ(maps.ciede2000.width, c.w);
+      ASSERT_EQ(maps.delta_e_itp.height, c.h);
+      for (std::size_t i = 0; i < mask.PixelCount(); ++i) {
+        if (mask.data[i] > 0.5f) {
+          ASSERT_EQ(maps.ciede2000.data[i], ciede2000_map.data[i]) << i;
+          ASSERT_EQ(maps.delta_e_itp.data[i], itp_map.data[i]) << i;
+        } else {
+          ASSERT_TRUE(std::isnan(maps.ciede2000.data[i])) << i;
+          ASSERT_TRUE(std::isnan(maps.delta_e_itp.data[i])) << i;
+        }
+      }
+    }
+    EXPECT_GT(cache.stats().hits, 0u);
   }
 }
 
