@@ -114,6 +114,43 @@ SurfaceSamples RayCastSurfaceSamples(const Scene& scene, int ss) {
   return out;
 }
 
+std::shared_ptr<const SurfaceSamples> KeptRayCastSurfaceSamples(const Scene& scene, int ss) {
+  struct Entry {
+    std::string key;
+    std::shared_ptr<const SurfaceSamples> samples;
+    std::vector<std::shared_ptr<const void>> data;  // Pins the addresses the key names.
+  };
+  constexpr std::size_t kBudgetBytes = std::size_t{256} << 20;
+  static std::mutex mutex;
+  static std::vector<Entry> kept;  // Most recent first.
+  const std::string key = SurfaceGeometryKey(scene, ss);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+      if (kept[i].key != key) continue;
+      std::rotate(kept.begin(), kept.begin() + static_cast<std::ptrdiff_t>(i),
+                  kept.begin() + static_cast<std::ptrdiff_t>(i) + 1);
+      return kept.front().samples;
+    }
+  }
+  Entry entry{key, std::make_shared<const SurfaceSamples>(RayCastSurfaceSamples(scene, ss)), {}};
+  for (const SceneObject& o : scene.objects) {
+    entry.data.insert(entry.data.end(), {o.mesh, o.normal_map, o.pixels});
+  }
+  const auto bytes = [](const Entry& e) {
+    return (e.samples->position.data.size() + e.samples->normal.data.size()) * sizeof(float);
+  };
+  std::shared_ptr<const SurfaceSamples> samples = entry.samples;
+  std::lock_guard<std::mutex> lock(mutex);
+  kept.insert(kept.begin(), std::move(entry));
+  std::size_t total = 0, keep = 0;
+  while (keep < kept.size() && (keep == 0 || total + bytes(kept[keep]) <= kBudgetBytes)) {
+    total += bytes(kept[keep++]);
+  }
+  kept.resize(keep);
+  return samples;
+}
+
 std::vector<std::uint32_t> SampleVisibility(const Scene& scene, const SurfaceSamples& samples) {
   struct L {
     bool point;
@@ -354,7 +391,9 @@ Image ShadowEdgeMask(const Scene& scene) {
     auto it = cache.find(key);
     if (it != cache.end()) return it->second;
   }
-  const internal::SurfaceSamples samples = internal::RayCastSurfaceSamples(scene, ss);
+  const std::shared_ptr<const internal::SurfaceSamples> kept =
+      internal::KeptRayCastSurfaceSamples(scene, ss);
+  const internal::SurfaceSamples& samples = *kept;
   const std::vector<std::uint32_t> bits = internal::SampleVisibility(scene, samples);
   const int w = scene.camera.width, h = scene.camera.height_px;
   // Per pixel: its object (the one most of its samples hit), and the lights every sample of that

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,12 @@ SurfaceSamples PixelSurfaceSamples(const Scene& scene, int ss);
 // The same samples by CPU ray casting (Intersect): what the GL raster of a mesh gives, up to float
 // rounding. For the shadow-edge mask and tests.
 SurfaceSamples RayCastSurfaceSamples(const Scene& scene, int ss);
+
+// RayCastSurfaceSamples, kept for the few geometries asked for last (within a byte budget):
+// the frames of a data set share one geometry under many lights, and each light's shadow-edge
+// mask casts its shadow rays from the same samples. The entries hold the objects' data, so that
+// the addresses in their keys (SurfaceGeometryKey) name the same data while they are kept.
+std::shared_ptr<const SurfaceSamples> KeptRayCastSurfaceSamples(const Scene& scene, int ss);
 
 // Bit i: point-or-directional light i (in the scene's order of such lights) reaches the sample
 // (LightReaches). Ray cast on 2 threads.
