@@ -387,6 +387,11 @@ void WritePng8(const std::string& path, const Image& image) {
   w.uint8 = true;
   w.pixels = bytes.data();
   if (image.channels == 4) w.alpha_channel = 3;
+  // Each row stored as its differences from the pixels to their left (PNG's Sub filter), deflated
+  // at zlib level 4: a study writes thousands of previews, and libpng's default (every filter
+  // tried on every row, level 6) took 2.2 to 2.7 times as long for files 11 to 13% smaller (a
+  // 612 x 512 photo preview: 17.0 against 6.2 ms; its error map 12.7 against 5.7 ms).
+  w.int_attributes = {{"png:compressionLevel", 4}, {"png:filter", 0x10 /* PNG_FILTER_SUB */}};
   WriteWithOiio(std::move(w));
 }
 

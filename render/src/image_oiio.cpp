@@ -48,6 +48,7 @@ OiioWriteStatus Write(const OiioWrite& w, std::string* error) {
   if (!w.channel_names.empty()) spec.channelnames = w.channel_names;
   if (w.alpha_channel >= 0) spec.alpha_channel = w.alpha_channel;
   for (const auto& [key, value] : w.attributes) spec.attribute(key, value);
+  for (const auto& [key, value] : w.int_attributes) spec.attribute(key, value);
   auto out = OIIO::ImageOutput::create(w.final_path);  // Format from the final name.
   if (!out) {
     *error = OIIO::geterror();

@@ -33,6 +33,7 @@ struct OiioWrite {
   std::vector<std::string> channel_names;  // Empty: the format's default names.
   int alpha_channel = -1;
   std::vector<std::pair<std::string, std::string>> attributes;  // In the order they are set.
+  std::vector<std::pair<std::string, int>> int_attributes;       // After the string ones.
 };
 
 enum class OiioWriteStatus { kOk, kNoWriter, kFailed };
