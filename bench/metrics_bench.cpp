@@ -112,7 +112,7 @@ BENCHMARK(BM_FlipHdr512)->Unit(benchmark::kMillisecond)->UseRealTime();
 void BM_FlipHdr512CachedReferenceOneThread(benchmark::State& state) {
   const int threads_before = m::MetricsThreads();
   m::SetMetricsThreads(1);
-  m::FlipReferenceCache cache(std::size_t{1} << 30);
+  m::ReferenceCache cache(std::size_t{1} << 30);
   m::FlipParameters p;
   p.reference_cache = &cache;
   int exposures = 0;

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "internal.h"
+#include "reference_cache.h"
 #include "shadefit/metrics/common.h"
 
 namespace shadefit::metrics {
@@ -100,17 +101,32 @@ Lab LinearSrgbToLab(double r, double g, double b) {
 DeltaE2000Result DeltaE2000(const Image& reference, const Image& test,
                             const DeltaE2000Parameters& p, Image* error_map) {
   ValidateInputs(reference, test, p.mask, 3);
-  const Image r = ExposeAndClip(reference, p.exposure_stops);
+  const int w = reference.width, h = reference.height;
+  using Values = internal::ValidPixelValues<Lab>;
+  const ReferenceCache::Impl::Key key{
+      ReferenceCache::Impl::Kind::kLab, p.reference_cache ? HashPixels(reference) : 0,
+      p.reference_cache && p.mask ? HashPixels(*p.mask) : 0, {p.exposure_stops, 0.0, 0.0}};
+  const std::shared_ptr<const Values> ref_lab = FindOrMake<Values>(
+      p.reference_cache, key,
+      [&] {
+        const Image r = ExposeAndClip(reference, p.exposure_stops);
+        return internal::AtValidPixels<Lab>(w, h, p.mask, [&](std::size_t i) {
+          const float* a = &r.data[3 * i];
+          return LinearSrgbToLab(a[0], a[1], a[2]);
+        });
+      },
+      [](const Values& v) { return v.Bytes(); });
   const Image t = ExposeAndClip(test, p.exposure_stops);
-  Image map(r.width, r.height, 1, std::numeric_limits<float>::quiet_NaN());
-  internal::ParallelRows(r.height, [&](int row_begin, int row_end) {
-    for (std::size_t i = static_cast<std::size_t>(row_begin) * r.width;
-         i < static_cast<std::size_t>(row_end) * r.width; ++i) {
-      if (!internal::IsValid(p.mask, i)) continue;
-      const float* a = &r.data[3 * i];
-      const float* b = &t.data[3 * i];
-      map.data[i] = static_cast<float>(Ciede2000(LinearSrgbToLab(a[0], a[1], a[2]),
-                                                 LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
+  Image map(w, h, 1, std::numeric_limits<float>::quiet_NaN());
+  internal::ParallelRows(h, [&](int row_begin, int row_end) {
+    for (int y = row_begin; y < row_end; ++y) {
+      const Lab* r = ref_lab->values.data() + ref_lab->row_start[y];
+      for (std::size_t i = static_cast<std::size_t>(y) * w; i < static_cast<std::size_t>(y + 1) * w;
+           ++i) {
+        if (!internal::IsValid(p.mask, i)) continue;
+        const float* b = &t.data[3 * i];
+        map.data[i] = static_cast<float>(Ciede2000(*r++, LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
+      }
     }
   });
   const internal::MapStatistics s = internal::SummarizeMap(map, p.mask);

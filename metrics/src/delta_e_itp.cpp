@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "internal.h"
+#include "reference_cache.h"
 #include "shadefit/metrics/common.h"
 #include "shadefit/base/error.h"
 
@@ -82,16 +83,31 @@ DeltaEItpResult DeltaEItp(const Image& reference, const Image& test,
   }
   const std::size_t channels = static_cast<std::size_t>(reference.channels);
   const double scale = p.white_luminance;
-  Image map(reference.width, reference.height, 1, std::numeric_limits<float>::quiet_NaN());
-  internal::ParallelRows(reference.height, [&](int row_begin, int row_end) {
-    for (std::size_t i = static_cast<std::size_t>(row_begin) * reference.width;
-         i < static_cast<std::size_t>(row_end) * reference.width; ++i) {
-      if (!internal::IsValid(p.mask, i)) continue;
-      const float* a = &reference.data[channels * i];
-      const float* b = &test.data[channels * i];
-      map.data[i] = static_cast<float>(
-          DeltaItp(Rec709LuminanceToIctcp(scale * a[0], scale * a[1], scale * a[2]),
-                   Rec709LuminanceToIctcp(scale * b[0], scale * b[1], scale * b[2])));
+  const int w = reference.width, h = reference.height;
+  using Values = internal::ValidPixelValues<Ictcp>;
+  const ReferenceCache::Impl::Key key{
+      ReferenceCache::Impl::Kind::kIctcp, p.reference_cache ? HashPixels(reference) : 0,
+      p.reference_cache && p.mask ? HashPixels(*p.mask) : 0, {scale, 0.0, 0.0}};
+  const std::shared_ptr<const Values> ref_ictcp = FindOrMake<Values>(
+      p.reference_cache, key,
+      [&] {
+        return internal::AtValidPixels<Ictcp>(w, h, p.mask, [&](std::size_t i) {
+          const float* a = &reference.data[channels * i];
+          return Rec709LuminanceToIctcp(scale * a[0], scale * a[1], scale * a[2]);
+        });
+      },
+      [](const Values& v) { return v.Bytes(); });
+  Image map(w, h, 1, std::numeric_limits<float>::quiet_NaN());
+  internal::ParallelRows(h, [&](int row_begin, int row_end) {
+    for (int y = row_begin; y < row_end; ++y) {
+      const Ictcp* r = ref_ictcp->values.data() + ref_ictcp->row_start[y];
+      for (std::size_t i = static_cast<std::size_t>(y) * w; i < static_cast<std::size_t>(y + 1) * w;
+           ++i) {
+        if (!internal::IsValid(p.mask, i)) continue;
+        const float* b = &test.data[channels * i];
+        map.data[i] = static_cast<float>(
+            DeltaItp(*r++, Rec709LuminanceToIctcp(scale * b[0], scale * b[1], scale * b[2])));
+      }
     }
   });
   const internal::MapStatistics s = internal::SummarizeMap(map, p.mask);

@@ -3,16 +3,13 @@
 #include "shadefit/metrics/flip.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdint>
-#include <list>
-#include <map>
 #include <memory>
-#include <mutex>
 
 #include "flip_map.h"
 #include "internal.h"
+#include "reference_cache.h"
 #include "shadefit/base/statistics.h"
 #include "shadefit/metrics/common.h"
 
@@ -27,112 +24,18 @@ using internal::Plane;
 using internal::RowSpans;
 using internal::SideScratch;
 
-// 64-bit hash of an image's size and pixel bits: splitmix64's finaliser over 64-bit words (two
-// floats), in four independent lanes so that the mixes of neighbouring words overlap instead of
-// waiting on each other (it runs on every FLIP call, over the whole frame), lanes mixed at the end.
-std::uint64_t HashPixels(const Image& image) {
-  const auto mix = [](std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  };
-  constexpr std::uint64_t kStep = 0x9E3779B97F4A7C15ull;
-  std::uint64_t lane[4];
-  lane[0] = mix((static_cast<std::uint64_t>(image.width) << 32) ^
-                (static_cast<std::uint64_t>(image.height) << 8) ^
-                static_cast<std::uint64_t>(image.channels));
-  for (int l = 1; l < 4; ++l) lane[l] = mix(lane[l - 1] + kStep);
-  const std::size_t n = image.data.size();
-  const auto word = [&](std::size_t i) {  // Floats i and i + 1 (0 past the end).
-    const std::uint64_t lo = std::bit_cast<std::uint32_t>(image.data[i]);
-    const std::uint64_t hi = i + 1 < n ? std::bit_cast<std::uint32_t>(image.data[i + 1]) : 0u;
-    return lo | hi << 32;
-  };
-  std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    for (int l = 0; l < 4; ++l) lane[l] = mix(lane[l] ^ word(i + 2 * l)) + kStep;
-  }
-  for (int l = 0; i < n; i += 2, ++l) lane[l] = mix(lane[l] ^ word(i)) + kStep;
-  return mix(lane[0] ^ mix(lane[1] ^ mix(lane[2] ^ mix(lane[3] ^ n))));
-}
-
-}  // namespace
-
-// What identifies a reference's half: its pixels (hash), the pixels it is wanted at (hash of the
-// spans), the observer, and the exposure scale and tone mapper applied before its half is
-// computed (tone mapper 0: none, LDR-FLIP).
-struct FlipReferenceCache::Impl {
-  struct Key {
-    std::uint64_t pixels;
-    std::uint64_t spans;
-    double ppd;
-    int tone_mapper;
-    float scale;
-    auto operator<=>(const Key&) const = default;
-  };
-  struct Entry {
-    std::shared_ptr<const FlipSide> side;
-    std::list<Key>::iterator lru;  // Position in `order`, most recent first.
-  };
-
-  std::shared_ptr<const FlipSide> Find(const Key& key) {
-    std::lock_guard lock(mutex);
-    const auto it = entries.find(key);
-    if (it == entries.end()) {
-      ++stats.misses;
-      return nullptr;
-    }
-    ++stats.hits;
-    order.splice(order.begin(), order, it->second.lru);
-    return it->second.side;
-  }
-
-  void Insert(const Key& key, std::shared_ptr<const FlipSide> side) {
-    std::lock_guard lock(mutex);
-    if (entries.contains(key)) return;  // Another thread computed it too: the same values.
-    stats.bytes += side->Bytes();
-    order.push_front(key);
-    entries.emplace(key, Entry{std::move(side), order.begin()});
-    while (stats.bytes > budget && order.size() > 1) {
-      const auto last = entries.find(order.back());
-      stats.bytes -= last->second.side->Bytes();
-      entries.erase(last);
-      order.pop_back();
-    }
-  }
-
-  std::size_t budget;
-  std::mutex mutex;
-  std::map<Key, Entry> entries;
-  std::list<Key> order;
-  FlipReferenceCache::Stats stats;
-};
-
-FlipReferenceCache::FlipReferenceCache(std::size_t byte_budget) : impl_(std::make_unique<Impl>()) {
-  impl_->budget = byte_budget;
-}
-
-FlipReferenceCache::~FlipReferenceCache() = default;
-
-FlipReferenceCache::Stats FlipReferenceCache::stats() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->stats;
-}
-
-namespace {
-
-// The reference's half: from `cache` when it holds `key`, else computed (and kept there when
-// there is a cache).
-std::shared_ptr<const FlipSide> ReferenceSide(FlipReferenceCache* cache,
-                                              const FlipReferenceCache::Impl::Key& key,
+// The reference's half at one exposure (tone mapper 0: none, LDR-FLIP), from `cache` when it holds
+// it; what it depends on: the reference's pixels, the pixels it is wanted at, the observer, and
+// the exposure scale and tone mapper applied before it is computed.
+std::shared_ptr<const FlipSide> ReferenceSide(ReferenceCache* cache, std::uint64_t pixels,
                                               const Image& reference, double ppd,
-                                              const RowSpans& wanted, const Exposure& exposure) {
-  std::shared_ptr<const FlipSide> side = cache ? cache->impl().Find(key) : nullptr;
-  if (!side) {
-    side = std::make_shared<const FlipSide>(ComputeSide(reference, ppd, wanted, exposure));
-    if (cache) cache->impl().Insert(key, side);
-  }
-  return side;
+                                              const RowSpans& wanted, std::uint64_t wanted_hash,
+                                              int tone_mapper, const Exposure& exposure) {
+  const ReferenceCache::Impl::Key key{ReferenceCache::Impl::Kind::kFlip, pixels, wanted_hash,
+                                      {ppd, static_cast<double>(tone_mapper), exposure.scale}};
+  return FindOrMake<FlipSide>(
+      cache, key, [&] { return ComputeSide(reference, ppd, wanted, exposure); },
+      [](const FlipSide& side) { return side.Bytes(); });
 }
 
 FlipResult Pool(const Plane& map, const Image* mask) {
@@ -201,9 +104,9 @@ FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParamete
   ValidateInputs(reference, test, p.mask, 3);
   const Image& ref = reference;  // The halves read the first three channels.
   const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr);
-  const FlipReferenceCache::Impl::Key key{p.reference_cache ? HashPixels(ref) : 0,
-                                          internal::HashSpans(wanted), p.ppd, 0, 1.0f};
-  const auto ref_side = ReferenceSide(p.reference_cache, key, ref, p.ppd, wanted, {});
+  const auto ref_side =
+      ReferenceSide(p.reference_cache, p.reference_cache ? HashPixels(ref) : 0, ref, p.ppd, wanted,
+                    internal::HashSpans(wanted), 0, {});
   const Plane map =
       CombineSides(*ref_side, ComputeSide(test, p.ppd, wanted), ref.width, ref.height, wanted);
   FlipResult result = Pool(map, p.mask);
@@ -263,9 +166,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
   SideScratch& scratch = internal::ThreadScratch();
   for (int e = 0; e < count; ++e) {
     const Exposure exposure{true, static_cast<float>(std::exp2(start + e * step)), p.tone_mapper};
-    const FlipReferenceCache::Impl::Key key{ref_hash, spans_hash, p.ppd,
-                                            1 + static_cast<int>(p.tone_mapper), exposure.scale};
-    const auto ref_side = ReferenceSide(p.reference_cache, key, ref, p.ppd, wanted, exposure);
+    const auto ref_side = ReferenceSide(p.reference_cache, ref_hash, ref, p.ppd, wanted, spans_hash,
+                                        1 + static_cast<int>(p.tone_mapper), exposure);
     ComputeSide(test, p.ppd, wanted, exposure, scratch, test_side);
     CombineSides(*ref_side, test_side, ref.width, wanted, map);
     // Outside `wanted` the map is not written and `worst` stays 0, as a map of 0 there leaves it.

@@ -38,6 +38,44 @@ inline bool IsValid(const Image* mask, std::size_t pixel) {
   return mask == nullptr || mask->data[pixel] > 0.5f;
 }
 
+// Values at the valid pixels of a frame, in row-major order: row y's are values[row_start[y]]
+// onwards. What the reference cache keeps of a reference for a point-wise metric.
+template <typename T>
+struct ValidPixelValues {
+  std::vector<std::size_t> row_start;  // height + 1 entries
+  std::vector<T> values;
+  std::size_t Bytes() const {
+    return row_start.size() * sizeof(std::size_t) + values.size() * sizeof(T);
+  }
+};
+
+// f(pixel index) at every valid pixel of a w x h frame, rows split over the threads.
+template <typename T, typename F>
+ValidPixelValues<T> AtValidPixels(int w, int h, const Image* mask, F f) {
+  ValidPixelValues<T> out;
+  out.row_start.resize(static_cast<std::size_t>(h) + 1);
+  std::size_t k = 0;
+  for (int y = 0; y < h; ++y) {
+    out.row_start[y] = k;
+    for (std::size_t i = static_cast<std::size_t>(y) * w; i < static_cast<std::size_t>(y + 1) * w;
+         ++i) {
+      k += IsValid(mask, i) ? 1 : 0;
+    }
+  }
+  out.row_start[h] = k;
+  out.values.resize(k);
+  ParallelRows(h, [&](int row_begin, int row_end) {
+    for (int y = row_begin; y < row_end; ++y) {
+      std::size_t j = out.row_start[y];
+      for (std::size_t i = static_cast<std::size_t>(y) * w;
+           i < static_cast<std::size_t>(y + 1) * w; ++i) {
+        if (IsValid(mask, i)) out.values[j++] = f(i);
+      }
+    }
+  });
+  return out;
+}
+
 // Sorts non-negative floats ascending (LSD radix sort on the bit patterns, which order like the
 // values when the sign bit is clear): O(n), several times faster than std::sort on FLIP maps.
 // Values with the sign bit set (negative, -0) fall back to std::sort.

@@ -196,6 +196,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   DeltaE2000Parameters de;
   de.exposure_stops = p.exposure_stops;
   de.mask = m;
+  de.reference_cache = p.reference_cache;
   Image ciede2000_map;
   r.ciede2000 = DeltaE2000(x, y, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
   if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
@@ -204,6 +205,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   DeltaEItpParameters itp;
   itp.white_luminance = p.itp_white_luminance;
   itp.mask = m;
+  itp.reference_cache = p.reference_cache;
   Image itp_map;
   r.delta_e_itp = DeltaEItp(x, y, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
   if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
@@ -212,7 +214,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   FlipParameters flip;
   flip.ppd = p.ppd;
   flip.mask = m;
-  flip.reference_cache = p.flip_reference_cache;
+  flip.reference_cache = p.reference_cache;
   r.flip_ldr = FlipLdr(ExposeAndClip(x, p.exposure_stops), ExposeAndClip(y, p.exposure_stops),
                        flip, wanted(kFlipLdrMap) ? &maps->flip_ldr : nullptr);
   clock.Lap(&MetricsSeconds::flip_ldr);

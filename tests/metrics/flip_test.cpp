@@ -213,7 +213,7 @@ TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
   const Image ref = testing::HdrScene(48, 40);
   const Image test_a = testing::HdrDistorted(ref, 0.1f, 3);
   const Image test_b = testing::HdrDistorted(ref, 0.3f, 4);
-  FlipReferenceCache cache(std::size_t{64} << 20);
+  ReferenceCache cache(std::size_t{64} << 20);
   FlipParameters cached;
   cached.reference_cache = &cache;
   for (const Image* test : {&test_a, &test_b, &test_a}) {
@@ -228,7 +228,7 @@ TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
               FlipLdr(Clamped(ref), Clamped(*test), cached).mean);
   }
   const int exposures = FlipHdr(ref, test_a).num_exposures;
-  FlipReferenceCache::Stats s = cache.stats();
+  ReferenceCache::Stats s = cache.stats();
   EXPECT_EQ(s.misses, static_cast<std::uint64_t>(exposures + 1));   // First call: HDR + LDR.
   EXPECT_EQ(s.hits, static_cast<std::uint64_t>(2 * (exposures + 1)));
   // Another reference (one value changed: the first, one in the middle at an odd index, the
@@ -240,7 +240,7 @@ TEST(FlipTest, ReferenceCacheGivesTheSameMaps) {
     EXPECT_EQ(cache.stats().hits, s.hits) << "value " << i;
   }
   // A budget below one entry keeps only the newest.
-  FlipReferenceCache tiny(1);
+  ReferenceCache tiny(1);
   cached.reference_cache = &tiny;
   FlipHdr(ref, test_a, cached);
   EXPECT_GT(tiny.stats().bytes, 0u);
@@ -287,7 +287,7 @@ TEST(FlipTest, MaskedPixelsOnlyGiveTheWholeFramesBits) {
   EXPECT_GT(hdr_masked.mean, 0.01);
   // The reference cache keeps halves per wanted pixels: a whole frame's half is not handed to a
   // masked call, nor the other way round.
-  FlipReferenceCache cache(std::size_t{64} << 20);
+  ReferenceCache cache(std::size_t{64} << 20);
   FlipParameters cached = p;
   cached.reference_cache = &cache;
   expect_same(FlipHdr(ref, test, cached, &map), hdr_whole, "HDR, cache cold");

@@ -185,8 +185,8 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
     p.ppd = c.ppd;
     p.exposure_stops = c.exposure_stops;
     p.maps_wanted = kAbsoluteErrorMap | kCiede2000Map | kDeltaEItpMap;
-    FlipReferenceCache cache(64 << 20);
-    p.flip_reference_cache = &cache;
+    ReferenceCache cache(64 << 20);
+    p.reference_cache = &cache;
     for (int call = 0; call < 2; ++call) {  // The second finds the reference's FLIP halves kept.
       MetricsMaps maps;
       const MetricsReport got = ComputeMetrics(ref, tst, &mask, p, &maps);
@@ -205,6 +205,64 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
     }
     EXPECT_GT(cache.stats().hits, 0u);
   }
+}
+
+// The reference's CIELAB (CIEDE2000) and ICtCp (Delta E_ITP) kept in a ReferenceCache give the
+// numbers and maps of a call without one, and are found again only for the same reference pixels,
+// mask and parameters: a call that changes any of them in turn, with one cache, must match a
+// call without it.
+TEST(ReferenceCacheTest, PointWiseHalvesAreKeptPerPixelsMaskAndParameters) {
+  const Image ref = testing::HdrScene(96, 80);
+  const Image tst = testing::HdrDistorted(ref, 0.15f, 5);
+  Image other_ref = ref;
+  other_ref.at(40, 40, 1) *= 1.5f;  // Inside both masks.
+  const Image mask = EllipseMask(96, 80, 47.0, 41.0, 30.0, 25.0, false);
+  Image smaller = mask;
+  for (int x = 0; x < 96; ++x) smaller.at(x, 41, 0) = 0.0f;  // A row shorter: other offsets.
+  struct Call {
+    const Image* reference;
+    const Image* mask;
+    float exposure_stops;
+    double white_luminance;
+  };
+  const Call calls[] = {{&ref, &mask, 0.0f, 100.0},      {&ref, &mask, 0.0f, 100.0},
+                        {&other_ref, &mask, 0.0f, 100.0}, {&ref, &smaller, 0.0f, 100.0},
+                        {&ref, &mask, -1.0f, 203.0},     {&ref, nullptr, 0.0f, 100.0},
+                        {&ref, &mask, 0.0f, 100.0}};
+  ReferenceCache cache(64 << 20);
+  for (const Call& c : calls) {
+    DeltaE2000Parameters de;
+    de.mask = c.mask;
+    de.exposure_stops = c.exposure_stops;
+    DeltaEItpParameters itp;
+    itp.mask = c.mask;
+    itp.white_luminance = c.white_luminance;
+    Image de_map, itp_map, de_cached_map, itp_cached_map;
+    const DeltaE2000Result de_plain = DeltaE2000(*c.reference, tst, de, &de_map);
+    const DeltaEItpResult itp_plain = DeltaEItp(*c.reference, tst, itp, &itp_map);
+    de.reference_cache = &cache;
+    itp.reference_cache = &cache;
+    const DeltaE2000Result de_cached = DeltaE2000(*c.reference, tst, de, &de_cached_map);
+    const DeltaEItpResult itp_cached = DeltaEItp(*c.reference, tst, itp, &itp_cached_map);
+    EXPECT_EQ(de_cached.mean, de_plain.mean);
+    EXPECT_EQ(de_cached.p95, de_plain.p95);
+    EXPECT_EQ(de_cached.max, de_plain.max);
+    EXPECT_EQ(itp_cached.mean, itp_plain.mean);
+    EXPECT_EQ(itp_cached.p95, itp_plain.p95);
+    EXPECT_EQ(itp_cached.max, itp_plain.max);
+    for (std::size_t i = 0; i < de_map.PixelCount(); ++i) {
+      ASSERT_TRUE(de_cached_map.data[i] == de_map.data[i] ||
+                  (std::isnan(de_cached_map.data[i]) && std::isnan(de_map.data[i])))
+          << i;
+      ASSERT_TRUE(itp_cached_map.data[i] == itp_map.data[i] ||
+                  (std::isnan(itp_cached_map.data[i]) && std::isnan(itp_map.data[i])))
+          << i;
+    }
+  }
+  // The second call and the last found both halves; every other call made its own.
+  const ReferenceCache::Stats stats = cache.stats();
+  EXPECT_EQ(stats.hits, 4u);
+  EXPECT_EQ(stats.misses, 10u);
 }
 
 TEST(FalseColorTest, EndsOfTheScaleAndNan) {

@@ -326,7 +326,7 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   metrics::MetricsParameters mp;
   mp.exposure_stops = spec.metrics_exposure_stops;
   mp.ppd = spec.metrics_ppd;
-  mp.flip_reference_cache = context.flip_cache;
+  mp.reference_cache = context.reference_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
   mp.maps_wanted = metrics::kAbsoluteErrorMap;  // The previews' error map; no other is read.
   metrics::MetricsSeconds metric_seconds;

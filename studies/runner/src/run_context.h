@@ -36,7 +36,7 @@ struct RunContext {
   StudyPaths paths;
   Log* log = nullptr;
   // Shared by the workers; may be null (metrics are the same without it).
-  metrics::FlipReferenceCache* flip_cache = nullptr;
+  metrics::ReferenceCache* reference_cache = nullptr;
   // Shared by the workers; null: every fit writes its reference previews.
   WrittenOnce* reference_previews = nullptr;
   // Shared by the workers; never null (the runner owns it).

@@ -66,9 +66,9 @@ class StudyRun {
   StudyRun(const StudySpec& spec, const RunOptions& options)
       : spec_(spec),
         options_(options),
-        flip_cache_(kFlipCacheBytes),
+        reference_cache_(kReferenceCacheBytes),
         loaded_references_(kReferenceBytes),
-        context_{spec_,        options_,           {},         nullptr, &flip_cache_,
+        context_{spec_,        options_,           {},         nullptr, &reference_cache_,
                  &reference_previews_, &brdf_fits_, &loaded_references_} {}
 
   RunSummary Run();
@@ -95,11 +95,12 @@ class StudyRun {
   std::string GlRendererForProvenance() const;
   double Elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
-  // The references' halves of FLIP: every fit of a material is compared with the same
-  // references (10 fits x 7 lightings x ~15 HDR-FLIP exposures in the measured study). A half
-  // is 20 bytes a pixel: ~150 MB for a material's 7 references at 256^2 and 15 exposures, so
-  // 768 MiB holds about five materials at 256^2 (one at 512^2); the workers share one or two.
-  static constexpr std::size_t kFlipCacheBytes = std::size_t{768} << 20;
+  // The references' halves of FLIP, CIEDE2000 and Delta E_ITP: every fit of a material is
+  // compared with the same references (10 fits x 7 lightings x ~15 HDR-FLIP exposures in the
+  // measured study). A FLIP half is 20 bytes a pixel (CIELAB and ICtCp add 24 each): ~150 MB for
+  // a material's 7 references at 256^2 and 15 exposures, so 768 MiB holds about five materials
+  // at 256^2 (one at 512^2); the workers share one or two.
+  static constexpr std::size_t kReferenceCacheBytes = std::size_t{768} << 20;
 
   // The references the workers share (loaded_references.h): 1 GiB holds a 96-light set at
   // 612x512 (about 7 MB a reference with its mask and shadow edges) or the measured study's
@@ -108,7 +109,7 @@ class StudyRun {
 
   const StudySpec& spec_;
   RunOptions options_;
-  metrics::FlipReferenceCache flip_cache_;
+  metrics::ReferenceCache reference_cache_;
   internal::WrittenOnce reference_previews_;
   internal::BrdfSpaceFits brdf_fits_;
   internal::LoadedReferences loaded_references_;

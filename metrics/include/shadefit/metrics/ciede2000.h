@@ -3,6 +3,7 @@
 // Mathematical Observations", Color Research & Application 30(1), Eqs. 1-22.
 #pragma once
 
+#include "shadefit/metrics/reference_cache.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics {
@@ -36,6 +37,9 @@ struct DeltaE2000Parameters {
   Ciede2000Parameters weights;
   // Optional single-channel mask, same size; valid where > 0.5.
   const Image* mask = nullptr;
+  // Optional: where the reference's CIELAB is kept for the next call with the same reference
+  // (reference_cache.h). The result is the same with and without it.
+  ReferenceCache* reference_cache = nullptr;
 };
 
 struct DeltaE2000Result {

@@ -7,6 +7,7 @@
 // given a luminance (DeltaEItpParameters::white_luminance).
 #pragma once
 
+#include "shadefit/metrics/reference_cache.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics {
@@ -39,6 +40,9 @@ struct DeltaEItpParameters {
   double white_luminance = 100.0;
   // Optional single-channel mask, same size; valid where > 0.5.
   const Image* mask = nullptr;
+  // Optional: where the reference's ICtCp is kept for the next call with the same reference
+  // (reference_cache.h). The result is the same with and without it.
+  ReferenceCache* reference_cache = nullptr;
 };
 
 struct DeltaEItpResult {

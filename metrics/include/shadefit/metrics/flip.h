@@ -16,11 +16,10 @@
 #include <memory>
 #include <vector>
 
+#include "shadefit/metrics/reference_cache.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics {
-
-class FlipReferenceCache;
 
 enum class FlipToneMapper {
   kAces,      // Narkowicz's fit of ACES, with 0.6 pre-exposure cancelled (the HDR-FLIP default).
@@ -43,35 +42,10 @@ struct FlipParameters {
   // Optional single-channel mask, same size; statistics pool pixels where mask > 0.5. HDR-FLIP
   // also takes its exposure range from the masked pixels of the reference.
   const Image* mask = nullptr;
-  // Optional: where the reference's half of the map is kept for the next call with the same
-  // reference (below). The result is the same with and without it.
-  FlipReferenceCache* reference_cache = nullptr;
-};
-
-// The reference's half of FLIP, its CSF-filtered colours and its edge and point features at one
-// exposure, kept for reuse. A study compares every fit of a material with the same references,
-// 10 fits x 15 HDR-FLIP exposures each; the reference's half is half of that work. Entries are
-// found by a 64-bit hash of the reference's pixels, its size, the ppd, the tone mapper and the
-// exposure. Thread-safe; the least recently used entries go when the held bytes pass the budget.
-class FlipReferenceCache {
- public:
-  explicit FlipReferenceCache(std::size_t byte_budget);
-  ~FlipReferenceCache();
-  FlipReferenceCache(const FlipReferenceCache&) = delete;
-  FlipReferenceCache& operator=(const FlipReferenceCache&) = delete;
-
-  struct Stats {
-    std::uint64_t hits = 0;
-    std::uint64_t misses = 0;
-    std::size_t bytes = 0;  // Held now.
-  };
-  Stats stats() const;
-
-  struct Impl;  // Defined in flip.cpp.
-  Impl& impl() { return *impl_; }
-
- private:
-  std::unique_ptr<Impl> impl_;
+  // Optional: where the reference's half of the map (its CSF-filtered colours and its edge and
+  // point features at each exposure) is kept for the next call with the same reference
+  // (reference_cache.h). The result is the same with and without it.
+  ReferenceCache* reference_cache = nullptr;
 };
 
 struct FlipResult {

@@ -51,9 +51,9 @@ struct MetricsParameters {
   double itp_white_luminance = 100.0;
   // Names used in error messages (the CLI passes file paths).
   InputNames names;
-  // Optional: keeps the reference's half of LDR- and HDR-FLIP for the next call with the same
-  // reference (FlipReferenceCache); the results are the same without it.
-  FlipReferenceCache* flip_reference_cache = nullptr;
+  // Optional: keeps the reference's half of CIEDE2000, Delta E_ITP, LDR- and HDR-FLIP for the
+  // next call with the same reference (reference_cache.h); the results are the same without it.
+  ReferenceCache* reference_cache = nullptr;
   // Which maps a MetricsMaps receives (MetricMap bits); the others stay empty and cost nothing.
   unsigned maps_wanted = kAllMaps;
   // Optional: receives the seconds spent per metric (added to).
