@@ -125,7 +125,8 @@ DeltaE2000Result DeltaE2000(const Image& reference, const Image& test,
            ++i) {
         if (!internal::IsValid(p.mask, i)) continue;
         const float* b = &t.data[3 * i];
-        map.data[i] = static_cast<float>(Ciede2000(*r++, LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
+        map.data[i] =
+            static_cast<float>(Ciede2000(*r++, LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
       }
     }
   });

@@ -153,30 +153,31 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     cut_tst = Cut(tst, *window);
     cut_mask = Cut(*mask, *window);
   }
-  const Image& x = window ? cut_ref : ref;
-  const Image& y = window ? cut_tst : tst;
-  const Image* m = window ? &cut_mask : mask;
+  const Image& ref_part = window ? cut_ref : ref;
+  const Image& tst_part = window ? cut_tst : tst;
+  const Image* mask_part = window ? &cut_mask : mask;
   // A point-wise map of the window, in the frame.
   const auto frame_map = [&](Image&& map) {
     return window ? Uncut(map, *window, ref.width, ref.height) : std::move(map);
   };
 
-  const PixelMetricParameters pixel{m, p.relative_epsilon};
-  r.rmse = Rmse(x, y, pixel);
-  r.relative_rmse = RelativeRmse(x, y, pixel);
-  r.log_rmse = LogRmse(x, y, pixel);
-  r.mae = MeanAbsoluteError(x, y, pixel);
-  r.psnr = Psnr(x, y, {p.exposure_stops, m});
+  const PixelMetricParameters pixel{mask_part, p.relative_epsilon};
+  r.rmse = Rmse(ref_part, tst_part, pixel);
+  r.relative_rmse = RelativeRmse(ref_part, tst_part, pixel);
+  r.log_rmse = LogRmse(ref_part, tst_part, pixel);
+  r.mae = MeanAbsoluteError(ref_part, tst_part, pixel);
+  r.psnr = Psnr(ref_part, tst_part, {p.exposure_stops, mask_part});
   clock.Lap(&MetricsSeconds::pixel);
 
   // Structural metrics on display-encoded values in [0, 1].
-  ssim.mask = m;
-  const Image ref_y = DisplayEncode(Luminance(x), p.exposure_stops);
-  const Image tst_y = DisplayEncode(Luminance(y), p.exposure_stops);
+  ssim.mask = mask_part;
+  const Image ref_y = DisplayEncode(Luminance(ref_part), p.exposure_stops);
+  const Image tst_y = DisplayEncode(Luminance(tst_part), p.exposure_stops);
   Image ssim_map;
   try {
     r.ssim_luminance = Ssim(ref_y, tst_y, ssim, wanted(kSsimMap) ? &ssim_map : nullptr);
-    r.ssim_rgb = Ssim(DisplayEncode(x, p.exposure_stops), DisplayEncode(y, p.exposure_stops), ssim);
+    r.ssim_rgb = Ssim(DisplayEncode(ref_part, p.exposure_stops),
+                     DisplayEncode(tst_part, p.exposure_stops), ssim);
     MsSsimParameters ms;
     ms.ssim = ssim;
     r.ms_ssim = MsSsim(ref_y, tst_y, ms);
@@ -195,30 +196,32 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
 
   DeltaE2000Parameters de;
   de.exposure_stops = p.exposure_stops;
-  de.mask = m;
+  de.mask = mask_part;
   de.reference_cache = p.reference_cache;
   Image ciede2000_map;
-  r.ciede2000 = DeltaE2000(x, y, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
+  r.ciede2000 =
+      DeltaE2000(ref_part, tst_part, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
   if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
   clock.Lap(&MetricsSeconds::ciede2000);
 
   DeltaEItpParameters itp;
   itp.white_luminance = p.itp_white_luminance;
-  itp.mask = m;
+  itp.mask = mask_part;
   itp.reference_cache = p.reference_cache;
   Image itp_map;
-  r.delta_e_itp = DeltaEItp(x, y, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
+  r.delta_e_itp = DeltaEItp(ref_part, tst_part, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
   if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
   clock.Lap(&MetricsSeconds::delta_e_itp);
 
   FlipParameters flip;
   flip.ppd = p.ppd;
-  flip.mask = m;
+  flip.mask = mask_part;
   flip.reference_cache = p.reference_cache;
-  r.flip_ldr = FlipLdr(ExposeAndClip(x, p.exposure_stops), ExposeAndClip(y, p.exposure_stops),
+  r.flip_ldr = FlipLdr(ExposeAndClip(ref_part, p.exposure_stops),
+                       ExposeAndClip(tst_part, p.exposure_stops),
                        flip, wanted(kFlipLdrMap) ? &maps->flip_ldr : nullptr);
   clock.Lap(&MetricsSeconds::flip_ldr);
-  r.flip_hdr = FlipHdr(x, y, flip, wanted(kFlipHdrMap) ? &maps->flip_hdr : nullptr);
+  r.flip_hdr = FlipHdr(ref_part, tst_part, flip, wanted(kFlipHdrMap) ? &maps->flip_hdr : nullptr);
   clock.Lap(&MetricsSeconds::flip_hdr);
 
   if (wanted(kAbsoluteErrorMap)) maps->absolute_error = AbsoluteErrorMap(ref, tst, mask);

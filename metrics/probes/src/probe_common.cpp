@@ -156,6 +156,8 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
   const ModelInfo* info = known ? &ValidateModel(*known) : nullptr;
   std::vector<double> lambert_shading;  // S(x) for kd = 1, unknown BRDF only
   std::vector<double> lobes;
+  out.pixels.reserve(points.size());
+  lambert_shading.reserve(points.size());
   for (const ShadingPoint& pt : points) {
     if (image.channels >= 4 && image.at(pt.x, pt.y, 3) < min_coverage) continue;
     PixelTerms t;
