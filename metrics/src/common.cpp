@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <thread>
 
@@ -14,7 +16,17 @@ std::string SizeString(const Image& image) {
   return std::to_string(image.width) + "x" + std::to_string(image.height);
 }
 
+// A float is NaN or infinite when its exponent bits are all set.
+bool AllFinite(const Image& image) {
+  std::uint32_t non_finite = 0;  // One pass without a branch, which the compiler vectorises.
+  for (const float v : image.data) {
+    non_finite |= (~std::bit_cast<std::uint32_t>(v) & 0x7F800000u) == 0 ? 1u : 0u;
+  }
+  return non_finite == 0;
+}
+
 void CheckFinite(const Image& image, const std::string& name) {
+  if (AllFinite(image)) return;
   for (std::size_t i = 0; i < image.data.size(); ++i) {
     if (!std::isfinite(image.data[i])) {
       const std::size_t pixel = i / image.channels;
