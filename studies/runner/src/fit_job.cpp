@@ -344,8 +344,13 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
     // they compare 0 with 0, which says nothing about the material. No numbers, and why.
     main.why_none = "no lit pixel is measured (every lit pixel depends on extrapolated data)";
   } else {
-    main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured, mp,
-                      false, nullptr);
+    // The patched reference holds this fit's values where it is not measured: no other
+    // evaluation compares with it, so its halves are not kept (they would only push the
+    // references' own out of the cache).
+    metrics::MetricsParameters measured_mp = mp;
+    measured_mp.reference_cache = nullptr;
+    main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured,
+                      measured_mp, false, nullptr);
   }
   clock->Lap("metrics");
   for (const auto& [stage, seconds] :
