@@ -203,9 +203,8 @@ double EvaluateModelOnReference(const FitReference& reference, const ModelInfo& 
         fmt::format("expected {} parameter values, got {}", model.ParamCount(), params.size()));
   }
   RendererHolder holder(given);
-  long gbuffers = 0;
-  const PreparedReference r = internal::Prepare(reference, *holder.renderer, 0, &gbuffers);
-  Image render = holder.renderer->Render(r.scene, model.id, params);
+  const internal::UsablePixelValues r = internal::UsablePixels(reference, *holder.renderer);
+  Image render = holder.renderer->Render(reference.scene, model.id, params);
   double sq = 0;
   for (std::size_t k = 0; k < r.pixels.size(); ++k) {
     for (int c = 0; c < 3; ++c) {

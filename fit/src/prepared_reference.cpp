@@ -14,6 +14,84 @@ namespace {
 // Reference alpha counts as full coverage from here (float EXRs store 1 exactly; half would too).
 constexpr float kFullCoverage = 1.0f - 1e-5f;
 
+std::string LabelOf(const FitReference& ref) {
+  return ref.image_path.empty() ? ref.name : ref.image_path;
+}
+
+// The image's channels and size, and the mask's size, against the scene (Error naming the file).
+void CheckSizes(const FitReference& ref) {
+  const std::string label = LabelOf(ref);
+  const Image& image = ref.image;
+  if (image.channels < 3) {
+    throw Error(label, "channels", fmt::format("expected RGB or RGBA, got {}", image.channels));
+  }
+  if (image.width != ref.scene.camera.width || image.height != ref.scene.camera.height_px) {
+    throw Error(label, "resolution",
+                fmt::format("image is {}x{} but its scene renders {}x{}", image.width, image.height,
+                            ref.scene.camera.width, ref.scene.camera.height_px));
+  }
+  if (!ref.mask.empty() && (ref.mask.width != image.width || ref.mask.height != image.height)) {
+    throw Error(ref.mask_path.empty() ? label : ref.mask_path, "resolution",
+                "mask and reference differ in size");
+  }
+}
+
+// Which of the G-buffer's fully covered pixels a fit uses: the reference's rule, shared by
+// PrepareFrom and UsablePixels. visit(x, y, rgb) is called on each used pixel in the order met;
+// the reference's degenerate cases throw DegenerateReferenceError after the last.
+class PixelRule {
+ public:
+  explicit PixelRule(const FitReference& ref) : ref_(ref) {}
+
+  // False for a pixel the fit leaves out; rgb receives the used pixel's value.
+  bool Use(int x, int y, double rgb[3]) {
+    const Image& image = ref_.image;
+    if (image.channels >= 4 && !(image.at(x, y, 3) >= kFullCoverage)) return false;
+    if (!ref_.mask.empty() && !(ref_.mask.at(x, y, 0) > 0.5f)) return false;
+    bool finite = true, clipped = false;
+    for (int c = 0; c < 3; ++c) {
+      rgb[c] = image.at(x, y, c);
+      finite = finite && std::isfinite(rgb[c]);
+      clipped = clipped || rgb[c] >= ref_.clip_level;
+    }
+    if (!finite) {
+      if (non_finite_++ == 0) first_x_ = x, first_y_ = y;
+      return false;
+    }
+    if (clipped) return false;
+    ++used_;
+    for (int c = 0; c < 3; ++c) any_light_ = any_light_ || rgb[c] > 0;
+    return true;
+  }
+
+  // Throws when a used pixel was not finite, none was used, or all were black.
+  void Check() const {
+    const std::string label = LabelOf(ref_);
+    if (non_finite_ > 0) {
+      throw DegenerateReferenceError(
+          label, "pixels",
+          fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at ({}, {})",
+                      non_finite_, first_x_, first_y_));
+    }
+    if (used_ == 0) {
+      throw DegenerateReferenceError(
+          label, "pixels",
+          "nothing to fit: no pixel is fully covered in both the reference and the scene, inside "
+          "the mask and unclipped");
+    }
+    if (!any_light_) {
+      throw DegenerateReferenceError(
+          label, "pixels", fmt::format("nothing to fit: all {} valid pixels are black", used_));
+    }
+  }
+
+ private:
+  const FitReference& ref_;
+  int non_finite_ = 0, first_x_ = -1, first_y_ = -1;
+  std::size_t used_ = 0;
+  bool any_light_ = false;
+};
+
 }  // namespace
 
 void SubsampleForEnvironment(PreparedReference* r, int want) {
@@ -69,25 +147,12 @@ void AttachQuadrature(std::vector<PreparedReference>& refs, std::vector<double> 
 
 ShadedScene ShadeScene(const FitReference& ref, Renderer& renderer, int environment_samples,
                        long* gbuffer_renders) {
-  const std::string label = ref.image_path.empty() ? ref.name : ref.image_path;
   ShadedScene out;
   out.scene = ref.scene;
   if (environment_samples > 0) {
     for (Light& light : out.scene.lights) light.samples = environment_samples;
   }
-  const Image& image = ref.image;
-  if (image.channels < 3) {
-    throw Error(label, "channels", fmt::format("expected RGB or RGBA, got {}", image.channels));
-  }
-  if (image.width != ref.scene.camera.width || image.height != ref.scene.camera.height_px) {
-    throw Error(label, "resolution",
-                fmt::format("image is {}x{} but its scene renders {}x{}", image.width, image.height,
-                            ref.scene.camera.width, ref.scene.camera.height_px));
-  }
-  if (!ref.mask.empty() && (ref.mask.width != image.width || ref.mask.height != image.height)) {
-    throw Error(ref.mask_path.empty() ? label : ref.mask_path, "resolution",
-                "mask and reference differ in size");
-  }
+  CheckSizes(ref);
   const GBuffer gbuffer = renderer.RenderGBuffer(out.scene);
   ++*gbuffer_renders;
   out.points = PrepareShading(out.scene, gbuffer, 1.0f);
@@ -102,59 +167,45 @@ PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int envir
 PreparedReference PrepareFrom(const FitReference& ref, ShadedScene shaded) {
   PreparedReference out;
   out.source = &ref;
-  out.label = ref.image_path.empty() ? ref.name : ref.image_path;
+  out.label = LabelOf(ref);
   out.scene = std::move(shaded.scene);
   const Image& image = ref.image;
   std::vector<ShadingPoint>& all = shaded.points;
-  int non_finite = 0, first_x = -1, first_y = -1;
-  bool any_light = false;
   std::vector<double> norms;
   norms.reserve(all.size());
   out.points.reserve(all.size());
   out.pixels.reserve(all.size());
   out.linear.reserve(3 * all.size());
+  PixelRule rule(ref);
   for (ShadingPoint& sp : all) {
-    if (image.channels >= 4 && !(image.at(sp.x, sp.y, 3) >= kFullCoverage)) continue;
-    if (!ref.mask.empty() && !(ref.mask.at(sp.x, sp.y, 0) > 0.5f)) continue;
     double rgb[3];
-    bool finite = true, clipped = false;
-    for (int c = 0; c < 3; ++c) {
-      rgb[c] = image.at(sp.x, sp.y, c);
-      finite = finite && std::isfinite(rgb[c]);
-      clipped = clipped || rgb[c] >= ref.clip_level;
-    }
-    if (!finite) {
-      if (non_finite++ == 0) first_x = sp.x, first_y = sp.y;
-      continue;
-    }
-    if (clipped) continue;
-    for (int c = 0; c < 3; ++c) {
-      out.linear.push_back(rgb[c]);
-      any_light = any_light || rgb[c] > 0;
-    }
+    if (!rule.Use(sp.x, sp.y, rgb)) continue;
+    for (int c = 0; c < 3; ++c) out.linear.push_back(rgb[c]);
     norms.push_back(std::sqrt(rgb[0] * rgb[0] + rgb[1] * rgb[1] + rgb[2] * rgb[2]));
     out.pixels.push_back(sp.y * image.width + sp.x);
     out.points.push_back(std::move(sp));
   }
-  if (non_finite > 0) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        fmt::format("{} non-finite (NaN or infinite) pixel(s) on the object, first at ({}, {})",
-                    non_finite, first_x, first_y));
-  }
-  if (out.points.empty()) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        "nothing to fit: no pixel is fully covered in both the reference and the scene, inside "
-        "the mask and unclipped");
-  }
-  if (!any_light) {
-    throw DegenerateReferenceError(
-        out.label, "pixels",
-        fmt::format("nothing to fit: all {} valid pixels are black", out.points.size()));
-  }
+  rule.Check();
   std::sort(norms.begin(), norms.end());
   out.p99_norm = norms[static_cast<std::size_t>(0.99 * (norms.size() - 1))];
+  return out;
+}
+
+UsablePixelValues UsablePixels(const FitReference& ref, Renderer& renderer) {
+  CheckSizes(ref);
+  const GBuffer g = renderer.RenderGBuffer(ref.scene);
+  UsablePixelValues out;
+  PixelRule rule(ref);
+  for (int y = 0; y < g.height; ++y) {  // PrepareShading's points, in its order.
+    for (int x = 0; x < g.width; ++x) {
+      if (!g.Hit(x, y) || g.Coverage(x, y) < 1.0f) continue;
+      double rgb[3];
+      if (!rule.Use(x, y, rgb)) continue;
+      for (int c = 0; c < 3; ++c) out.linear.push_back(rgb[c]);
+      out.pixels.push_back(y * ref.image.width + x);
+    }
+  }
+  rule.Check();
   return out;
 }
 

@@ -52,6 +52,14 @@ PreparedReference Prepare(const FitReference& ref, Renderer& renderer, int envir
 // The same from the reference's ShadeScene.
 PreparedReference PrepareFrom(const FitReference& ref, ShadedScene shaded);
 
+// The pixels Prepare keeps and their values, without the shading points (what comparing a render
+// with the reference needs): the same pixels in the same order, and the same errors.
+struct UsablePixelValues {
+  std::vector<int> pixels;     // y * width + x
+  std::vector<double> linear;  // RGB of each
+};
+UsablePixelValues UsablePixels(const FitReference& ref, Renderer& renderer);
+
 // Fit() with each reference's ShadeScene taken from `shaded` where it holds one per reference
 // (made by an earlier call on references of the same scenes and sizes, as the encoding search's
 // candidates are), else made and left there. nullptr: Fit().

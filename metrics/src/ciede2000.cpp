@@ -117,18 +117,9 @@ DeltaE2000Result DeltaE2000(const Image& reference, const Image& test,
       },
       [](const Values& v) { return v.Bytes(); });
   const Image t = ExposeAndClip(test, p.exposure_stops);
-  Image map(w, h, 1, std::numeric_limits<float>::quiet_NaN());
-  internal::ParallelRows(h, [&](int row_begin, int row_end) {
-    for (int y = row_begin; y < row_end; ++y) {
-      const Lab* r = ref_lab->values.data() + ref_lab->row_start[y];
-      for (std::size_t i = static_cast<std::size_t>(y) * w; i < static_cast<std::size_t>(y + 1) * w;
-           ++i) {
-        if (!internal::IsValid(p.mask, i)) continue;
-        const float* b = &t.data[3 * i];
-        map.data[i] =
-            static_cast<float>(Ciede2000(*r++, LinearSrgbToLab(b[0], b[1], b[2]), p.weights));
-      }
-    }
+  Image map = internal::PointWiseMap(*ref_lab, w, h, p.mask, [&](const Lab& r, std::size_t i) {
+    const float* b = &t.data[3 * i];
+    return Ciede2000(r, LinearSrgbToLab(b[0], b[1], b[2]), p.weights);
   });
   const internal::MapStatistics s = internal::SummarizeMap(map, p.mask);
   DeltaE2000Result result;

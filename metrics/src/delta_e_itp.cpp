@@ -97,18 +97,9 @@ DeltaEItpResult DeltaEItp(const Image& reference, const Image& test,
         });
       },
       [](const Values& v) { return v.Bytes(); });
-  Image map(w, h, 1, std::numeric_limits<float>::quiet_NaN());
-  internal::ParallelRows(h, [&](int row_begin, int row_end) {
-    for (int y = row_begin; y < row_end; ++y) {
-      const Ictcp* r = ref_ictcp->values.data() + ref_ictcp->row_start[y];
-      for (std::size_t i = static_cast<std::size_t>(y) * w; i < static_cast<std::size_t>(y + 1) * w;
-           ++i) {
-        if (!internal::IsValid(p.mask, i)) continue;
-        const float* b = &test.data[channels * i];
-        map.data[i] = static_cast<float>(
-            DeltaItp(*r++, Rec709LuminanceToIctcp(scale * b[0], scale * b[1], scale * b[2])));
-      }
-    }
+  Image map = internal::PointWiseMap(*ref_ictcp, w, h, p.mask, [&](const Ictcp& r, std::size_t i) {
+    const float* b = &test.data[channels * i];
+    return DeltaItp(r, Rec709LuminanceToIctcp(scale * b[0], scale * b[1], scale * b[2]));
   });
   const internal::MapStatistics s = internal::SummarizeMap(map, p.mask);
   DeltaEItpResult result;

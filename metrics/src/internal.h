@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -74,6 +75,24 @@ ValidPixelValues<T> AtValidPixels(int w, int h, const Image* mask, F f) {
     }
   });
   return out;
+}
+
+// A point-wise map of a w x h frame: f(the reference's kept value, pixel index) at each valid
+// pixel, NaN elsewhere (CIEDE2000's and Delta E_ITP's maps, from the reference's CIELAB or
+// ICtCp).
+template <typename T, typename F>
+Image PointWiseMap(const ValidPixelValues<T>& reference, int w, int h, const Image* mask, F f) {
+  Image map(w, h, 1, std::numeric_limits<float>::quiet_NaN());
+  ParallelRows(h, [&](int row_begin, int row_end) {
+    for (int y = row_begin; y < row_end; ++y) {
+      const T* r = reference.values.data() + reference.row_start[y];
+      for (std::size_t i = static_cast<std::size_t>(y) * w;
+           i < static_cast<std::size_t>(y + 1) * w; ++i) {
+        if (IsValid(mask, i)) map.data[i] = static_cast<float>(f(*r++, i));
+      }
+    }
+  });
+  return map;
 }
 
 // Sorts non-negative floats ascending (LSD radix sort on the bit patterns, which order like the

@@ -236,5 +236,80 @@ INSTANTIATE_TEST_SUITE_P(Merl, MeasuredDefaultStartTest,
                                            "white-fabric"),
                          [](const auto& info) { return TestName(info.param); });
 
+// EvaluateModelOnReference compares a render with the reference over the pixels a fit uses, the
+// rule written out again here: fully covered in our G-buffer (hit, coverage 1) and in the
+// reference's alpha, inside the mask, finite and unclipped. Its reference has all of them: a mask
+// over part of the sphere, pixels of partial alpha, clipped highlights. A reference with nothing
+// left is refused.
+TEST(EvaluateModelOnReferenceTest, RmseOverTheFittersPixels) {
+  const std::vector<double> truth = {0.6, 0.2, 0.1, 0.04, 0.04, 0.04, 0.3};  // kd, F0, roughness
+  const std::vector<double> other = {0.5, 0.25, 0.1, 0.05, 0.05, 0.05, 0.15};
+  const ModelInfo& model = FindModel("ggx");
+  ASSERT_EQ(static_cast<int>(truth.size()), model.ParamCount());
+  fit::FitReference ref =
+      testing::SyntheticReferences("ggx", truth, testing::SyntheticScenes(64))[0];
+  const int w = ref.image.width, h = ref.image.height;
+  // An opaque image (a photograph's) of a scene whose silhouette pixels our G-buffer covers in
+  // part (3 x 3 samples): those are left out by the G-buffer's coverage alone.
+  ref.scene.camera.supersample = 3;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) ref.image.at(x, y, 3) = 1.0f;
+  }
+  ref.mask = Image(w, h, 1, 0.0f);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < 40; ++x) ref.mask.at(x, y, 0) = 1.0f;
+  }
+  for (int x = 20; x < 30; ++x) ref.image.at(x, 32, 3) = 0.5f;
+  std::vector<float> values;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) values.push_back(ref.image.at(x, y, 1));
+  }
+  std::sort(values.begin(), values.end());
+  ref.clip_level = values[values.size() * 99 / 100];
+  const double exposure = 1.3;
+
+  Image prediction;
+  const double rmse = fit::EvaluateModelOnReference(ref, model, other, exposure,
+                                                    &testing::SharedRenderer(), &prediction);
+
+  const GBuffer g = testing::SharedRenderer().RenderGBuffer(ref.scene);
+  const Image render = testing::SharedRenderer().Render(ref.scene, model.id, other);
+  double sq = 0;
+  long n = 0, clipped = 0, partial = 0, silhouette = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!(ref.mask.at(x, y, 0) > 0.5f)) continue;
+      if (g.Hit(x, y) && g.Coverage(x, y) < 1.0f) ++silhouette;
+      if (!g.Hit(x, y) || g.Coverage(x, y) < 1.0f) continue;
+      if (!(ref.image.at(x, y, 3) >= 1.0f - 1e-5f)) {
+        ++partial;
+        continue;
+      }
+      bool clip = false;
+      for (int c = 0; c < 3; ++c) clip = clip || ref.image.at(x, y, c) >= ref.clip_level;
+      if (clip) {
+        ++clipped;
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) {
+        const double d = exposure * render.at(x, y, c) - ref.image.at(x, y, c);
+        sq += d * d;
+      }
+      ++n;
+    }
+  }
+  ASSERT_GT(n, 500);
+  EXPECT_GT(clipped, 0);
+  EXPECT_GT(partial, 0);
+  EXPECT_GT(silhouette, 0);
+  EXPECT_DOUBLE_EQ(rmse, std::sqrt(sq / (3.0 * n)));
+  EXPECT_FLOAT_EQ(prediction.at(10, 32, 0), static_cast<float>(exposure) * render.at(10, 32, 0));
+
+  ref.mask = Image(w, h, 1, 0.0f);
+  EXPECT_THROW(fit::EvaluateModelOnReference(ref, model, other, exposure,
+                                             &testing::SharedRenderer(), nullptr),
+               fit::DegenerateReferenceError);
+}
+
 }  // namespace
 }  // namespace shadefit
