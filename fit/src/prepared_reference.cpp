@@ -13,6 +13,9 @@ namespace {
 
 // Reference alpha counts as full coverage from here (float EXRs store 1 exactly; half would too).
 constexpr float kFullCoverage = 1.0f - 1e-5f;
+// Our G-buffer's coverage a pixel needs (its camera samples all hit): ShadeScene's points and
+// UsablePixels' pixels.
+constexpr float kGBufferCoverage = 1.0f;
 
 std::string LabelOf(const FitReference& ref) {
   return ref.image_path.empty() ? ref.name : ref.image_path;
@@ -155,7 +158,7 @@ ShadedScene ShadeScene(const FitReference& ref, Renderer& renderer, int environm
   CheckSizes(ref);
   const GBuffer gbuffer = renderer.RenderGBuffer(out.scene);
   ++*gbuffer_renders;
-  out.points = PrepareShading(out.scene, gbuffer, 1.0f);
+  out.points = PrepareShading(out.scene, gbuffer, kGBufferCoverage);
   return out;
 }
 
@@ -198,7 +201,7 @@ UsablePixelValues UsablePixels(const FitReference& ref, Renderer& renderer) {
   PixelRule rule(ref);
   for (int y = 0; y < g.height; ++y) {  // PrepareShading's points, in its order.
     for (int x = 0; x < g.width; ++x) {
-      if (!g.Hit(x, y) || g.Coverage(x, y) < 1.0f) continue;
+      if (!g.Hit(x, y) || g.Coverage(x, y) < kGBufferCoverage) continue;
       double rgb[3];
       if (!rule.Use(x, y, rgb)) continue;
       for (int c = 0; c < 3; ++c) out.linear.push_back(rgb[c]);
