@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "shadefit/metrics/common.h"
+#include "shadefit/metrics/ssim.h"
 #include "shadefit/render/image.h"
 
 namespace shadefit::metrics::internal {
@@ -151,5 +152,13 @@ inline MapStatistics SummarizeMap(const Image& map, const Image* mask) {
   s.max = values.back();
   return s;
 }
+
+// MsSsim; with `ssim`, also Ssim of the same images and parameters (no map), which is MS-SSIM's
+// first scale: the same planes, pool and sums, so the same bits, at no cost of its own.
+MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSsimParameters& p,
+                           SsimResult* ssim);
+
+// PSNR of images already display-encoded (Psnr encodes, then calls it).
+double PsnrOfEncoded(const Image& reference, const Image& test, const Image* mask);
 
 }  // namespace shadefit::metrics::internal

@@ -74,10 +74,13 @@ double MeanAbsoluteError(const Image& reference, const Image& test,
 
 double Psnr(const Image& reference, const Image& test, const PsnrParameters& p) {
   ValidateInputs(reference, test, p.mask, 0);
-  const Image r = DisplayEncode(reference, p.exposure_stops);
-  const Image t = DisplayEncode(test, p.exposure_stops);
-  const double mse =
-      MaskedMean(r, t, p.mask, [](double a, double b) { return (b - a) * (b - a); });
+  return internal::PsnrOfEncoded(DisplayEncode(reference, p.exposure_stops),
+                                 DisplayEncode(test, p.exposure_stops), p.mask);
+}
+
+double internal::PsnrOfEncoded(const Image& reference, const Image& test, const Image* mask) {
+  const double mse = MaskedMean(reference, test, mask,
+                                [](double a, double b) { return (b - a) * (b - a); });
   if (mse == 0.0) return std::numeric_limits<double>::infinity();
   return 10.0 * std::log10(1.0 / mse);  // Peak value 1 after the display transform.
 }

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "flip_map.h"
+#include "internal.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/pixel_metrics.h"
 #include "shadefit/base/error.h"
@@ -166,21 +167,28 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   r.relative_rmse = RelativeRmse(ref_part, tst_part, pixel);
   r.log_rmse = LogRmse(ref_part, tst_part, pixel);
   r.mae = MeanAbsoluteError(ref_part, tst_part, pixel);
-  r.psnr = Psnr(ref_part, tst_part, {p.exposure_stops, mask_part});
+  // Display-encoded values in [0, 1], shared by PSNR and the structural metrics.
+  const Image ref_display = DisplayEncode(ref_part, p.exposure_stops);
+  const Image tst_display = DisplayEncode(tst_part, p.exposure_stops);
+  r.psnr = internal::PsnrOfEncoded(ref_display, tst_display, mask_part);
   clock.Lap(&MetricsSeconds::pixel);
 
-  // Structural metrics on display-encoded values in [0, 1].
   ssim.mask = mask_part;
   const Image ref_y = DisplayEncode(Luminance(ref_part), p.exposure_stops);
   const Image tst_y = DisplayEncode(Luminance(tst_part), p.exposure_stops);
   Image ssim_map;
   try {
-    r.ssim_luminance = Ssim(ref_y, tst_y, ssim, wanted(kSsimMap) ? &ssim_map : nullptr);
-    r.ssim_rgb = Ssim(DisplayEncode(ref_part, p.exposure_stops),
-                     DisplayEncode(tst_part, p.exposure_stops), ssim);
+    // SSIM of the luminance is MS-SSIM's first scale (internal::MsSsimAndSsim), unless its map is
+    // wanted. Ssim's errors come first, as when it ran first: the same checks, in MsSsim's order.
     MsSsimParameters ms;
     ms.ssim = ssim;
-    r.ms_ssim = MsSsim(ref_y, tst_y, ms);
+    if (wanted(kSsimMap)) {
+      r.ssim_luminance = Ssim(ref_y, tst_y, ssim, &ssim_map);
+      r.ms_ssim = MsSsim(ref_y, tst_y, ms);
+    } else {
+      r.ms_ssim = internal::MsSsimAndSsim(ref_y, tst_y, ms, &r.ssim_luminance);
+    }
+    r.ssim_rgb = Ssim(ref_display, tst_display, ssim);
   } catch (const Error& e) {
     // The SSIM functions name their inputs generically; say which files were meant (and keep
     // the error's type).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "internal.h"
@@ -126,8 +127,12 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
   const std::size_t n = static_cast<std::size_t>(w) * h;
   const Columns wanted = PooledColumns(pool, w, h, map != nullptr);
   const Columns read = ReadByVerticalPass(wanted, r);
-  // Horizontal pass of the five moments x, y, x^2, y^2, xy.
-  std::vector<Plane> horizontal(5, Plane(n));
+  // Horizontal pass of the five moments x, y, x^2, y^2, xy: five planes of one block, left
+  // uninitialised (the vertical pass reads only the columns this pass writes). A job computes
+  // SSIM hundreds of times; zeroed planes cost a fill, and a fresh block's pages, each time.
+  const std::unique_ptr<double[]> block(new double[5 * n]);
+  double* const horizontal[5] = {block.get(), block.get() + n, block.get() + 2 * n,
+                                 block.get() + 3 * n, block.get() + 4 * n};
   internal::ParallelRows(h, [&](int row_begin, int row_end) {
     std::vector<Plane> padded(5, Plane(w + 2 * r));
     for (int row = row_begin; row < row_end; ++row) {
@@ -147,6 +152,7 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
       }
       for (int f = 0; f < 5; ++f) {
         double* out = &horizontal[f][static_cast<std::size_t>(row) * w + x0];
+        std::fill(out, out + (x1 - x0), 0.0);
         for (int k = 0; k <= 2 * r; ++k) {  // Tap-outer: the x loop vectorises.
           AddScaled(out, padded[f].data() + k, taps[k], x1 - x0);
         }
@@ -292,6 +298,13 @@ SsimResult Ssim(const Image& reference, const Image& test, const SsimParameters&
 }
 
 MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParameters& p) {
+  return internal::MsSsimAndSsim(reference, test, p, nullptr);
+}
+
+namespace internal {
+
+MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSsimParameters& p,
+                           SsimResult* ssim) {
   ValidateInputs(reference, test, p.ssim.mask, 0);
   int w = reference.width, h = reference.height;
   CheckWindowFits(w, h, p.ssim);
@@ -335,6 +348,11 @@ MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParam
     double cs_mean = 0.0, l_mean = 0.0;
     for (int c = 0; c < channels; ++c) {
       const PlaneStats stats = SsimPlane(x[c], y[c], w, h, pool, pooled, p.ssim, nullptr, 1);
+      if (j == 0 && ssim != nullptr) {  // Ssim's own arithmetic (same planes, pool, order).
+        if (c == 0) *ssim = SsimResult{0.0, {}, pooled};
+        ssim->channel_means.push_back(stats.ssim);
+        ssim->mean += stats.ssim / channels;
+      }
       cs_mean += stats.cs / channels;
       l_mean += stats.luminance / channels;
       // Clamp negative means to 0: a fractional power of a negative number is undefined.
@@ -365,4 +383,5 @@ MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParam
   return result;
 }
 
+}  // namespace internal
 }  // namespace shadefit::metrics

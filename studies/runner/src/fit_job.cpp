@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -32,6 +33,7 @@
 namespace shadefit::studies::internal {
 namespace {
 using json = nlohmann::json;
+using SharedReference = std::shared_ptr<const reference_images::Reference>;
 
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
@@ -57,13 +59,13 @@ FitJobRecord FitRecordHeader(const RunContext& context, const Job& job, FitStatu
 // pixel_stride (fit::TrainingPixels: measured pixels only, every stride-th; the rule `shadefit
 // fit` and shadefit.fit() apply too).
 fit::FitProblem FitProblemOf(const Job& job, const FitSettings& s, const ReferenceGroup& g,
-                             const std::vector<reference_images::Reference>& references) {
+                             const std::vector<SharedReference>& references) {
   fit::FitProblem problem;
   problem.model = job.model;
   problem.fixed = s.fixed;
   for (std::size_t i = 0; i < references.size(); ++i) {
     if (!Trains(job, g.references[i].lighting)) continue;
-    problem.references.push_back(fit::TrainingPixels(references[i], s.pixel_stride));
+    problem.references.push_back(fit::TrainingPixels(*references[i], s.pixel_stride));
   }
   return problem;
 }
@@ -426,8 +428,8 @@ json ParametersJson(const fit::FitResult& result) {
 // `references` are redecoded and `encoding` is the search's record), or on the images.
 fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitSettings& s,
                            const std::string& material, const fit::FitProblem& problem,
-                           const fit::FitOptions& fo,
-                           std::vector<reference_images::Reference>* references, json* encoding) {
+                           const fit::FitOptions& fo, std::vector<SharedReference>* references,
+                           json* encoding) {
   if (TrainsInBrdfSpace(job.train)) {
     // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
     // the exposure is fixed, and the job's loss is l2 (StudySpec::Fits).
@@ -437,7 +439,9 @@ fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitS
     fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
     *encoding = fit::EncodingSearchToJson(search);
     // Every lighting, trained on or not, is evaluated in the chosen decoding.
-    for (reference_images::Reference& r : *references) r = fit::Redecode(r, search.chosen);
+    for (SharedReference& r : *references) {
+      r = std::make_shared<const reference_images::Reference>(fit::Redecode(*r, search.chosen));
+    }
     context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
                                   search.chosen.Name(), (*encoding)["stored_rmse"].get<double>()));
     return std::move(search.fit);
@@ -486,10 +490,10 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const FitSettings s = context.spec.SettingsOf(job.model, job.loss);
   StageClock clock;
 
-  std::vector<reference_images::Reference> references;
-  for (const ReferenceSpec& r : g.references) {
-    references.push_back(*context.Reference(r.image_path));  // A copy: the job may redecode it.
-  }
+  // The run's references, shared with its other jobs (a 96-light set is gigabytes): the encoding
+  // search replaces them with its redecoded copies.
+  std::vector<SharedReference> references;
+  for (const ReferenceSpec& r : g.references) references.push_back(context.Reference(r.image_path));
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);
   clock.Lap("read");
@@ -529,7 +533,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   try {
     for (std::size_t i = 0; i < references.size(); ++i) {
       evaluations.push_back(
-          Evaluate(context, job, g.references[i], references[i], result, renderer, &outputs,
+          Evaluate(context, job, g.references[i], *references[i], result, renderer, &outputs,
                    &clock));
     }
   } catch (const NonFiniteRenderError& e) {
