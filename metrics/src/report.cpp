@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <string>
 
 #include "flip_map.h"
 #include "internal.h"
@@ -115,6 +116,28 @@ Image Uncut(const Image& map, const Window& w, int width, int height) {
   return out;
 }
 
+// A kept point-wise map's statistics over `mask` (MetricsParameters::point_wise_maps): what the
+// metric's own summary (SummarizeMap) gives over the same values in the same order. Every pixel of
+// the mask must hold a value (the map is NaN outside its call's mask).
+internal::MapStatistics KeptMapStatistics(const Image& map, const Image* mask,
+                                          const std::string& metric, const InputNames& names) {
+  const std::string field = "point_wise_maps." + metric;
+  if (map.channels != 1 || (mask != nullptr && (map.width != mask->width ||
+                                                map.height != mask->height))) {
+    throw Error(names.reference, field,
+                map.empty() ? std::string("the earlier call kept no such map")
+                            : "the kept map is not a one-channel map of the mask's frame");
+  }
+  for (std::size_t i = 0; i < map.PixelCount(); ++i) {
+    if (internal::IsValid(mask, i) && std::isnan(map.data[i])) {
+      throw Error(names.reference, field,
+                  "the kept map has no value at pixel (" + std::to_string(i % map.width) +
+                      ", " + std::to_string(i / map.width) + ") of the mask");
+    }
+  }
+  return internal::SummarizeMap(map, mask);
+}
+
 }  // namespace
 
 MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Image* mask,
@@ -202,24 +225,36 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   if (wanted(kSsimMap)) maps->ssim = std::move(ssim_map);  // Never of a window (above).
   clock.Lap(&MetricsSeconds::ssim);
 
-  DeltaE2000Parameters de;
-  de.exposure_stops = p.exposure_stops;
-  de.mask = mask_part;
-  de.reference_cache = p.reference_cache;
-  Image ciede2000_map;
-  r.ciede2000 =
-      DeltaE2000(ref_part, tst_part, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
-  if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
-  clock.Lap(&MetricsSeconds::ciede2000);
+  if (p.point_wise_maps != nullptr) {
+    const internal::MapStatistics de =
+        KeptMapStatistics(p.point_wise_maps->ciede2000, mask, "CIEDE2000", p.names);
+    r.ciede2000 = {de.mean, de.p95, de.max};
+    clock.Lap(&MetricsSeconds::ciede2000);
+    const internal::MapStatistics itp =
+        KeptMapStatistics(p.point_wise_maps->delta_e_itp, mask, "Delta E_ITP", p.names);
+    r.delta_e_itp = {itp.mean, itp.p95, itp.max};
+    clock.Lap(&MetricsSeconds::delta_e_itp);
+  } else {
+    DeltaE2000Parameters de;
+    de.exposure_stops = p.exposure_stops;
+    de.mask = mask_part;
+    de.reference_cache = p.reference_cache;
+    Image ciede2000_map;
+    r.ciede2000 =
+        DeltaE2000(ref_part, tst_part, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
+    if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
+    clock.Lap(&MetricsSeconds::ciede2000);
 
-  DeltaEItpParameters itp;
-  itp.white_luminance = p.itp_white_luminance;
-  itp.mask = mask_part;
-  itp.reference_cache = p.reference_cache;
-  Image itp_map;
-  r.delta_e_itp = DeltaEItp(ref_part, tst_part, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
-  if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
-  clock.Lap(&MetricsSeconds::delta_e_itp);
+    DeltaEItpParameters itp;
+    itp.white_luminance = p.itp_white_luminance;
+    itp.mask = mask_part;
+    itp.reference_cache = p.reference_cache;
+    Image itp_map;
+    r.delta_e_itp =
+        DeltaEItp(ref_part, tst_part, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
+    if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
+    clock.Lap(&MetricsSeconds::delta_e_itp);
+  }
 
   FlipParameters flip;
   flip.ppd = p.ppd;

@@ -207,6 +207,70 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
   }
 }
 
+// A study's measured pass compares the same test with a reference patched outside its pixels
+// (the covered pixels less a shadow's edge); its CIEDE2000 and Delta E_ITP, pooled from the
+// covered pass's maps, are the numbers it computes without them. The maps are read (a changed
+// value changes the numbers), and maps that miss a pixel of the mask are refused.
+TEST(ReportTest, KeptPointWiseMapsGiveASecondPassItsOwnNumbers) {
+  const int w = 170, h = 130;
+  const Image ref = testing::HdrScene(w, h);
+  const Image tst = testing::HdrDistorted(ref, 0.2f, 7);
+  const Image covered = EllipseMask(w, h, 88.0, 61.0, 60.0, 45.0, false);
+  Image measured = covered, patched = ref;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      // A curved band through the object: the "shadow edge" the measured pass leaves out.
+      const double edge = 0.004 * (x - 88.0) * (x - 88.0) + 40.0;
+      if (covered.at(x, y, 0) > 0.5f && std::abs(y - edge) < 3.0) {
+        measured.at(x, y, 0) = 0.0f;
+        for (int c = 0; c < 3; ++c) patched.at(x, y, c) = tst.at(x, y, c);
+      }
+    }
+  }
+  MetricsParameters p;
+  p.exposure_stops = -0.5f;
+  p.maps_wanted = kCiede2000Map | kDeltaEItpMap;
+  MetricsMaps kept;
+  ComputeMetrics(ref, tst, &covered, p, &kept);
+
+  const std::string expected = MetricsToJson(ComputeMetrics(patched, tst, &measured, p)).dump();
+  MetricsParameters reuse = p;
+  reuse.point_wise_maps = &kept;
+  MetricsMaps own;
+  const MetricsReport got = ComputeMetrics(patched, tst, &measured, reuse, &own);
+  EXPECT_EQ(MetricsToJson(got).dump(), expected);
+  EXPECT_TRUE(own.ciede2000.empty());
+
+  // The numbers come from the maps: one measured pixel's values raised to the maxima.
+  MetricsMaps changed = kept;
+  const std::size_t centre = static_cast<std::size_t>(61) * w + 88;
+  ASSERT_GT(measured.data[centre], 0.5f);
+  changed.ciede2000.data[centre] = 1000.0f;
+  changed.delta_e_itp.data[centre] = 2000.0f;
+  reuse.point_wise_maps = &changed;
+  const MetricsReport moved = ComputeMetrics(patched, tst, &measured, reuse);
+  EXPECT_EQ(moved.ciede2000.max, 1000.0);
+  EXPECT_EQ(moved.delta_e_itp.max, 2000.0);
+  EXPECT_EQ(moved.rmse, got.rmse);
+
+  // Maps of a smaller mask miss some of this one's pixels.
+  const Image smaller = EllipseMask(w, h, 88.0, 61.0, 30.0, 20.0, false);
+  MetricsMaps partial;
+  ComputeMetrics(ref, tst, &smaller, p, &partial);
+  reuse.point_wise_maps = &partial;
+  try {
+    ComputeMetrics(patched, tst, &measured, reuse);
+    ADD_FAILURE() << "maps that miss pixels of the mask were accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("point_wise_maps.CIEDE2000"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("no value at pixel"), std::string::npos) << e.what();
+  }
+  MetricsMaps none;
+  reuse.point_wise_maps = &none;
+  EXPECT_THROW(ComputeMetrics(patched, tst, &measured, reuse), Error);
+}
+
 // The reference's CIELAB (CIEDE2000) and ICtCp (Delta E_ITP) kept in a ReferenceCache give the
 // numbers and maps of a call without one, and are found again only for the same reference pixels,
 // mask and parameters: a call that changes any of them in turn, with one cache, must match a

@@ -39,6 +39,8 @@ enum MetricMap : unsigned {
   kAllMaps = (1u << 7) - 1,
 };
 
+struct MetricsMaps;
+
 struct MetricsParameters {
   // Exposure (stops) of the display transform used by PSNR, SSIM, MS-SSIM, CIEDE2000, LDR-FLIP.
   float exposure_stops = 0.0f;
@@ -56,6 +58,12 @@ struct MetricsParameters {
   ReferenceCache* reference_cache = nullptr;
   // Which maps a MetricsMaps receives (MetricMap bits); the others stay empty and cost nothing.
   unsigned maps_wanted = kAllMaps;
+  // Optional: the CIEDE2000 and Delta E_ITP maps of an earlier call on a mask that holds this
+  // call's, with the same test, parameters and a reference equal to this one on this mask (a
+  // study's measured pass after its covered pass). Those two metrics are then the maps'
+  // statistics over this mask: the same bits as computing them, for a pass over the mask. The
+  // maps must cover the mask (Error otherwise); this call's own such maps are left empty.
+  const MetricsMaps* point_wise_maps = nullptr;
   // Optional: receives the seconds spent per metric (added to).
   MetricsSeconds* seconds = nullptr;
 };
