@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -153,12 +154,25 @@ inline MapStatistics SummarizeMap(const Image& map, const Image* mask) {
   return s;
 }
 
+// Where an SSIM call's images lie in the frame (its window's corner), and the terms it keeps or
+// pools: planes indexed scale x channels + channel (SsimTerms).
+struct SsimReuse {
+  int x0 = 0, y0 = 0;
+  std::vector<SsimPlaneTerms>* keep = nullptr;
+  const std::vector<SsimPlaneTerms>* from = nullptr;  // Not read when keep is set.
+};
+
+// Ssim without a map, keeping or pooling terms (`reuse`).
+SsimResult SsimReusing(const Image& reference, const Image& test, const SsimParameters& p,
+                       const SsimReuse& reuse);
+
 // MsSsim; with `ssim`, also Ssim of the same images and parameters (no map), which is MS-SSIM's
 // first scale: the same planes, pool and sums, so the same bits, at no cost of its own.
 MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSsimParameters& p,
-                           SsimResult* ssim);
+                           SsimResult* ssim, const SsimReuse& reuse = {});
 
 // PSNR of images already display-encoded (Psnr encodes, then calls it).
 double PsnrOfEncoded(const Image& reference, const Image& test, const Image* mask);
 
 }  // namespace shadefit::metrics::internal
+

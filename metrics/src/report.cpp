@@ -116,12 +116,12 @@ Image Uncut(const Image& map, const Window& w, int width, int height) {
   return out;
 }
 
-// A kept point-wise map's statistics over `mask` (MetricsParameters::point_wise_maps): what the
-// metric's own summary (SummarizeMap) gives over the same values in the same order. Every pixel of
-// the mask must hold a value (the map is NaN outside its call's mask).
+// A kept point-wise map's statistics over `mask` (KeptTerms): what the metric's own summary
+// (SummarizeMap) gives over the same values in the same order. Every pixel of the mask must hold
+// a value (the map is NaN outside its call's mask).
 internal::MapStatistics KeptMapStatistics(const Image& map, const Image* mask,
                                           const std::string& metric, const InputNames& names) {
-  const std::string field = "point_wise_maps." + metric;
+  const std::string field = "kept." + metric;
   if (map.channels != 1 || (mask != nullptr && (map.width != mask->width ||
                                                 map.height != mask->height))) {
     throw Error(names.reference, field,
@@ -205,13 +205,23 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     // wanted. Ssim's errors come first, as when it ran first: the same checks, in MsSsim's order.
     MsSsimParameters ms;
     ms.ssim = ssim;
+    // Kept terms (KeptTerms) are placed in the frame by the window's corner.
+    internal::SsimReuse luminance{window ? window->x : 0, window ? window->y : 0}, rgb = luminance;
+    if (p.keep) {
+      p.keep->ssim = {};
+      luminance.keep = &p.keep->ssim.luminance;
+      rgb.keep = &p.keep->ssim.rgb;
+    } else if (p.kept) {
+      luminance.from = &p.kept->ssim.luminance;
+      rgb.from = &p.kept->ssim.rgb;
+    }
     if (wanted(kSsimMap)) {
       r.ssim_luminance = Ssim(ref_y, tst_y, ssim, &ssim_map);
-      r.ms_ssim = MsSsim(ref_y, tst_y, ms);
+      r.ms_ssim = internal::MsSsimAndSsim(ref_y, tst_y, ms, nullptr, luminance);
     } else {
-      r.ms_ssim = internal::MsSsimAndSsim(ref_y, tst_y, ms, &r.ssim_luminance);
+      r.ms_ssim = internal::MsSsimAndSsim(ref_y, tst_y, ms, &r.ssim_luminance, luminance);
     }
-    r.ssim_rgb = Ssim(ref_display, tst_display, ssim);
+    r.ssim_rgb = internal::SsimReusing(ref_display, tst_display, ssim, rgb);
   } catch (const Error& e) {
     // The SSIM functions name their inputs generically; say which files were meant (and keep
     // the error's type).
@@ -225,13 +235,13 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   if (wanted(kSsimMap)) maps->ssim = std::move(ssim_map);  // Never of a window (above).
   clock.Lap(&MetricsSeconds::ssim);
 
-  if (p.point_wise_maps != nullptr) {
+  if (p.kept != nullptr && p.keep == nullptr) {
     const internal::MapStatistics de =
-        KeptMapStatistics(p.point_wise_maps->ciede2000, mask, "CIEDE2000", p.names);
+        KeptMapStatistics(p.kept->ciede2000, mask, "ciede2000", p.names);
     r.ciede2000 = {de.mean, de.p95, de.max};
     clock.Lap(&MetricsSeconds::ciede2000);
     const internal::MapStatistics itp =
-        KeptMapStatistics(p.point_wise_maps->delta_e_itp, mask, "Delta E_ITP", p.names);
+        KeptMapStatistics(p.kept->delta_e_itp, mask, "delta_e_itp", p.names);
     r.delta_e_itp = {itp.mean, itp.p95, itp.max};
     clock.Lap(&MetricsSeconds::delta_e_itp);
   } else {
@@ -239,9 +249,11 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     de.exposure_stops = p.exposure_stops;
     de.mask = mask_part;
     de.reference_cache = p.reference_cache;
+    const bool keep_maps = p.keep != nullptr;
     Image ciede2000_map;
-    r.ciede2000 =
-        DeltaE2000(ref_part, tst_part, de, wanted(kCiede2000Map) ? &ciede2000_map : nullptr);
+    r.ciede2000 = DeltaE2000(ref_part, tst_part, de,
+                             wanted(kCiede2000Map) || keep_maps ? &ciede2000_map : nullptr);
+    if (keep_maps) p.keep->ciede2000 = frame_map(Image(ciede2000_map));
     if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
     clock.Lap(&MetricsSeconds::ciede2000);
 
@@ -250,8 +262,9 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     itp.mask = mask_part;
     itp.reference_cache = p.reference_cache;
     Image itp_map;
-    r.delta_e_itp =
-        DeltaEItp(ref_part, tst_part, itp, wanted(kDeltaEItpMap) ? &itp_map : nullptr);
+    r.delta_e_itp = DeltaEItp(ref_part, tst_part, itp,
+                              wanted(kDeltaEItpMap) || keep_maps ? &itp_map : nullptr);
+    if (keep_maps) p.keep->delta_e_itp = frame_map(Image(itp_map));
     if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
     clock.Lap(&MetricsSeconds::delta_e_itp);
   }

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "internal.h"
@@ -119,9 +121,11 @@ Columns ReadByVerticalPass(const Columns& c, int r) {
 // SSIM of one plane pair. map (optional) receives SSIM at every pixel with the given stride.
 // Without a map only the pooled pixels' windows are computed (the filters' supports around them),
 // with the same arithmetic per pixel as over the whole frame: the same bits.
+// keep (optional, sized w x h and NaN): receives the terms at every pixel computed.
 PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
                      const std::vector<std::uint8_t>& pool, std::size_t pooled,
-                     const SsimParameters& p, float* map, int map_stride) {
+                     const SsimParameters& p, float* map, int map_stride,
+                     SsimPlaneTerms* keep = nullptr) {
   const int r = p.radius;
   const std::vector<double> taps = GaussianTaps(p.sigma, r);
   const std::size_t n = static_cast<std::size_t>(w) * h;
@@ -187,6 +191,11 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
         const double s = l * cs;
         const std::size_t index = static_cast<std::size_t>(row) * w + i;
         if (map) map[index * map_stride] = static_cast<float>(s);
+        if (keep) {
+          keep->ssim[index] = s;
+          keep->cs[index] = cs;
+          keep->luminance[index] = l;
+        }
         if (pool[index]) {
           sum_ssim += s;
           sum_cs += cs;
@@ -208,6 +217,64 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
   stats.cs /= static_cast<double>(pooled);
   stats.luminance /= static_cast<double>(pooled);
   return stats;
+}
+
+// SsimPlane's statistics from kept terms: the pooled pixels of a w x h plane whose corner is
+// (x0, y0) in the frame, summed per row and then over the rows as SsimPlane sums them. None when
+// a pooled pixel has no kept value.
+std::optional<PlaneStats> PoolKept(const SsimPlaneTerms& kept, int x0, int y0,
+                                   const std::vector<std::uint8_t>& pool, int w, int h,
+                                   std::size_t pooled) {
+  PlaneStats stats;
+  for (int row = 0; row < h; ++row) {
+    const int ky = y0 + row - kept.y0;
+    double sum_ssim = 0.0, sum_cs = 0.0, sum_l = 0.0;
+    for (int i = 0; i < w; ++i) {
+      if (!pool[static_cast<std::size_t>(row) * w + i]) continue;
+      const int kx = x0 + i - kept.x0;
+      if (ky < 0 || ky >= kept.height || kx < 0 || kx >= kept.width) return std::nullopt;
+      const std::size_t k = static_cast<std::size_t>(ky) * kept.width + kx;
+      if (std::isnan(kept.ssim[k])) return std::nullopt;
+      sum_ssim += kept.ssim[k];
+      sum_cs += kept.cs[k];
+      sum_l += kept.luminance[k];
+    }
+    stats.ssim += sum_ssim;
+    stats.cs += sum_cs;
+    stats.luminance += sum_l;
+  }
+  stats.ssim /= static_cast<double>(pooled);
+  stats.cs /= static_cast<double>(pooled);
+  stats.luminance /= static_cast<double>(pooled);
+  return stats;
+}
+
+// SsimPlane of plane `index` (scale x channels + channel) at `scale`, keeping its terms or
+// pooling kept ones as `reuse` says. A window's corner must be a multiple of 2^scale for its
+// pixels at the scale to be the frame's; else neither.
+PlaneStats ReusingSsimPlane(const Plane& x, const Plane& y, int w, int h,
+                            const std::vector<std::uint8_t>& pool, std::size_t pooled,
+                            const SsimParameters& p, const internal::SsimReuse& reuse, int scale,
+                            std::size_t index) {
+  const int step = 1 << scale;
+  if (reuse.x0 % step != 0 || reuse.y0 % step != 0) {
+    return SsimPlane(x, y, w, h, pool, pooled, p, nullptr, 1);
+  }
+  const int x0 = reuse.x0 / step, y0 = reuse.y0 / step;
+  if (reuse.keep) {
+    if (reuse.keep->size() <= index) reuse.keep->resize(index + 1);
+    SsimPlaneTerms& keep = (*reuse.keep)[index];
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    keep = {x0, y0, w, h, Plane(n, nan), Plane(n, nan), Plane(n, nan)};
+    return SsimPlane(x, y, w, h, pool, pooled, p, nullptr, 1, &keep);
+  }
+  if (reuse.from && index < reuse.from->size()) {
+    const std::optional<PlaneStats> kept =
+        PoolKept((*reuse.from)[index], x0, y0, pool, w, h, pooled);
+    if (kept) return *kept;
+  }
+  return SsimPlane(x, y, w, h, pool, pooled, p, nullptr, 1);
 }
 
 std::vector<Plane> SplitPlanes(const Image& image) {
@@ -275,8 +342,10 @@ std::vector<std::uint8_t> DownsampleValid(const std::vector<std::uint8_t>& in, i
 
 }  // namespace
 
-SsimResult Ssim(const Image& reference, const Image& test, const SsimParameters& p,
-                Image* ssim_map) {
+namespace {
+
+SsimResult SsimOf(const Image& reference, const Image& test, const SsimParameters& p,
+                  Image* ssim_map, const internal::SsimReuse& reuse) {
   ValidateInputs(reference, test, p.mask, 0);
   const int w = reference.width, h = reference.height;
   CheckWindowFits(w, h, p);
@@ -290,11 +359,24 @@ SsimResult Ssim(const Image& reference, const Image& test, const SsimParameters&
   for (int c = 0; c < reference.channels; ++c) {
     float* map = ssim_map ? ssim_map->data.data() + c : nullptr;
     const PlaneStats stats =
-        SsimPlane(x[c], y[c], w, h, pool, result.pooled_pixels, p, map, reference.channels);
+        map ? SsimPlane(x[c], y[c], w, h, pool, result.pooled_pixels, p, map, reference.channels)
+            : ReusingSsimPlane(x[c], y[c], w, h, pool, result.pooled_pixels, p, reuse, 0, c);
     result.channel_means.push_back(stats.ssim);
     result.mean += stats.ssim / reference.channels;
   }
   return result;
+}
+
+}  // namespace
+
+SsimResult Ssim(const Image& reference, const Image& test, const SsimParameters& p,
+                Image* ssim_map) {
+  return SsimOf(reference, test, p, ssim_map, {});
+}
+
+SsimResult internal::SsimReusing(const Image& reference, const Image& test,
+                                 const SsimParameters& p, const SsimReuse& reuse) {
+  return SsimOf(reference, test, p, nullptr, reuse);
 }
 
 MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParameters& p) {
@@ -304,7 +386,7 @@ MsSsimResult MsSsim(const Image& reference, const Image& test, const MsSsimParam
 namespace internal {
 
 MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSsimParameters& p,
-                           SsimResult* ssim) {
+                           SsimResult* ssim, const SsimReuse& reuse) {
   ValidateInputs(reference, test, p.ssim.mask, 0);
   int w = reference.width, h = reference.height;
   CheckWindowFits(w, h, p.ssim);
@@ -347,7 +429,8 @@ MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSs
     const double weight = p.weights[j] / weight_sum;
     double cs_mean = 0.0, l_mean = 0.0;
     for (int c = 0; c < channels; ++c) {
-      const PlaneStats stats = SsimPlane(x[c], y[c], w, h, pool, pooled, p.ssim, nullptr, 1);
+      const PlaneStats stats = ReusingSsimPlane(x[c], y[c], w, h, pool, pooled, p.ssim, reuse, j,
+                                                static_cast<std::size_t>(j) * channels + c);
       if (j == 0 && ssim != nullptr) {  // Ssim's own arithmetic (same planes, pool, order).
         if (c == 0) *ssim = SsimResult{0.0, {}, pooled};
         ssim->channel_means.push_back(stats.ssim);

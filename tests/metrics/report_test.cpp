@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
+#include <memory>
 #include <string>
 
 #include "shadefit/base/error.h"
@@ -208,20 +210,22 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
 }
 
 // A study's measured pass compares the same test with a reference patched outside its pixels
-// (the covered pixels less a shadow's edge); its CIEDE2000 and Delta E_ITP, pooled from the
-// covered pass's maps, are the numbers it computes without them. The maps are read (a changed
-// value changes the numbers), and maps that miss a pixel of the mask are refused.
-TEST(ReportTest, KeptPointWiseMapsGiveASecondPassItsOwnNumbers) {
-  const int w = 170, h = 130;
+// (the covered pixels less a shadow's edge and a cut-off top, so that its window around the mask
+// has another corner); pooled from the covered pass's kept terms, its numbers are those it
+// computes without them. The terms are read (changed values change the numbers: CIEDE2000's and
+// Delta E_ITP's maps, SSIM's luminance and RGB terms at the first scale, MS-SSIM's at a coarser
+// one); SSIM computes where a term is missing; point-wise maps that miss a pixel are refused.
+TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
+  const int w = 420, h = 330;
   const Image ref = testing::HdrScene(w, h);
   const Image tst = testing::HdrDistorted(ref, 0.2f, 7);
-  const Image covered = EllipseMask(w, h, 88.0, 61.0, 60.0, 45.0, false);
+  const Image covered = EllipseMask(w, h, 220.0, 180.0, 125.0, 100.0, false);
   Image measured = covered, patched = ref;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      // A curved band through the object: the "shadow edge" the measured pass leaves out.
-      const double edge = 0.004 * (x - 88.0) * (x - 88.0) + 40.0;
-      if (covered.at(x, y, 0) > 0.5f && std::abs(y - edge) < 3.0) {
+      // A curved band through the object (the "shadow edge") and its top rows.
+      const double edge = 0.002 * (x - 220.0) * (x - 220.0) + 255.0;
+      if (covered.at(x, y, 0) > 0.5f && (std::abs(y - edge) < 3.0 || y < 120)) {
         measured.at(x, y, 0) = 0.0f;
         for (int c = 0; c < 3; ++c) patched.at(x, y, c) = tst.at(x, y, c);
       }
@@ -229,45 +233,70 @@ TEST(ReportTest, KeptPointWiseMapsGiveASecondPassItsOwnNumbers) {
   }
   MetricsParameters p;
   p.exposure_stops = -0.5f;
-  p.maps_wanted = kCiede2000Map | kDeltaEItpMap;
-  MetricsMaps kept;
-  ComputeMetrics(ref, tst, &covered, p, &kept);
+  KeptTerms kept;
+  MetricsParameters keeping = p;
+  keeping.keep = &kept;
+  EXPECT_EQ(MetricsToJson(ComputeMetrics(ref, tst, &covered, keeping)).dump(),
+            MetricsToJson(ComputeMetrics(ref, tst, &covered, p)).dump());
+  ASSERT_GE(kept.ssim.luminance.size(), 3u);
+  ASSERT_EQ(kept.ssim.rgb.size(), 3u);
 
-  const std::string expected = MetricsToJson(ComputeMetrics(patched, tst, &measured, p)).dump();
+  const MetricsReport own = ComputeMetrics(patched, tst, &measured, p);
+  ASSERT_GE(own.ms_ssim.scales_used, 3);
   MetricsParameters reuse = p;
-  reuse.point_wise_maps = &kept;
-  MetricsMaps own;
-  const MetricsReport got = ComputeMetrics(patched, tst, &measured, reuse, &own);
-  EXPECT_EQ(MetricsToJson(got).dump(), expected);
-  EXPECT_TRUE(own.ciede2000.empty());
+  reuse.kept = &kept;
+  MetricsMaps maps;
+  const MetricsReport got = ComputeMetrics(patched, tst, &measured, reuse, &maps);
+  EXPECT_EQ(MetricsToJson(got).dump(), MetricsToJson(own).dump());
+  EXPECT_TRUE(maps.ciede2000.empty());
 
-  // The numbers come from the maps: one measured pixel's values raised to the maxima.
-  MetricsMaps changed = kept;
-  const std::size_t centre = static_cast<std::size_t>(61) * w + 88;
+  // The numbers come from the kept terms.
+  KeptTerms changed = kept;
+  const std::size_t centre = static_cast<std::size_t>(180) * w + 220;
   ASSERT_GT(measured.data[centre], 0.5f);
   changed.ciede2000.data[centre] = 1000.0f;
   changed.delta_e_itp.data[centre] = 2000.0f;
-  reuse.point_wise_maps = &changed;
+  const auto set_all = [](std::vector<double>& terms, double value) {
+    for (double& t : terms) t = std::isnan(t) ? t : value;
+  };
+  set_all(changed.ssim.luminance[0].ssim, 0.5);
+  set_all(changed.ssim.rgb[1].ssim, 0.25);
+  set_all(changed.ssim.luminance[2].cs, 0.375);
+  reuse.kept = &changed;
   const MetricsReport moved = ComputeMetrics(patched, tst, &measured, reuse);
   EXPECT_EQ(moved.ciede2000.max, 1000.0);
   EXPECT_EQ(moved.delta_e_itp.max, 2000.0);
-  EXPECT_EQ(moved.rmse, got.rmse);
+  EXPECT_EQ(moved.ssim_luminance.mean, 0.5);
+  EXPECT_EQ(moved.ssim_rgb.channel_means[1], 0.25);
+  EXPECT_EQ(moved.ssim_rgb.channel_means[0], own.ssim_rgb.channel_means[0]);
+  EXPECT_EQ(moved.ms_ssim.contrast_structure[2], 0.375);
+  EXPECT_EQ(moved.ms_ssim.contrast_structure[1], own.ms_ssim.contrast_structure[1]);
+  EXPECT_EQ(moved.rmse, own.rmse);
 
-  // Maps of a smaller mask miss some of this one's pixels.
-  const Image smaller = EllipseMask(w, h, 88.0, 61.0, 30.0, 20.0, false);
-  MetricsMaps partial;
-  ComputeMetrics(ref, tst, &smaller, p, &partial);
-  reuse.point_wise_maps = &partial;
+  // A pooled pixel without a kept SSIM term: that plane is computed.
+  KeptTerms holed = kept;
+  for (double& t : holed.ssim.rgb[2].ssim) t = std::numeric_limits<double>::quiet_NaN();
+  set_all(holed.ssim.rgb[0].ssim, 0.75);
+  reuse.kept = &holed;
+  const MetricsReport refilled = ComputeMetrics(patched, tst, &measured, reuse);
+  EXPECT_EQ(refilled.ssim_rgb.channel_means[2], own.ssim_rgb.channel_means[2]);
+  EXPECT_EQ(refilled.ssim_rgb.channel_means[0], 0.75);
+
+  // Point-wise maps of a smaller mask miss some of this one's pixels.
+  const Image smaller = EllipseMask(w, h, 220.0, 180.0, 30.0, 20.0, false);
+  KeptTerms partial;
+  keeping.keep = &partial;
+  ComputeMetrics(ref, tst, &smaller, keeping);
+  reuse.kept = &partial;
   try {
     ComputeMetrics(patched, tst, &measured, reuse);
     ADD_FAILURE() << "maps that miss pixels of the mask were accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("point_wise_maps.CIEDE2000"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("kept.ciede2000"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("no value at pixel"), std::string::npos) << e.what();
   }
-  MetricsMaps none;
-  reuse.point_wise_maps = &none;
+  const KeptTerms none;
+  reuse.kept = &none;
   EXPECT_THROW(ComputeMetrics(patched, tst, &measured, reuse), Error);
 }
 

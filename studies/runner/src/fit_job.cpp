@@ -330,12 +330,13 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   mp.ppd = spec.metrics_ppd;
   mp.reference_cache = context.reference_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
-  // The previews' error map; with a measured pass to follow, the covered pass's CIEDE2000 and
-  // Delta E_ITP maps too: that pass pools them over its pixels (the reference it compares with
-  // equals this one there) instead of computing them again.
+  mp.maps_wanted = metrics::kAbsoluteErrorMap;  // The previews' error map; no other is read.
+  // With a measured pass to follow, the covered pass keeps its per-pixel terms: that pass pools
+  // them where its own are the same numbers (the reference it compares with equals this one
+  // there) instead of computing them again (metrics::KeptTerms).
   const bool measured_pass = measured_pixels != covered_pixels;
-  mp.maps_wanted = metrics::kAbsoluteErrorMap;
-  if (measured_pass) mp.maps_wanted |= metrics::kCiede2000Map | metrics::kDeltaEItpMap;
+  metrics::KeptTerms kept;
+  if (measured_pass) mp.keep = &kept;
   metrics::MetricsSeconds metric_seconds;
   mp.seconds = &metric_seconds;
   metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.
@@ -353,11 +354,11 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   } else {
     // The patched reference holds this fit's values where it is not measured: no other
     // evaluation compares with it, so its halves are not kept (they would only push the
-    // references' own out of the cache). Its point-wise colour differences are the covered
-    // pass's at its pixels.
+    // references' own out of the cache).
     metrics::MetricsParameters measured_mp = mp;
     measured_mp.reference_cache = nullptr;
-    measured_mp.point_wise_maps = &maps;
+    measured_mp.keep = nullptr;
+    measured_mp.kept = &kept;
     main = RunMetrics(PatchedReference(ref_rgb, fit_rgb, covered, measured), fit_rgb, measured,
                       measured_mp, false, nullptr);
   }

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "shadefit/metrics/ciede2000.h"
 #include "shadefit/metrics/common.h"
@@ -39,7 +40,18 @@ enum MetricMap : unsigned {
   kAllMaps = (1u << 7) - 1,
 };
 
-struct MetricsMaps;
+// Per-pixel terms one ComputeMetrics call keeps (MetricsParameters::keep) for a later call
+// (MetricsParameters::kept) on a part of its mask, with the same test and parameters and a
+// reference equal to this call's on that part: a study's measured pass (the covered pixels less a
+// shadow's edge, the reference patched outside them) after its covered pass. That call pools the
+// kept terms instead of computing them where its own terms are the same numbers: CIEDE2000's and
+// Delta E_ITP's at every pixel of its mask; SSIM's and MS-SSIM's at the pixels whose windows lie
+// inside its mask (the only ones they pool), at every scale. The same bits, for a pass over the
+// mask. A pixel the kept terms lack is an Error for the point-wise metrics; SSIM then computes.
+struct KeptTerms {
+  Image ciede2000, delta_e_itp;  // Frame maps, NaN outside the keeping call's mask.
+  SsimTerms ssim;
+};
 
 struct MetricsParameters {
   // Exposure (stops) of the display transform used by PSNR, SSIM, MS-SSIM, CIEDE2000, LDR-FLIP.
@@ -58,12 +70,11 @@ struct MetricsParameters {
   ReferenceCache* reference_cache = nullptr;
   // Which maps a MetricsMaps receives (MetricMap bits); the others stay empty and cost nothing.
   unsigned maps_wanted = kAllMaps;
-  // Optional: the CIEDE2000 and Delta E_ITP maps of an earlier call on a mask that holds this
-  // call's, with the same test, parameters and a reference equal to this one on this mask (a
-  // study's measured pass after its covered pass). Those two metrics are then the maps'
-  // statistics over this mask: the same bits as computing them, for a pass over the mask. The
-  // maps must cover the mask (Error otherwise); this call's own such maps are left empty.
-  const MetricsMaps* point_wise_maps = nullptr;
+  // Optional: receives this call's per-pixel terms, for a later call's `kept` (KeptTerms).
+  KeptTerms* keep = nullptr;
+  // Optional: an earlier call's kept terms; this call's CIEDE2000 and Delta E_ITP maps then stay
+  // empty (it computes none).
+  const KeptTerms* kept = nullptr;
   // Optional: receives the seconds spent per metric (added to).
   MetricsSeconds* seconds = nullptr;
 };

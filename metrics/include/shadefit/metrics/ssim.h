@@ -68,6 +68,21 @@ struct MsSsimParameters {
   std::array<double, 5> weights = {0.0448, 0.2856, 0.3001, 0.2363, 0.1333};
 };
 
+// SSIM's per-pixel terms of one plane at one scale, over a call's window (the frame, or the part
+// around its mask): SSIM and its contrast-structure and luminance terms (Wang et al. 2004, Eq. 6
+// and 9) at the pixels the call computed, NaN elsewhere. (x0, y0) is the window's corner in the
+// frame's pixels at this scale.
+struct SsimPlaneTerms {
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  std::vector<double> ssim, cs, luminance;
+};
+
+// MS-SSIM's terms on the display luminance (one plane per scale; the first is SSIM's) and SSIM's
+// on the display RGB (one plane per channel).
+struct SsimTerms {
+  std::vector<SsimPlaneTerms> luminance, rgb;
+};
+
 struct MsSsimResult {
   double value = 0.0;          // MS-SSIM, average over channels; 1 for identical images.
   int scales_used = 0;         // 5 unless the image is too small (see MsSsim).
