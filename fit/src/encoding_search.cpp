@@ -40,24 +40,32 @@ bool Usable(const reference_images::Reference& ref, int x, int y) {
 struct Scored {
   EncodingCandidate candidate;
   long pixels = 0;
+  std::vector<double> values;  // The fit's (FitResult::values).
 };
 
 // Fits `problem` with every reference re-decoded by `e` and scores the fit in stored values.
 // `shaded`: the references' G-buffer shading, shared by every candidate (the decoding changes
-// values, not scenes: internal::ShadeScene).
+// values, not scenes: internal::ShadeScene). `warm`: the fit starts there alone (the caller's
+// starts are not run).
 Scored FitAndScore(const FitProblem& problem, const FitOptions& options, const StoredEncoding& e,
-                   std::vector<internal::ShadedScene>* shaded) {
+                   std::vector<internal::ShadedScene>* shaded,
+                   const std::vector<double>* warm = nullptr) {
   FitProblem decoded = problem;
   for (reference_images::Reference& r : decoded.references) r = Redecode(r, e);
   FitOptions quick = options;
   quick.render_outputs = false;
   quick.compute_covariance = false;
+  if (warm) {
+    quick.starts = 0;
+    quick.start_points = {*warm};
+  }
   const FitResult fit = internal::FitSharingShading(decoded, quick, shaded);
   Scored s;
   s.candidate.encoding = e;
   s.candidate.linear_rmse = fit.rmse;
   s.candidate.exposure = fit.exposure;
   s.candidate.converged = fit.converged;
+  s.values = fit.values;
   double sq = 0;
   // The fitted model's render of each training reference (what EvaluateModelOnReference renders,
   // without preparing the reference's pixels again: the score takes its own).
@@ -171,10 +179,22 @@ EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitO
   result.pixels = srgb.pixels;
 
   // Golden-section search of the power's exponent (Kiefer 1953): the score is taken as
-  // unimodal in gamma over the bracket; each evaluation is a full fit.
+  // unimodal in gamma over the bracket. The first power is fitted with the caller's starts; each
+  // later one starts from the fit of the nearest exponent tried, alone (a continuation: the
+  // material changes little between neighbouring decodings), at a fraction of the cost.
+  std::vector<std::pair<double, std::vector<double>>> fitted;  // (gamma, values) of each power
   auto score = [&](double g) {
-    const Scored s = FitAndScore(problem, options, {Kind::kGamma, g}, &shaded);
+    const std::vector<double>* nearest = nullptr;
+    double distance = std::numeric_limits<double>::infinity();
+    for (const auto& [tried, values] : fitted) {
+      if (std::abs(tried - g) < distance) {
+        distance = std::abs(tried - g);
+        nearest = &values;
+      }
+    }
+    Scored s = FitAndScore(problem, options, {Kind::kGamma, g}, &shaded, nearest);
     result.gamma_trail.emplace_back(g, s.candidate.stored_rmse);
+    fitted.emplace_back(g, std::move(s.values));
     return s.candidate;
   };
   const double inv_phi = (std::sqrt(5.0) - 1.0) / 2.0;

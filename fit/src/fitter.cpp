@@ -121,7 +121,9 @@ FitResult FitSharingShading(const FitProblem& problem, const FitOptions& options
   const ModelInfo& model = *problem.model;
   Parametrization param(model, problem.fixed);
   if (problem.references.empty()) throw FitOptionError(FitField::kReferences, "no reference given");
-  if (options.starts < 1) throw FitOptionError(FitField::kStarts, "must be >= 1");
+  if (options.starts < 1 && options.start_points.empty()) {
+    throw FitOptionError(FitField::kStarts, "must be >= 1");  // Start points may stand alone.
+  }
   FitResult result;
   const std::vector<int> held = HoldWithoutAmbient(problem, &param, &result);
   if (param.FreeCount() == 0 && options.exposure == Exposure::kFixed) {

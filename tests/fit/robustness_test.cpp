@@ -10,6 +10,7 @@
 
 #include "fit_test_util.h"
 #include "shadefit/base/error.h"
+#include "shadefit/fit/encoding_search.h"
 #include "shadefit/fit/exposure_pin.h"
 
 namespace shadefit {
@@ -349,6 +350,62 @@ TEST(ExposurePinTest, AmbientReflectanceHeldWithoutAmbientLight) {
   ASSERT_EQ(r.held.size(), 1u);
   EXPECT_EQ(r.held[0].rfind("ka = 0", 0), 0u) << r.held[0];
   for (const auto& p : r.parameters) EXPECT_FALSE(p.undetermined) << p.name;
+}
+
+
+// The encoding search fits every power after the first from the fit of the nearest exponent tried,
+// alone (a continuation, encoding_search.h). Such a fit must end at least as low as the caller's
+// own cold multi-start fit at that exponent: each power's score in the trail, against the score
+// of Fit() with the caller's options on the references decoded with that power, scored here with
+// our own encode of the render (blinn-phong fitted to GGX, stored as a power of 1 / 2.2).
+TEST(EncodingSearchTest, ContinuedPowersEndAsLowAsColdFits) {
+  const std::vector<fit::FitReference> hdr = testing::SyntheticReferences(
+      "ggx", {0.45, 0.3, 0.2, 0.04, 0.04, 0.04, 0.25}, TwoLightings());
+  std::vector<fit::FitReference> stored = hdr;
+  for (auto& ref : stored) {
+    for (std::size_t p = 0; p < ref.image.PixelCount(); ++p) {
+      for (int c = 0; c < 3; ++c) {
+        float& v = ref.image.data[4 * p + c];
+        v = static_cast<float>(std::pow(std::clamp(1.3 * v, 0.0, 1.0), 1.0 / 2.2));
+      }
+    }
+  }
+  const fit::FitProblem problem{FindModel("blinn-phong"), stored, {}};
+  fit::FitOptions options = Options();
+  options.exposure = fit::Exposure::kFree;
+  options.starts = 2;
+  const fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, options);
+  ASSERT_GE(search.gamma_trail.size(), 10u);
+  EXPECT_EQ(search.chosen.kind, fit::StoredEncoding::Kind::kGamma);
+  EXPECT_NEAR(search.chosen.gamma, 2.2, 0.1);
+  // The first power is the cold fit itself; check later ones, the last (nearest the optimum) too.
+  for (const std::size_t k : {std::size_t{1}, std::size_t{4}, search.gamma_trail.size() - 1}) {
+    const auto [gamma, score] = search.gamma_trail[k];
+    const fit::StoredEncoding e{fit::StoredEncoding::Kind::kGamma, gamma};
+    fit::FitProblem decoded = problem;
+    for (auto& r : decoded.references) r = fit::Redecode(r, e);
+    const fit::FitResult cold = fit::Fit(decoded, options);
+    double sq = 0;
+    long n = 0;
+    for (std::size_t i = 0; i < stored.size(); ++i) {
+      const Image render = testing::SharedRenderer().Render(stored[i].scene,
+                                                            FindModel("blinn-phong").id,
+                                                            cold.values);
+      for (std::size_t p = 0; p < render.PixelCount(); ++p) {
+        if (!(stored[i].image.data[4 * p + 3] >= 1.0f - 1e-5f)) continue;  // Full coverage.
+        for (int c = 0; c < 3; ++c) {
+          const double encoded = std::pow(
+              std::clamp(cold.exposure * render.data[4 * p + c], 0.0, 1.0), 1.0 / gamma);
+          sq += std::pow(encoded - stored[i].image.data[4 * p + c], 2);
+          ++n;
+        }
+      }
+    }
+    const double cold_score = std::sqrt(sq / n);
+    std::printf("gamma %.4f: continued %.6g, cold %.6g\n", gamma, score, cold_score);
+    EXPECT_LE(score, cold_score * (1.0 + 1e-3)) << "gamma " << gamma;
+    EXPECT_EQ(n, search.pixels);
+  }
 }
 
 }  // namespace

@@ -12,6 +12,10 @@
 // more free parameter, must beat the better fixed encoding by gamma_margin.
 //
 // The fitter itself is untouched: every candidate is an ordinary Fit() of re-decoded references.
+// sRGB, linear and the first power run the caller's starts; every later power starts from the
+// fit of the nearest exponent tried, alone (a continuation: neighbouring decodings change the
+// material little), which ends as low as a cold multi-start there at a fraction of its cost. The
+// chosen encoding's final fit runs the caller's options again.
 #pragma once
 
 #include <nlohmann/json.hpp>
