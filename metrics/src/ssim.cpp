@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -121,7 +120,7 @@ Columns ReadByVerticalPass(const Columns& c, int r) {
 // SSIM of one plane pair. map (optional) receives SSIM at every pixel with the given stride.
 // Without a map only the pooled pixels' windows are computed (the filters' supports around them),
 // with the same arithmetic per pixel as over the whole frame: the same bits.
-// keep (optional, sized w x h and NaN): receives the terms at every pixel computed.
+// keep (optional): receives the terms at every pixel computed (its corner is the caller's).
 PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
                      const std::vector<std::uint8_t>& pool, std::size_t pooled,
                      const SsimParameters& p, float* map, int map_stride,
@@ -131,6 +130,21 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
   const std::size_t n = static_cast<std::size_t>(w) * h;
   const Columns wanted = PooledColumns(pool, w, h, map != nullptr);
   const Columns read = ReadByVerticalPass(wanted, r);
+  if (keep) {
+    keep->width = w;
+    keep->height = h;
+    keep->begin = wanted.begin;
+    keep->end = wanted.end;
+    keep->offset.assign(h, 0);
+    std::size_t computed = 0;
+    for (int row = 0; row < h; ++row) {
+      keep->offset[row] = computed;
+      computed += static_cast<std::size_t>(std::max(0, wanted.end[row] - wanted.begin[row]));
+    }
+    keep->ssim.resize(computed);
+    keep->cs.resize(computed);
+    keep->luminance.resize(computed);
+  }
   // Horizontal pass of the five moments x, y, x^2, y^2, xy: five planes of one block, left
   // uninitialised (the vertical pass reads only the columns this pass writes). A job computes
   // SSIM hundreds of times; zeroed planes cost a fill, and a fresh block's pages, each time.
@@ -192,9 +206,10 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
         const std::size_t index = static_cast<std::size_t>(row) * w + i;
         if (map) map[index * map_stride] = static_cast<float>(s);
         if (keep) {
-          keep->ssim[index] = s;
-          keep->cs[index] = cs;
-          keep->luminance[index] = l;
+          const std::size_t k = keep->offset[row] + j;
+          keep->ssim[k] = s;
+          keep->cs[k] = cs;
+          keep->luminance[k] = l;
         }
         if (pool[index]) {
           sum_ssim += s;
@@ -232,8 +247,10 @@ std::optional<PlaneStats> PoolKept(const SsimPlaneTerms& kept, int x0, int y0,
     for (int i = 0; i < w; ++i) {
       if (!pool[static_cast<std::size_t>(row) * w + i]) continue;
       const int kx = x0 + i - kept.x0;
-      if (ky < 0 || ky >= kept.height || kx < 0 || kx >= kept.width) return std::nullopt;
-      const std::size_t k = static_cast<std::size_t>(ky) * kept.width + kx;
+      if (ky < 0 || ky >= kept.height || kx < kept.begin[ky] || kx >= kept.end[ky]) {
+        return std::nullopt;
+      }
+      const std::size_t k = kept.offset[ky] + (kx - kept.begin[ky]);
       if (std::isnan(kept.ssim[k])) return std::nullopt;
       sum_ssim += kept.ssim[k];
       sum_cs += kept.cs[k];
@@ -264,9 +281,8 @@ PlaneStats ReusingSsimPlane(const Plane& x, const Plane& y, int w, int h,
   if (reuse.keep) {
     if (reuse.keep->size() <= index) reuse.keep->resize(index + 1);
     SsimPlaneTerms& keep = (*reuse.keep)[index];
-    const std::size_t n = static_cast<std::size_t>(w) * h;
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    keep = {x0, y0, w, h, Plane(n, nan), Plane(n, nan), Plane(n, nan)};
+    keep.x0 = x0;
+    keep.y0 = y0;
     return SsimPlane(x, y, w, h, pool, pooled, p, nullptr, 1, &keep);
   }
   if (reuse.from && index < reuse.from->size()) {

@@ -331,25 +331,25 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   mp.reference_cache = context.reference_cache;
   mp.names = {rs.image_path, job.label + " fit", ""};
   mp.maps_wanted = metrics::kAbsoluteErrorMap;  // The previews' error map; no other is read.
+  const std::size_t lit_pixels = CountLit(covered, ref.image),
+                    measured_lit_pixels = CountLit(measured, ref.image);
+  // Only unlit pixels measured (the rim light: every lit pixel is seen beyond the limit): they
+  // compare 0 with 0, which says nothing about the material; that pass has no numbers.
+  const bool only_unlit_measured = lit_pixels > 0 && measured_lit_pixels == 0;
   // With a measured pass to follow, the covered pass keeps its per-pixel terms: that pass pools
   // them where its own are the same numbers (the reference it compares with equals this one
   // there) instead of computing them again (metrics::KeptTerms).
-  const bool measured_pass = measured_pixels != covered_pixels;
   metrics::KeptTerms kept;
-  if (measured_pass) mp.keep = &kept;
+  if (measured_pixels != covered_pixels && !only_unlit_measured) mp.keep = &kept;
   metrics::MetricsSeconds metric_seconds;
   mp.seconds = &metric_seconds;
   metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.
   const Image ref_rgb = ref.image.Channels(0, 3), fit_rgb = prediction.Channels(0, 3);
   const MetricsPass all = RunMetrics(ref_rgb, fit_rgb, covered, mp, true, &maps);
-  const std::size_t lit_pixels = CountLit(covered, ref.image),
-                    measured_lit_pixels = CountLit(measured, ref.image);
   MetricsPass main;
-  if (!measured_pass) {
+  if (measured_pixels == covered_pixels) {
     main = all;
-  } else if (lit_pixels > 0 && measured_lit_pixels == 0) {
-    // Only unlit pixels are measured (the rim light: every lit pixel is seen beyond the limit):
-    // they compare 0 with 0, which says nothing about the material. No numbers, and why.
+  } else if (only_unlit_measured) {
     main.why_none = "no lit pixel is measured (every lit pixel depends on extrapolated data)";
   } else {
     // The patched reference holds this fit's values where it is not measured: no other

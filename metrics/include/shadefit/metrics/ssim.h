@@ -70,10 +70,12 @@ struct MsSsimParameters {
 
 // SSIM's per-pixel terms of one plane at one scale, over a call's window (the frame, or the part
 // around its mask): SSIM and its contrast-structure and luminance terms (Wang et al. 2004, Eq. 6
-// and 9) at the pixels the call computed, NaN elsewhere. (x0, y0) is the window's corner in the
-// frame's pixels at this scale.
+// and 9) at the pixels the call computed, row by row: row y's columns [begin[y], end[y]) are at
+// offset[y] onwards. (x0, y0) is the window's corner in the frame's pixels at this scale.
 struct SsimPlaneTerms {
   int x0 = 0, y0 = 0, width = 0, height = 0;
+  std::vector<int> begin, end;
+  std::vector<std::size_t> offset;
   std::vector<double> ssim, cs, luminance;
 };
 
