@@ -235,39 +235,36 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   if (wanted(kSsimMap)) maps->ssim = std::move(ssim_map);  // Never of a window (above).
   clock.Lap(&MetricsSeconds::ssim);
 
-  if (p.kept != nullptr && p.keep == nullptr) {
-    const internal::MapStatistics de =
-        KeptMapStatistics(p.kept->ciede2000, mask, "ciede2000", p.names);
-    r.ciede2000 = {de.mean, de.p95, de.max};
-    clock.Lap(&MetricsSeconds::ciede2000);
-    const internal::MapStatistics itp =
-        KeptMapStatistics(p.kept->delta_e_itp, mask, "delta_e_itp", p.names);
-    r.delta_e_itp = {itp.mean, itp.p95, itp.max};
-    clock.Lap(&MetricsSeconds::delta_e_itp);
-  } else {
-    DeltaE2000Parameters de;
-    de.exposure_stops = p.exposure_stops;
-    de.mask = mask_part;
-    de.reference_cache = p.reference_cache;
-    const bool keep_maps = p.keep != nullptr;
-    Image ciede2000_map;
-    r.ciede2000 = DeltaE2000(ref_part, tst_part, de,
-                             wanted(kCiede2000Map) || keep_maps ? &ciede2000_map : nullptr);
-    if (keep_maps) p.keep->ciede2000 = frame_map(Image(ciede2000_map));
-    if (wanted(kCiede2000Map)) maps->ciede2000 = frame_map(std::move(ciede2000_map));
-    clock.Lap(&MetricsSeconds::ciede2000);
-
-    DeltaEItpParameters itp;
-    itp.white_luminance = p.itp_white_luminance;
-    itp.mask = mask_part;
-    itp.reference_cache = p.reference_cache;
-    Image itp_map;
-    r.delta_e_itp = DeltaEItp(ref_part, tst_part, itp,
-                              wanted(kDeltaEItpMap) || keep_maps ? &itp_map : nullptr);
-    if (keep_maps) p.keep->delta_e_itp = frame_map(Image(itp_map));
-    if (wanted(kDeltaEItpMap)) maps->delta_e_itp = frame_map(std::move(itp_map));
-    clock.Lap(&MetricsSeconds::delta_e_itp);
-  }
+  // The point-wise colour differences: computed (their maps kept, or given, where asked for), or
+  // an earlier call's kept map's statistics over this mask (KeptTerms).
+  const auto point_wise = [&](auto compute, Image KeptTerms::*kept_map, MetricMap bit,
+                              Image MetricsMaps::*map_out, const char* name, auto* result) {
+    if (p.kept != nullptr && p.keep == nullptr) {
+      const internal::MapStatistics s = KeptMapStatistics(p.kept->*kept_map, mask, name, p.names);
+      *result = {s.mean, s.p95, s.max};
+      return;
+    }
+    Image map;
+    *result = compute(wanted(bit) || p.keep != nullptr ? &map : nullptr);
+    if (p.keep != nullptr) p.keep->*kept_map = frame_map(Image(map));
+    if (wanted(bit)) maps->*map_out = frame_map(std::move(map));
+  };
+  DeltaE2000Parameters de;
+  de.exposure_stops = p.exposure_stops;
+  de.mask = mask_part;
+  de.reference_cache = p.reference_cache;
+  point_wise([&](Image* map) { return DeltaE2000(ref_part, tst_part, de, map); },
+             &KeptTerms::ciede2000, kCiede2000Map, &MetricsMaps::ciede2000, "ciede2000",
+             &r.ciede2000);
+  clock.Lap(&MetricsSeconds::ciede2000);
+  DeltaEItpParameters itp;
+  itp.white_luminance = p.itp_white_luminance;
+  itp.mask = mask_part;
+  itp.reference_cache = p.reference_cache;
+  point_wise([&](Image* map) { return DeltaEItp(ref_part, tst_part, itp, map); },
+             &KeptTerms::delta_e_itp, kDeltaEItpMap, &MetricsMaps::delta_e_itp, "delta_e_itp",
+             &r.delta_e_itp);
+  clock.Lap(&MetricsSeconds::delta_e_itp);
 
   FlipParameters flip;
   flip.ppd = p.ppd;
