@@ -226,10 +226,18 @@ EncodingSearchResult FitWithEncodingSearch(const FitProblem& problem, const FitO
                       ? power.encoding
                       : fixed.encoding;
 
-  // The chosen encoding's fit once more, with the caller's options (outputs, covariance).
+  // The chosen encoding's fit once more, with the caller's options (outputs, covariance). A
+  // power's also starts where its search fit ended, which a continued fit can reach and the
+  // caller's starts miss: the final fit ends at least as low as the score the choice was made on.
   FitProblem decoded = problem;
   for (reference_images::Reference& r : decoded.references) r = Redecode(r, result.chosen);
-  result.fit = Fit(decoded, options);
+  FitOptions final_options = options;
+  if (result.chosen.kind == Kind::kGamma) {
+    for (const auto& [tried, values] : fitted) {
+      if (tried == result.chosen.gamma) final_options.start_points.push_back(values);
+    }
+  }
+  result.fit = Fit(decoded, final_options);
   return result;
 }
 

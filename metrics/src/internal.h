@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
-#include <optional>
 #include <thread>
 #include <vector>
 
@@ -175,4 +174,3 @@ MsSsimResult MsSsimAndSsim(const Image& reference, const Image& test, const MsSs
 double PsnrOfEncoded(const Image& reference, const Image& test, const Image* mask);
 
 }  // namespace shadefit::metrics::internal
-

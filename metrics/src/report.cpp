@@ -119,11 +119,11 @@ Image Uncut(const Image& map, const Window& w, int width, int height) {
 // A kept point-wise map's statistics over `mask` (KeptTerms): what the metric's own summary
 // (SummarizeMap) gives over the same values in the same order. Every pixel of the mask must hold
 // a value (the map is NaN outside its call's mask).
-internal::MapStatistics KeptMapStatistics(const Image& map, const Image* mask,
-                                          const std::string& metric, const InputNames& names) {
+internal::MapStatistics KeptMapStatistics(const Image& map, int width, int height,
+                                          const Image* mask, const std::string& metric,
+                                          const InputNames& names) {
   const std::string field = "kept." + metric;
-  if (map.channels != 1 || (mask != nullptr && (map.width != mask->width ||
-                                                map.height != mask->height))) {
+  if (map.channels != 1 || map.width != width || map.height != height) {
     throw Error(names.reference, field,
                 map.empty() ? std::string("the earlier call kept no such map")
                             : "the kept map is not a one-channel map of the mask's frame");
@@ -148,6 +148,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   const Image ref = reference.channels == 3 ? reference : reference.Channels(0, 3);
   const Image tst = test.channels == 3 ? test : test.Channels(0, 3);
 
+  if (p.keep) *p.keep = {};  // Nothing of an earlier call's, whatever this one throws.
   MetricsReport r;
   r.width = ref.width;
   r.height = ref.height;
@@ -208,7 +209,6 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     // Kept terms (KeptTerms) are placed in the frame by the window's corner.
     internal::SsimReuse luminance{window ? window->x : 0, window ? window->y : 0}, rgb = luminance;
     if (p.keep) {
-      p.keep->ssim = {};
       luminance.keep = &p.keep->ssim.luminance;
       rgb.keep = &p.keep->ssim.rgb;
     } else if (p.kept) {
@@ -240,7 +240,8 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   const auto point_wise = [&](auto compute, Image KeptTerms::*kept_map, MetricMap bit,
                               Image MetricsMaps::*map_out, const char* name, auto* result) {
     if (p.kept != nullptr && p.keep == nullptr) {
-      const internal::MapStatistics s = KeptMapStatistics(p.kept->*kept_map, mask, name, p.names);
+      const internal::MapStatistics s =
+          KeptMapStatistics(p.kept->*kept_map, r.width, r.height, mask, name, p.names);
       *result = {s.mean, s.p95, s.max};
       return;
     }

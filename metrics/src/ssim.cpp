@@ -146,8 +146,9 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
     keep->luminance.resize(computed);
   }
   // Horizontal pass of the five moments x, y, x^2, y^2, xy: five planes of one block, left
-  // uninitialised (the vertical pass reads only the columns this pass writes). A job computes
-  // SSIM hundreds of times; zeroed planes cost a fill, and a fresh block's pages, each time.
+  // uninitialised outside the columns this pass writes (the only ones the vertical pass reads).
+  // A job computes SSIM hundreds of times; zeroing whole planes cost a fill and a fresh block's
+  // pages each time. The written columns start at +0.0, as before (0.0 + -0.0 is +0.0).
   const std::unique_ptr<double[]> block(new double[5 * n]);
   double* const horizontal[5] = {block.get(), block.get() + n, block.get() + 2 * n,
                                  block.get() + 3 * n, block.get() + 4 * n};

@@ -352,7 +352,6 @@ TEST(ExposurePinTest, AmbientReflectanceHeldWithoutAmbientLight) {
   for (const auto& p : r.parameters) EXPECT_FALSE(p.undetermined) << p.name;
 }
 
-
 // The encoding search fits every power after the first from the fit of the nearest exponent tried,
 // alone (a continuation, encoding_search.h). Such a fit must end at least as low as the caller's
 // own cold multi-start fit at that exponent: each power's score in the trail, against the score

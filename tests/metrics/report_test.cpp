@@ -210,8 +210,9 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
 }
 
 // A study's measured pass compares the same test with a reference patched outside its pixels
-// (the covered pixels less a shadow's edge and a cut-off top, so that its window around the mask
-// has another corner); pooled from the covered pass's kept terms, its numbers are those it
+// (the covered pixels less a shadow's edge and a cut-off top and left, so that its window around
+// the mask has another corner); pooled from the covered pass's kept terms (or a whole-frame
+// pass's), its numbers are those it
 // computes without them. The terms are read (changed values change the numbers: CIEDE2000's and
 // Delta E_ITP's maps, SSIM's luminance and RGB terms at the first scale, MS-SSIM's at a coarser
 // one); SSIM computes where a term is missing; point-wise maps that miss a pixel are refused.
@@ -225,7 +226,7 @@ TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
     for (int x = 0; x < w; ++x) {
       // A curved band through the object (the "shadow edge") and its top rows.
       const double edge = 0.002 * (x - 220.0) * (x - 220.0) + 255.0;
-      if (covered.at(x, y, 0) > 0.5f && (std::abs(y - edge) < 3.0 || y < 120)) {
+      if (covered.at(x, y, 0) > 0.5f && (std::abs(y - edge) < 3.0 || y < 120 || x < 140)) {
         measured.at(x, y, 0) = 0.0f;
         for (int c = 0; c < 3; ++c) patched.at(x, y, c) = tst.at(x, y, c);
       }
@@ -249,6 +250,16 @@ TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
   const MetricsReport got = ComputeMetrics(patched, tst, &measured, reuse, &maps);
   EXPECT_EQ(MetricsToJson(got).dump(), MetricsToJson(own).dump());
   EXPECT_TRUE(maps.ciede2000.empty());
+  {
+    KeptTerms frame;
+    keeping.keep = &frame;
+    ComputeMetrics(ref, tst, nullptr, keeping);
+    reuse.kept = &frame;
+    EXPECT_EQ(MetricsToJson(ComputeMetrics(patched, tst, &measured, reuse)).dump(),
+              MetricsToJson(own).dump());
+    keeping.keep = &kept;
+    reuse.kept = &kept;
+  }
 
   // The numbers come from the kept terms.
   KeptTerms changed = kept;

@@ -340,7 +340,9 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   // them where its own are the same numbers (the reference it compares with equals this one
   // there) instead of computing them again (metrics::KeptTerms).
   metrics::KeptTerms kept;
-  if (measured_pixels != covered_pixels && !only_unlit_measured) mp.keep = &kept;
+  if (measured_pixels != covered_pixels && measured_pixels > 0 && !only_unlit_measured) {
+    mp.keep = &kept;
+  }
   metrics::MetricsSeconds metric_seconds;
   mp.seconds = &metric_seconds;
   metrics::MetricsMaps maps;  // Of the covered pass: the error map shows every covered pixel.

@@ -121,6 +121,7 @@ struct FitOptions {
   double loss_scale = 0.0;           // Huber/Cauchy scale a (radiance units); 0 = automatic
                                      // (kRobustScaleFraction of the references' p99).
   int starts = kDefaultStarts;       // Start 0 = table defaults; 1.. = scrambled Halton points.
+                                     // Fit() takes 0 when start_points are given.
   std::uint64_t seed = 1;            // Scrambles the Halton starts (Cranley-Patterson shift).
   // More starts after those: natural parameters, flattened as FitResult::values (a measured
   // material's BRDF-space fit, a study's [fit] start = "brdf"; Parametrization::StartAt).

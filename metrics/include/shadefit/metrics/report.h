@@ -72,8 +72,9 @@ struct MetricsParameters {
   unsigned maps_wanted = kAllMaps;
   // Optional: receives this call's per-pixel terms, for a later call's `kept` (KeptTerms).
   KeptTerms* keep = nullptr;
-  // Optional: an earlier call's kept terms; this call's CIEDE2000 and Delta E_ITP maps then stay
-  // empty (it computes none).
+  // Optional: an earlier call's kept terms (not read when `keep` is set); this call's CIEDE2000
+  // and Delta E_ITP maps then stay empty (it computes none), and Delta E_ITP's white luminance
+  // is the keeping call's.
   const KeptTerms* kept = nullptr;
   // Optional: receives the seconds spent per metric (added to).
   MetricsSeconds* seconds = nullptr;
