@@ -7,7 +7,6 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -33,7 +32,7 @@
 namespace shadefit::studies::internal {
 namespace {
 using json = nlohmann::json;
-using SharedReference = std::shared_ptr<const reference_images::Reference>;
+using SharedReference = LoadedReferences::Shared;  // What the run hands a job.
 
 json Num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
