@@ -95,7 +95,9 @@ _RENDERER = None
 def legend_layout(names, width_in, fontsize=FONT_PT - 1, handlelength=2.0, handletextpad=0.8,
                   columnspacing=2.0, max_cols=None):
     """(columns, rows, height in inches) of a frameless legend of `names` no wider than
-    width_in: as many columns as fit (matplotlib fills them column by column), at most max_cols."""
+    width_in: as many columns as fit, at most max_cols. matplotlib fills the columns in order,
+    the first n % columns of them one name longer than the others (4 names in 3 columns: 2, 1,
+    1)."""
     n = len(names)
     if n == 0:
         return 1, 0, 0.0
@@ -103,9 +105,10 @@ def legend_layout(names, width_in, fontsize=FONT_PT - 1, handlelength=2.0, handl
     widths = [text_width_in(x, fontsize) for x in names]
     cols = 1
     for c in range(min(n, max_cols or n), 0, -1):
-        rows = -(-n // c)
-        used = sum(max(widths[k:k + rows]) + (handlelength + handletextpad) * em
-                   for k in range(0, n, rows))
+        short, long_cols = divmod(n, c)
+        starts = [k * short + min(k, long_cols) for k in range(c + 1)]
+        used = sum(max(widths[a:b]) + (handlelength + handletextpad) * em
+                   for a, b in zip(starts, starts[1:]))
         # Border padding 0.4 em each side (legend.borderpad), and a little slack.
         if used + (c - 1) * columnspacing * em + 0.8 * em + 0.05 <= width_in:
             cols = c
@@ -379,6 +382,11 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
     fig.set_size_inches((w_px + 0.01) / DPI, (h_px + 0.01) / DPI)
     fig.set_dpi(DPI)
     overlaps, outside = text_problems(fig)
+    # The titles stay where that drawing put them: the PDF's drawing would place them again,
+    # measuring the axes' tick labels once more for it (a tenth of a probe figure's time), and
+    # the two files' titles then agree by construction.
+    for ax in fig.axes:
+        ax._autotitlepos = False
     png = os.path.join(fig_dir, name + ".png")
     pdf = os.path.join(fig_dir, name + ".pdf")
     # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing,
@@ -451,10 +459,10 @@ def read_rgb(path):
 
 
 def wrap_at_hyphens(text, width):
-    """Lines of at most `width` characters, broken after hyphens and plus signs, before an "@"
-    and at spaces, so a fit label fits over a narrow column ("blinn-phong-" / "normalized" /
-    "@key+" / "mirror60")."""
-    tokens = re.findall(r"@?[^\s@+-]+[-+]?|[@+-]|\s+", text)
+    """Lines of at most `width` characters, broken after hyphens, plus signs and colons, before
+    an "@" and at spaces, so a fit label fits over a narrow column ("blinn-phong-" /
+    "normalized" / "@key+" / "mirror60:" / "cuberoot")."""
+    tokens = re.findall(r"@?[^\s@+:-]+[-+:]?|[@+:-]|\s+", text)
     lines, line = [], ""
     for t in tokens:
         if t.isspace():

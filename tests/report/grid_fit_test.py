@@ -9,7 +9,10 @@ fixed values), drawn by report_grids.image_grid. The grid must
 - crop each frame to the object: the disc fills most of its tile (uncropped it would fill 0.36
   of the width), although the reference photograph's background is not black; and where a lit
   backdrop fills the frame, keep the whole frame at its 612 : 512 ratio,
-- record no overlapping or clipped text.
+- record no overlapping or clipped text,
+- give every row a colour bar: viridis from 0 at the bottom of the row's tiles to the row's error
+  scale at their top (read from the PNG's pixels), with its three labels, "0", half the scale and
+  the scale, at the bottom, middle and top of that bar.
 
     grid_fit_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -31,6 +34,7 @@ REF_RGB = (0.9, 0.25, 0.2)        # The ball in the reference: red on a noisy da
 FIT_RGB = (0.85, 0.3, 0.85)       # In the fits: magenta on black (renders over black).
 ERR_RGB = (1.0, 0.55, 0.0)        # In the error maps: orange on the masked grey.
 BAR_PX = 48                       # The error PNG's own colour bar, right of the frame.
+ERROR_SCALE = 0.05                # Every error map's scale (its colour bar's top).
 
 
 def disc_mask(w=W, h=H):
@@ -73,7 +77,7 @@ def write_set(d, labels, fit_ground):
                                 "images": {"reference": base + ".reference.png",
                                            "fit": f"{base}.{label}.png",
                                            "error": f"{base}.{label}.error.png",
-                                           "error_scale": 0.05}})
+                                           "error_scale": ERROR_SCALE}})
         fits[("ball", label)] = {"label": label, "evaluations": evaluations}
     study = {"fits": [{"label": l, "model": l, "train": TRAIN} for l in labels],
              "groups": [{"material": "ball", "references": [{"lighting": l} for l in lightings]}]}
@@ -104,6 +108,58 @@ def discs(png, colour, tol=0.12):
             ys = np.nonzero(band[:, x0:x1].any(axis=1))[0]
             out.append((x1 - x0, ys.max() - ys.min() + 1, x0, x1, y0 + ys.min(), y0 + ys.max() + 1))
     return out
+
+
+def bar_problems(report_grids, d, study, fits, labels, png, rows):
+    """The rows' colour bars: in the PNG, a run of viridis pixels per row in one column, its
+    colour index falling from the top (the scale) to the bottom (0); in the figure, the labels
+    "0", "0.025" and "0.05" (ERROR_SCALE) level with the run's bottom, middle and top."""
+    import matplotlib
+    from report_figures import DPI, drawn_texts
+    # Each pixel's viridis entry where its 8-bit colour is one (the bar's pixels are the
+    # colour map's own: drawn without resampling between entries; the tiles hold none of them).
+    lut = matplotlib.colormaps["viridis"](np.arange(256), bytes=True)[:, :3].astype(np.int64)
+    keys = (lut[:, 0] << 16) | (lut[:, 1] << 8) | lut[:, 2]
+    order = np.argsort(keys)
+    rgb = np.round(png[..., :3] * 255).astype(np.int64)
+    pix = (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
+    at = np.minimum(np.searchsorted(keys[order], pix), 255)
+    index = np.where(keys[order][at] == pix, order[at], -1)
+    column = int(np.argmax((index >= 0).sum(axis=0)))
+    bars = runs(index[:, column] >= 0)
+    problems = []
+    if len(bars) != len(rows):
+        return [f"{len(bars)} colour bars in column {column}, want one per row ({len(rows)})"]
+    for (y0, y1), light in zip(bars, rows):
+        steps = index[y0:y1, column]
+        # Its end pixels are the outline's: the ends of the map within a few entries.
+        if steps[0] < 245 or steps[-1] > 10 or np.any(np.diff(steps) > 0):
+            problems.append(f"row {light}: the bar runs from viridis {steps[0]} at its top to "
+                            f"{steps[-1]} at its bottom, want 255 down to 0 without a rise")
+    # The labels, from the figure the grid draws, drawn at the PNG's resolution: each label's
+    # box, in PNG rows (row 0 at the top), its bottom on the bar's bottom ("0"), its middle on
+    # the bar's middle, its top on the bar's top (the scale).
+    evals = {l: {e["lighting"]: e for e in fits[("ball", l)]["evaluations"]} for l in labels}
+    fig, _, shown = report_grids.grid_figure(d, study, fits, "ball", labels, "")
+    fig.set_dpi(DPI)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in drawn_texts(fig)]
+    png_h = png.shape[0]
+    for (y0, y1), light in zip(bars, shown):
+        scale = evals[labels[0]][light]["images"]["error_scale"]
+        want = {"0": (y1, lambda b: png_h - b.y0),
+                "0.025": ((y0 + y1) / 2, lambda b: png_h - (b.y0 + b.y1) / 2),
+                "0.05": (y0, lambda b: png_h - b.y1)}
+        for text, (row, edge) in want.items():
+            at = sorted(round(edge(b)) for x, b in boxes if x == text)
+            near = [r for r in at if abs(r - row) <= 3]
+            if scale != ERROR_SCALE or len(near) != 1:
+                problems.append(f"row {light}: {len(near)} label(s) '{text}' level with PNG "
+                                f"row {row:.0f} of its colour bar, want 1 (labels at {at})")
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    return problems
 
 
 def check(report_grids, out, name, labels, fit_ground, min_fill):
@@ -164,6 +220,7 @@ def check(report_grids, out, name, labels, fit_ground, min_fill):
             if fill < min_fill:
                 failures.append(f"the disc fills {fill:.2f} of its tile's width, want >= "
                                 f"{min_fill}")
+    failures += bar_problems(report_grids, d, study, fits, labels, png, rows)
     return [f"{name}: {f}" for f in failures]
 
 

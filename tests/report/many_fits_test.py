@@ -15,6 +15,7 @@ import csv
 import json
 import math
 import os
+import re
 import shutil
 import sys
 
@@ -39,17 +40,30 @@ CHART_AXES = {
 class Shape:
     """What a synthetic study holds: models x training sets are its fits."""
 
-    def __init__(self, name, models, training_sets, materials):
+    def __init__(self, name, models, training_sets, materials, losses=(None,)):
         self.name, self.models, self.training_sets = name, models, training_sets
-        self.materials, self.probed = materials, materials[:2]
+        self.materials, self.probed, self.losses = materials, materials[:2], losses
+
+    def fits(self):
+        """The study's fit records: label `model@training`, or `model@training:loss` with
+        several losses (as the measured study labels them)."""
+        return [{"label": f"{m}@{'+'.join(t)}" + (f":{loss}" if loss else ""), "model": m,
+                 "train": t, "loss": loss}
+                for t in self.training_sets for m in self.models for loss in self.losses]
 
     def labels(self):
-        return [f"{m}@{'+'.join(t)}" for t in self.training_sets for m in self.models]
+        return [f["label"] for f in self.fits()]
 
 
 # The measured study's shape, and the default study's (4 fits, one grid figure a material).
 MANY = Shape("many_fits", MODELS, TRAINING_SETS, MATERIALS)
 FOUR = Shape("four_fits", ["blinn-phong", "ggx"], TRAINING_SETS, ["red-plastic", "gold"])
+# Two losses per model and training set: labels end in ":cuberoot" and ":l2", and 6 fits per
+# training set make a part of 5 fits (11 columns, the narrowest) and one of 1, as in the
+# measured study, whose column titles overlapped ("@key:cuberoot" kept whole, wider than its
+# column).
+LOSSES = Shape("losses", MODELS[:3], TRAINING_SETS, ["alum-bronze", "white-diffuse-bball"],
+               losses=("cuberoot", "l2"))
 
 
 def write_json(path, obj):
@@ -71,8 +85,9 @@ def write_study(d, shape):
     """Result files as `shadefit study run` writes them (study.json, results.csv, jobs/,
     images/, charts/), with values drawn from a fixed seed."""
     rng = np.random.default_rng(7)
-    fits = [{"label": f"{m}@{'+'.join(t)}", "model": m, "train": t}
-            for t in shape.training_sets for m in shape.models]
+    # A fit record names its loss where the study has several (as the runner's study.json).
+    fits = [{k: v for k, v in f.items() if k != "loss" or v} for f in shape.fits()]
+    losses = {f["label"]: f["loss"] for f in shape.fits()}
     write_json(os.path.join(d, "study.json"), {
         "name": shape.name, "description": "synthetic: report layout test",
         "fits": fits, "training_sets": shape.training_sets, "test_lightings": [],
@@ -124,7 +139,9 @@ def write_study(d, shape):
                 for (name, values, _) in axes:
                     v = float(rng.uniform(values[0], values[-1] * 1.3))
                     params.append({"name": name, "value": v, "std_error": 0.01, **flags})
-            write_json(os.path.join(d, "jobs", f"fit.{m}.{f['model']}.{'+'.join(f['train'])}.json"),
+            loss = f".{losses[f['label']]}" if losses[f["label"]] else ""
+            write_json(os.path.join(d, "jobs",
+                                    f"fit.{m}.{f['model']}.{'+'.join(f['train'])}{loss}.json"),
                        {"kind": "fit", "material": m, "label": f["label"], "model": f["model"],
                         "train": f["train"], "parameters": params, "evaluations": evaluations,
                         "exposure": 0.0,
@@ -222,10 +239,12 @@ def check(shape, out, make_report, pdf_problems, png_size):
         for g in grids:
             if g["png"] not in page:
                 failures.append(f"{g['name']}: not linked from index.html")
-        # A split grid: one part per training set, named by it.
+        # A split grid: one part per training set, named by it (and numbered where a training
+        # set holds more fits than a part).
         for t in shape.training_sets if split else []:
-            if not any(g["name"] == f"grid-{m}-{'+'.join(t)}" for g in grids):
-                failures.append(f"grid of {m}: no part grid-{m}-{'+'.join(t)}")
+            name = f"grid-{m}-{'+'.join(t)}"
+            if not any(re.fullmatch(re.escape(name) + r"(-\d+)?", g["name"]) for g in grids):
+                failures.append(f"grid of {m}: no part {name}")
     for fig in figures:
         name, w_in, h_in = fig["name"], fig["width_in"], fig["height_in"]
         if not any(abs(w_in - w) < 1e-6 for w in (3.3, 7.0)):
@@ -253,7 +272,7 @@ def main(argv):
     import make_report  # noqa: E402
     from figures_test import pdf_problems, png_size  # noqa: E402
     failures = []
-    for shape in (MANY, FOUR):
+    for shape in (MANY, FOUR, LOSSES):
         failures += check(shape, out, make_report, pdf_problems, png_size)
     # Its tables too: 10 fits are as many columns, which report.tex must fit on the page.
     import latex_test  # noqa: E402
