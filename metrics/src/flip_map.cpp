@@ -7,9 +7,11 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numbers>
 
 #include "internal.h"
+#include "weighted_sum.h"
 
 namespace shadefit::metrics::internal {
 namespace {
@@ -194,12 +196,19 @@ RowSpans WidenColumns(RowSpans spans, int radius, int w) {
   return spans;
 }
 
-// out[x] += tap * in[x] for x in [0, n): the filters' inner loop. Also built for AVX2 and chosen
-// at run time: wider vectors of the same multiplies and adds (AVX2 has no fused multiply-add,
-// which would round differently), so the same bits on every machine.
-[[gnu::target_clones("avx2", "default")]] void AddScaled(float* out, const float* in, float tap,
-                                                          int n) {
-  for (int x = 0; x < n; ++x) out[x] += tap * in[x];
+// The filters' inner loop (weighted_sum.h), built for AVX2 and the baseline. Along a row:
+// in(k) = in + k (the row's pixels from the first tap's on).
+[[gnu::target_clones("avx2", "default")]] void ConvolveRow(float* out, const float* in,
+                                                            const float* taps, int ntaps, int n) {
+  WeightedSum(out, taps, ntaps, n, [in](int k) { return in + k; });
+}
+
+// Down a column: in(k) = rows[k] (the rows of the taps, from the first's on).
+[[gnu::target_clones("avx2", "default")]] void ConvolveColumn(float* out,
+                                                               const float* const* rows,
+                                                               const float* taps, int ntaps,
+                                                               int n) {
+  WeightedSum(out, taps, ntaps, n, [rows](int k) { return rows[k]; });
 }
 
 // Separable filtering with clamp-to-edge borders: the row pass at the pixels of `wanted`, which
@@ -214,13 +223,15 @@ void FilterRows(const Plane& in, Plane& out, int w, const RowSpans& wanted,
       const int x0 = wanted.begin[y], x1 = wanted.end[y];
       if (x0 >= x1) continue;
       const float* row = &in[static_cast<std::size_t>(y) * w];
-      // padded[j] holds column x0 - r + j, clamped to the frame.
-      for (int i = x0 - r; i < x1 + r; ++i) padded[i - (x0 - r)] = row[std::clamp(i, 0, w - 1)];
-      // Tap-outer loop: the inner loop runs along x and vectorises (a sum over taps would not,
-      // without reassociating floating-point additions).
-      float* o = &out[static_cast<std::size_t>(y) * w + x0];
-      std::fill(o, o + (x1 - x0), 0.0f);
-      for (int k = 0; k < 2 * r + 1; ++k) AddScaled(o, padded.data() + k, taps[k], x1 - x0);
+      // padded[j] holds column x0 - r + j, clamped to the frame: the columns inside it copied,
+      // the first and last column repeated beyond it.
+      const int lo = std::max(0, x0 - r), hi = std::min(w, x1 + r);
+      std::fill(padded.begin(), padded.begin() + (lo - (x0 - r)), row[0]);
+      std::memcpy(&padded[lo - (x0 - r)], row + lo, sizeof(float) * (hi - lo));
+      std::fill(padded.begin() + (hi - (x0 - r)), padded.begin() + (x1 + r - (x0 - r)),
+                row[w - 1]);
+      ConvolveRow(&out[static_cast<std::size_t>(y) * w + x0], padded.data(), taps.data(),
+                  2 * r + 1, x1 - x0);
     }
   });
 }
@@ -233,15 +244,15 @@ void FilterColumns(const Plane& in, Plane& out, int w, const RowSpans& wanted,
   const int h = static_cast<int>(wanted.begin.size());
   out.resize(in.size());  // Cleared and written at the pixels of `wanted`, the only ones read.
   internal::ParallelRows(h, [&](int begin, int end) {
+    std::vector<const float*> rows(2 * r + 1);
     for (int y = begin; y < end; ++y) {
       const int x0 = wanted.begin[y], x1 = wanted.end[y];
       if (x0 >= x1) continue;
-      float* o = &out[static_cast<std::size_t>(y) * w + x0];
-      std::fill(o, o + (x1 - x0), 0.0f);
       for (int k = -r; k <= r; ++k) {
-        const float* row = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w + x0];
-        AddScaled(o, row, taps[k + r], x1 - x0);
+        rows[k + r] = &in[static_cast<std::size_t>(std::clamp(y + k, 0, h - 1)) * w + x0];
       }
+      ConvolveColumn(&out[static_cast<std::size_t>(y) * w + x0], rows.data(), taps.data(),
+                     2 * r + 1, x1 - x0);
     }
   });
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "internal.h"
+#include "weighted_sum.h"
 #include "shadefit/base/error.h"
 #include "shadefit/metrics/common.h"
 
@@ -63,12 +64,19 @@ struct PlaneStats {
   double luminance = 0.0;  // Mean luminance term.
 };
 
-// out[i] += t * in[i] for i in [0, n): the filters' inner loop. Also built for AVX2 and chosen at
-// run time: wider vectors of the same multiplies and adds (no fused multiply-add, which rounds
-// differently), so the same bits on every machine.
-[[gnu::target_clones("avx2", "default")]] void AddScaled(double* out, const double* in, double t,
-                                                          int n) {
-  for (int i = 0; i < n; ++i) out[i] += t * in[i];
+// The filters' inner loop (weighted_sum.h), built for AVX2 and the baseline. Along a row:
+// in(k) = in + k (the row's pixels from the first tap's on).
+[[gnu::target_clones("avx2", "default")]] void ConvolveRow(double* out, const double* in,
+                                                            const double* taps, int ntaps, int n) {
+  internal::WeightedSum(out, taps, ntaps, n, [in](int k) { return in + k; });
+}
+
+// Down a column: in(k) = rows[k] (the rows of the taps, from the first's on).
+[[gnu::target_clones("avx2", "default")]] void ConvolveColumn(double* out,
+                                                               const double* const* rows,
+                                                               const double* taps, int ntaps,
+                                                               int n) {
+  internal::WeightedSum(out, taps, ntaps, n, [rows](int k) { return rows[k]; });
 }
 
 // The columns [begin, end) of each row whose SSIM a call computes: all of them when a map is
@@ -170,11 +178,8 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
         padded[4][j] = xr[s] * yr[s];
       }
       for (int f = 0; f < 5; ++f) {
-        double* out = &horizontal[f][static_cast<std::size_t>(row) * w + x0];
-        std::fill(out, out + (x1 - x0), 0.0);
-        for (int k = 0; k <= 2 * r; ++k) {  // Tap-outer: the x loop vectorises.
-          AddScaled(out, padded[f].data() + k, taps[k], x1 - x0);
-        }
+        ConvolveRow(&horizontal[f][static_cast<std::size_t>(row) * w + x0], padded[f].data(),
+                    taps.data(), 2 * r + 1, x1 - x0);
       }
     }
   });
@@ -184,15 +189,17 @@ PlaneStats SsimPlane(const Plane& x, const Plane& y, int w, int h,
   std::vector<double> row_ssim(h, 0.0), row_cs(h, 0.0), row_l(h, 0.0);
   internal::ParallelRows(h, [&](int row_begin, int row_end) {
     std::vector<Plane> m(5, Plane(w));
+    std::vector<std::size_t> offsets(2 * r + 1);
+    std::vector<const double*> rows(2 * r + 1);
     for (int row = row_begin; row < row_end; ++row) {
       const int x0 = wanted.begin[row], x1 = wanted.end[row];
       if (x0 >= x1) continue;
-      for (auto& plane : m) std::fill(plane.begin(), plane.begin() + (x1 - x0), 0.0);
       for (int k = -r; k <= r; ++k) {
-        const std::size_t offset = static_cast<std::size_t>(Reflect(row + k, h)) * w + x0;
-        for (int f = 0; f < 5; ++f) {
-          AddScaled(m[f].data(), &horizontal[f][offset], taps[k + r], x1 - x0);
-        }
+        offsets[k + r] = static_cast<std::size_t>(Reflect(row + k, h)) * w + x0;
+      }
+      for (int f = 0; f < 5; ++f) {
+        for (int k = 0; k <= 2 * r; ++k) rows[k] = &horizontal[f][offsets[k]];
+        ConvolveColumn(m[f].data(), rows.data(), taps.data(), 2 * r + 1, x1 - x0);
       }
       double sum_ssim = 0.0, sum_cs = 0.0, sum_l = 0.0;
       for (int i = x0; i < x1; ++i) {

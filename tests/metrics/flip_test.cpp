@@ -4,11 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
+#include "../../metrics/src/weighted_sum.h"
 #include "shadefit/base/error.h"
 #include "test_images.h"
 
@@ -366,6 +370,54 @@ TEST(FlipTest, BadInputsNameTheField) {
   }
   const Image gray(16, 16, 1, 0.5f);
   EXPECT_THROW(FlipLdr(gray, gray), Error);  // Needs RGB.
+}
+
+// The filters' inner loop (metrics/src/weighted_sum.h, FLIP's float passes and SSIM's double
+// ones) keeps 8 vectors of sums in registers, then 1, then one pixel at a time. Every pixel must
+// get the bits of its own sum, 0 + taps[0] in(0) + taps[1] in(1) + ..., in that order (what the
+// passes computed before, one tap at a time over the row): widths across each block's edges, tap
+// counts of FLIP's and SSIM's filters, rows (in + k) and columns (a row per tap).
+template <typename T>
+void ExpectSumsPerPixel() {
+  std::mt19937 rng(46);
+  std::uniform_real_distribution<T> value(-2, 2);
+  for (const int ntaps : {1, 11, 21}) {
+    std::vector<T> taps(ntaps);
+    for (T& t : taps) t = value(rng);
+    taps[ntaps / 2] = -T(0);  // A derivative filter's centre tap.
+    for (int n = 0; n <= 150; ++n) {
+      std::vector<T> row(n + ntaps);
+      for (T& v : row) v = value(rng);
+      std::vector<std::vector<T>> columns(ntaps, std::vector<T>(n));
+      std::vector<const T*> column_rows;
+      for (auto& c : columns) {
+        for (T& v : c) v = value(rng);
+        column_rows.push_back(c.data());
+      }
+      std::vector<T> along(n, T(7)), down(n, T(7));
+      internal::WeightedSum(along.data(), taps.data(), ntaps, n,
+                            [&](int k) { return row.data() + k; });
+      internal::WeightedSum(down.data(), taps.data(), ntaps, n,
+                            [&](int k) { return column_rows[k]; });
+      for (int x = 0; x < n; ++x) {
+        T want_along = T(0), want_down = T(0);
+        for (int k = 0; k < ntaps; ++k) {
+          want_along += taps[k] * row[x + k];
+          want_down += taps[k] * columns[k][x];
+        }
+        using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+        ASSERT_EQ(std::bit_cast<Bits>(along[x]), std::bit_cast<Bits>(want_along))
+            << "row, " << ntaps << " taps, width " << n << ", pixel " << x;
+        ASSERT_EQ(std::bit_cast<Bits>(down[x]), std::bit_cast<Bits>(want_down))
+            << "column, " << ntaps << " taps, width " << n << ", pixel " << x;
+      }
+    }
+  }
+}
+
+TEST(WeightedSumTest, EachPixelGetsTheBitsOfItsOwnSumInTapOrder) {
+  ExpectSumsPerPixel<float>();
+  ExpectSumsPerPixel<double>();
 }
 
 }  // namespace
