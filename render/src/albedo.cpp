@@ -2,24 +2,58 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <random>
+#include <utility>
 
 namespace shadefit {
 namespace {
 
-// Cosine-weighted hemisphere direction around +z (Malley's method).
-Vec3d SampleCosine(double u1, double u2) {
-  const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
-  return {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1.0 - u1))};
+// One stratum's jittered point (u1, u2), the azimuth 2 pi u2 as its cosine and sine (both
+// techniques sample the same azimuth), and the cosine-weighted direction around +z it maps to
+// (Malley's method).
+struct StratumPoint {
+  double u1, cos_phi, sin_phi;
+  Vec3d cosine;
+};
+
+// The points of m x m strata jittered by mt19937(seed), stratum (i, j) at [i * m + j]: every
+// call with the same seed and strata draws the same points, so they are drawn (and their
+// azimuths' cosines and sines taken) once per process rather than once per call; the energy and
+// BRDF probes call DirectionalAlbedo hundreds of times a material.
+std::shared_ptr<const std::vector<StratumPoint>> StratumPoints(unsigned seed, int m) {
+  static std::mutex mutex;
+  static std::map<std::pair<unsigned, int>, std::shared_ptr<const std::vector<StratumPoint>>>
+      made;
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto& points = made[{seed, m}];
+  if (points) return points;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(0.0, 1.0);
+  auto table = std::make_shared<std::vector<StratumPoint>>();
+  table->reserve(static_cast<std::size_t>(std::max(m, 0)) * std::max(m, 0));
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) {
+      const double u1 = (i + jitter(rng)) / m, u2 = (j + jitter(rng)) / m;
+      const double phi = 2.0 * kPi * u2, cos_phi = std::cos(phi), sin_phi = std::sin(phi);
+      const double r = std::sqrt(u1);
+      table->push_back({u1, cos_phi, sin_phi,
+                        {r * cos_phi, r * sin_phi, std::sqrt(std::max(0.0, 1.0 - u1))}});
+    }
+  }
+  points = std::move(table);
+  return points;
 }
 
-// GGX half vector around +z (Walter et al. 2007, eqs. 35-36), reflected about v.
-Vec3d SampleGgxReflection(double u1, double u2, double alpha, const Vec3d& v) {
+// GGX half vector around +z (Walter et al. 2007, eqs. 35-36) at the stratum's point, reflected
+// about v.
+Vec3d SampleGgxReflection(const StratumPoint& s, double alpha, const Vec3d& v) {
   const double a2 = alpha * alpha;
-  const double cos2 = (1.0 - u1) / (1.0 + (a2 - 1.0) * u1);
+  const double cos2 = (1.0 - s.u1) / (1.0 + (a2 - 1.0) * s.u1);
   const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos2));
-  const double phi = 2.0 * kPi * u2;
-  const Vec3d h{sin_t * std::cos(phi), sin_t * std::sin(phi), std::sqrt(cos2)};
+  const Vec3d h{sin_t * s.cos_phi, sin_t * s.sin_phi, std::sqrt(cos2)};
   return h * (2.0 * Dot(v, h)) - v;
 }
 
@@ -44,8 +78,7 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
   const double alpha = SpecularLobeAlpha(model, params.data());
   const int techniques = alpha > 0.0 ? 2 : 1;
   const int m = options.strata_per_axis;
-  std::mt19937 rng(options.seed);
-  std::uniform_real_distribution<double> jitter(0.0, 1.0);
+  const auto points = StratumPoints(options.seed, m);
 
   // Each stratum yields one sample per technique; their MIS-weighted sum is one estimate of the
   // integral. The standard error comes from pairs of neighbouring strata (j, j + 1), each pair
@@ -59,10 +92,10 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
   const bool paired = m % 2 == 0;
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j < m; ++j) {
-      const double u1 = (i + jitter(rng)) / m, u2 = (j + jitter(rng)) / m;
+      const StratumPoint& point = (*points)[static_cast<std::size_t>(i) * m + j];
       double est[3] = {0, 0, 0};
       for (int t = 0; t < techniques; ++t) {
-        const Vec3d l = t == 0 ? SampleCosine(u1, u2) : SampleGgxReflection(u1, u2, alpha, v);
+        const Vec3d l = t == 0 ? point.cosine : SampleGgxReflection(point, alpha, v);
         if (l.z <= 0.0) continue;
         double f[3];
         Reflect(model, params.data(), n, l, v, f);

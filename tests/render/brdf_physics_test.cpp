@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <thread>
 
 #include "shadefit/render/albedo.h"
 #include "shadefit/render/models.h"
@@ -220,6 +221,34 @@ TEST(BrdfPhysics, AlbedoStandardErrorMatchesItsActualError) {
     }
   }
   EXPECT_GE(covered, 0.95 * total);
+}
+
+// DirectionalAlbedo draws its strata's points once per seed and strata count and keeps them
+// (render/src/albedo.cpp): another seed or strata count must give another estimate, and the same
+// ones the same bits, first drawn or kept, in any thread, several at once.
+TEST(BrdfPhysics, AlbedoPointsAreTheSeedsAndStratasOwn) {
+  const ModelInfo& model = FindModel("ggx");
+  std::vector<double> p = DefaultParams(model);
+  p[model.Offset("roughness")] = 0.3;
+  const auto estimate = [&](unsigned seed, int strata) {
+    AlbedoOptions o;
+    o.seed = seed;
+    o.strata_per_axis = strata;
+    return DirectionalAlbedo(model.id, p, 0.5, o).value[1];
+  };
+  // Drawn for the first time in two threads at once, then kept.
+  double first[2];
+  std::thread a([&] { first[0] = estimate(1003, 46); });
+  std::thread b([&] { first[1] = estimate(1003, 46); });
+  a.join();
+  b.join();
+  EXPECT_EQ(first[0], first[1]);
+  EXPECT_EQ(estimate(1003, 46), first[0]);
+  EXPECT_NE(estimate(1004, 46), first[0]);  // Another seed.
+  EXPECT_NE(estimate(1003, 44), first[0]);  // Other strata.
+  EXPECT_EQ(estimate(1003, 46), first[0]);  // Kept beside the others.
+  // Another seed's points estimate the same integral.
+  EXPECT_NEAR(estimate(1004, 46), first[0], 0.01);
 }
 
 TEST(BrdfPhysics, ClassicBlinnPhongExceedsOneForLargeKsSmallN) {
