@@ -382,9 +382,9 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
     fig.set_size_inches((w_px + 0.01) / DPI, (h_px + 0.01) / DPI)
     fig.set_dpi(DPI)
     overlaps, outside = text_problems(fig)
-    # The titles stay where that drawing put them: the PDF's drawing would place them again,
-    # measuring the axes' tick labels once more for it (a tenth of a probe figure's time), and
-    # the two files' titles then agree by construction.
+    # The titles stay where that drawing put them (matplotlib 3.6's flag; elsewhere it is only
+    # an attribute): the PDF's drawing would place them again, measuring the axes' tick labels
+    # once more for it, and the two files' titles agree by construction.
     for ax in fig.axes:
         ax._autotitlepos = False
     png = os.path.join(fig_dir, name + ".png")

@@ -262,8 +262,8 @@ def _bar_rgba():
 def row_colour_bar(fig, tiles, g, y0, error_scale, first_row):
     """The error maps' colour bar of one row, in radiance units; the units over the first. Drawn
     on the tiles' axes (in inches) as an image, its outline, three ticks and their labels: a
-    colour bar's own axes (one per row, 700 in the measured study's grids) cost a third of the
-    grids' drawing time."""
+    colour bar's own axes (one per row, 700 in the measured study's grids) cost about a third
+    of the grids' drawing time."""
     x1, y1 = g.bar_x + GRID_BAR_IN, y0 + g.cell_h
     tiles.imshow(_bar_rgba(), interpolation="nearest", aspect="auto",
                  extent=(g.bar_x, x1, y0, y1))

@@ -22,12 +22,16 @@ struct StratumPoint {
 // The points of m x m strata jittered by mt19937(seed), stratum (i, j) at [i * m + j]: every
 // call with the same seed and strata draws the same points, so they are drawn (and their
 // azimuths' cosines and sines taken) once per process rather than once per call; the energy and
-// BRDF probes call DirectionalAlbedo hundreds of times a material.
+// BRDF probes call DirectionalAlbedo hundreds of times a material with a few strata counts and
+// one seed. At most kKept sets are kept (512^2 strata are 15 MB): a caller looping over seeds
+// starts the store again.
 std::shared_ptr<const std::vector<StratumPoint>> StratumPoints(unsigned seed, int m) {
+  constexpr std::size_t kKept = 8;
   static std::mutex mutex;
   static std::map<std::pair<unsigned, int>, std::shared_ptr<const std::vector<StratumPoint>>>
       made;
   const std::lock_guard<std::mutex> lock(mutex);
+  if (made.size() >= kKept && made.find({seed, m}) == made.end()) made.clear();
   auto& points = made[{seed, m}];
   if (points) return points;
   std::mt19937 rng(seed);
