@@ -19,6 +19,7 @@ fixed values), drawn by report_grids.image_grid. The grid must
 
 import json
 import os
+import re
 import shutil
 import sys
 
@@ -220,6 +221,14 @@ def check(report_grids, out, name, labels, fit_ground, min_fill):
             if fill < min_fill:
                 failures.append(f"the disc fills {fill:.2f} of its tile's width, want >= "
                                 f"{min_fill}")
+            # The PDF's tiles hold as many pixels as the PNG's (its images resampled at the
+            # PNG's resolution, not at a lower one): its widest image is a tile (the colour bars
+            # are narrower), as wide as this one in the PNG.
+            with open(os.path.join(d, fig["pdf"]), "rb") as f:
+                widths = [int(w) for w in re.findall(rb"/Subtype /Image /Width (\d+)", f.read())]
+            if tile_w and (not widths or max(widths) < tile_w - 2):
+                failures.append(f"the PDF's widest image is {max(widths, default=0)} px, the "
+                                f"PNG's tile {tile_w} px: the PDF's tiles are coarser")
     failures += bar_problems(report_grids, d, study, fits, labels, png, rows)
     return [f"{name}: {f}" for f in failures]
 
