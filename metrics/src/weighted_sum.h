@@ -8,12 +8,14 @@ namespace shadefit::metrics::internal {
 // out[x] = sum over k of taps[k] * in(k)[x] for x in [0, n), summed from 0 in the order of k:
 // `in(k)` is the k-th tap's input, the row shifted by k for a row pass or the k-th row for a
 // column pass. The running sums of 8 vectors of pixels (64 floats, 32 doubles) stay in registers
-// while k runs, so each tap loads its inputs once and no sum is loaded or stored between taps;
-// adding one tap at a time over the row loaded and stored every sum per tap, and 8 independent
-// sums keep the adder busy. Each pixel gets the same multiplies and additions in the same order
-// as a sum per pixel, so the same bits. Called from functions built for AVX2 and the baseline
-// and chosen at run time (gnu::target_clones): no fused multiply-add in either, which would round
-// differently, so the same bits on every machine.
+// while k runs (in the AVX2 build's 16 registers; the baseline's 32-byte vectors are pairs of
+// its 16-byte ones and some spill), so each tap loads its inputs once and no sum is loaded or
+// stored between taps; adding one tap at a time over the row loaded and stored every sum per
+// tap, and 8 independent sums keep the adder busy. Each pixel gets the same multiplies and
+// additions in the same order as a sum per pixel, so the same bits. Called from functions built
+// for AVX2 and the baseline and chosen at run time (gnu::target_clones): neither enables fused
+// multiply-add, which would round differently, so the same bits on every machine. (A build with
+// -mfma or a -march that has it would let GCC contract these, as it would the loop before.)
 // 32 bytes of T: 8 floats or 4 doubles (a vector attribute on a dependent type is ignored, so
 // one specialisation per type).
 template <typename T>

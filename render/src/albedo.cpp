@@ -23,21 +23,24 @@ struct StratumPoint {
 // call with the same seed and strata draws the same points, so they are drawn (and their
 // azimuths' cosines and sines taken) once per process rather than once per call; the energy and
 // BRDF probes call DirectionalAlbedo hundreds of times a material with a few strata counts and
-// one seed. At most kKept sets are kept (512^2 strata are 15 MB): a caller looping over seeds
-// starts the store again.
+// one seed. Kept while all kept sets fit kKeptBytes (48 bytes a stratum: 512^2 strata are
+// 12.6 MB); a larger set is drawn for its call alone, and a set that does not fit beside the
+// kept ones starts the store again.
 std::shared_ptr<const std::vector<StratumPoint>> StratumPoints(unsigned seed, int m) {
-  constexpr std::size_t kKept = 8;
+  constexpr std::size_t kKeptBytes = std::size_t{64} << 20;
+  const std::size_t count = static_cast<std::size_t>(std::max(m, 0)) * std::max(m, 0);
+  const std::size_t bytes = count * sizeof(StratumPoint);
   static std::mutex mutex;
   static std::map<std::pair<unsigned, int>, std::shared_ptr<const std::vector<StratumPoint>>>
       made;
-  const std::lock_guard<std::mutex> lock(mutex);
-  if (made.size() >= kKept && made.find({seed, m}) == made.end()) made.clear();
-  auto& points = made[{seed, m}];
-  if (points) return points;
+  static std::size_t kept_bytes = 0;
+  std::unique_lock<std::mutex> lock(mutex);
+  if (const auto it = made.find({seed, m}); it != made.end()) return it->second;
+  lock.unlock();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> jitter(0.0, 1.0);
   auto table = std::make_shared<std::vector<StratumPoint>>();
-  table->reserve(static_cast<std::size_t>(std::max(m, 0)) * std::max(m, 0));
+  table->reserve(count);
   for (int i = 0; i < m; ++i) {
     for (int j = 0; j < m; ++j) {
       const double u1 = (i + jitter(rng)) / m, u2 = (j + jitter(rng)) / m;
@@ -47,8 +50,16 @@ std::shared_ptr<const std::vector<StratumPoint>> StratumPoints(unsigned seed, in
                         {r * cos_phi, r * sin_phi, std::sqrt(std::max(0.0, 1.0 - u1))}});
     }
   }
-  points = std::move(table);
-  return points;
+  if (bytes > kKeptBytes) return table;
+  lock.lock();
+  if (kept_bytes + bytes > kKeptBytes) {
+    made.clear();
+    kept_bytes = 0;
+  }
+  // Another thread may have drawn the same set meanwhile: the first one kept is returned.
+  const auto [it, inserted] = made.emplace(std::pair{seed, m}, std::move(table));
+  if (inserted) kept_bytes += bytes;
+  return it->second;
 }
 
 // GGX half vector around +z (Walter et al. 2007, eqs. 35-36) at the stratum's point, reflected

@@ -225,7 +225,9 @@ TEST(BrdfPhysics, AlbedoStandardErrorMatchesItsActualError) {
 
 // DirectionalAlbedo draws its strata's points once per seed and strata count and keeps them
 // (render/src/albedo.cpp): another seed or strata count must give another estimate, and the same
-// ones the same bits, first drawn or kept, in any thread, several at once.
+// ones the same bits, first drawn or kept, in any thread, several at once; a strata count asked
+// for after another of the same seed must use its own points (an estimate from another count's
+// points is biased: checked against a 256^2 estimate within 5 sigma).
 TEST(BrdfPhysics, AlbedoPointsAreTheSeedsAndStratasOwn) {
   const ModelInfo& model = FindModel("ggx");
   std::vector<double> p = DefaultParams(model);
@@ -234,21 +236,24 @@ TEST(BrdfPhysics, AlbedoPointsAreTheSeedsAndStratasOwn) {
     AlbedoOptions o;
     o.seed = seed;
     o.strata_per_axis = strata;
-    return DirectionalAlbedo(model.id, p, 0.5, o).value[1];
+    return DirectionalAlbedo(model.id, p, 0.5, o);
   };
   // Drawn for the first time in two threads at once, then kept.
   double first[2];
-  std::thread a([&] { first[0] = estimate(1003, 46); });
-  std::thread b([&] { first[1] = estimate(1003, 46); });
+  std::thread a([&] { first[0] = estimate(1003, 46).value[1]; });
+  std::thread b([&] { first[1] = estimate(1003, 46).value[1]; });
   a.join();
   b.join();
   EXPECT_EQ(first[0], first[1]);
-  EXPECT_EQ(estimate(1003, 46), first[0]);
-  EXPECT_NE(estimate(1004, 46), first[0]);  // Another seed.
-  EXPECT_NE(estimate(1003, 44), first[0]);  // Other strata.
-  EXPECT_EQ(estimate(1003, 46), first[0]);  // Kept beside the others.
-  // Another seed's points estimate the same integral.
-  EXPECT_NEAR(estimate(1004, 46), first[0], 0.01);
+  EXPECT_EQ(estimate(1003, 46).value[1], first[0]);
+  EXPECT_NE(estimate(1004, 46).value[1], first[0]);  // Another seed.
+  const AlbedoEstimate other_strata = estimate(1003, 44);
+  EXPECT_NE(other_strata.value[1], first[0]);  // Other strata of the same seed.
+  EXPECT_EQ(estimate(1003, 46).value[1], first[0]);  // Kept beside the others.
+  EXPECT_EQ(estimate(1003, 44).value[1], other_strata.value[1]);
+  const double truth = estimate(99, 256).value[1];
+  EXPECT_NEAR(other_strata.value[1], truth, 5.0 * other_strata.std_error[1]);
+  EXPECT_NEAR(first[0], truth, 5.0 * estimate(1003, 46).std_error[1]);
 }
 
 TEST(BrdfPhysics, ClassicBlinnPhongExceedsOneForLargeKsSmallN) {
