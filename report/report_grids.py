@@ -247,16 +247,11 @@ def cropper(box, frame):
 # The colour bar's ticks and their labels, in points: out of the bar's right edge, as a colour
 # bar's axis draws them (matplotlib's default major tick width).
 BAR_TICK_PT, BAR_TICK_WIDTH_PT, BAR_LABEL_PAD_PT = 2.0, 0.8, 1.0
-# viridis in 256 steps from the bottom (0) to the top (the row's error scale) as 8-bit RGBA: the
-# bands a colour bar of the map draws.
-_BAR_RGBA = None
-
-
+@functools.lru_cache(maxsize=1)
 def _bar_rgba():
-    global _BAR_RGBA
-    if _BAR_RGBA is None:
-        _BAR_RGBA = matplotlib.colormaps["viridis"](np.arange(256)[::-1, None], bytes=True)
-    return _BAR_RGBA
+    """viridis in 256 steps from the bottom (0) to the top (the row's error scale) as 8-bit
+    RGBA: the bands a colour bar of the map draws."""
+    return matplotlib.colormaps["viridis"](np.arange(256)[::-1, None], bytes=True)
 
 
 def row_colour_bar(fig, tiles, g, y0, error_scale, first_row):
