@@ -10,8 +10,10 @@
 #include <cstring>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include "../../metrics/src/flip_map.h"
 #include "../../metrics/src/weighted_sum.h"
 #include "shadefit/base/error.h"
 #include "test_images.h"
@@ -335,6 +337,58 @@ TEST(FlipTest, OneExposureIsLdrFlipOfTheToneMappedImages) {
     EXPECT_NEAR(FlipHdr(ref, test, p).mean, FlipLdr(reinhard(ref, c), reinhard(test, c)).mean,
                 2e-4)
         << "Reinhard, exposure " << c;
+  }
+}
+
+// HDR-FLIP's map is, bit for bit, each pixel's largest LDR-FLIP value over the exposures (the
+// first exposure that reaches it gives the exposure map's index), as the separate halves and
+// their combination give it at each exposure.
+TEST(FlipTest, HdrMapIsEachPixelsLargestValueOverTheExposures) {
+  for (const auto& [tone_mapper, noise, seed] :
+       {std::tuple{FlipToneMapper::kAces, 0.2f, 3}, std::tuple{FlipToneMapper::kAces, 0.02f, 5},
+        std::tuple{FlipToneMapper::kReinhard, 0.3f, 8}}) {
+    const Image ref = testing::HdrScene(72, 56);
+    Image test = testing::HdrDistorted(ref, noise, seed);
+    // A left third without error: values of 0 at every exposure, whose index is the first's.
+    for (int y = 0; y < ref.height; ++y) {
+      for (int x = 0; x < ref.width / 3; ++x) {
+        for (int c = 0; c < ref.channels; ++c) test.at(x, y, c) = ref.at(x, y, c);
+      }
+    }
+    FlipParameters p;
+    p.tone_mapper = tone_mapper;
+    p.start_exposure = -6.0;
+    p.stop_exposure = 5.0;
+    p.num_exposures = 23;  // Half-stop steps: neighbouring exposures' values are close.
+    Image map, index;
+    FlipHdr(ref, test, p, &map, &index);
+
+    const internal::RowSpans all = internal::FullSpans(ref.width, ref.height);
+    const std::size_t n = ref.PixelCount();
+    std::vector<float> worst(n, 0.0f), worst_index(n, 0.0f);
+    const double step = (p.stop_exposure - p.start_exposure) / (p.num_exposures - 1);
+    for (int e = 0; e < p.num_exposures; ++e) {
+      const internal::Exposure exposure{
+          true, static_cast<float>(std::exp2(p.start_exposure + e * step)), tone_mapper};
+      const internal::Plane values = internal::CombineSides(
+          internal::ComputeSide(ref, p.ppd, all, exposure),
+          internal::ComputeSide(test, p.ppd, all, exposure), ref.width, ref.height, all);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (values[i] > worst[i]) {
+          worst[i] = values[i];
+          worst_index[i] = static_cast<float>(e) / (p.num_exposures - 1);
+        }
+      }
+    }
+    ASSERT_EQ(map.PixelCount(), n);
+    int differ = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      differ += std::bit_cast<std::uint32_t>(map.data[i]) !=
+                    std::bit_cast<std::uint32_t>(worst[i]) ||
+                std::bit_cast<std::uint32_t>(index.data[i]) !=
+                    std::bit_cast<std::uint32_t>(worst_index[i]);
+    }
+    EXPECT_EQ(differ, 0) << "pixels of " << n << ", noise " << noise;
   }
 }
 

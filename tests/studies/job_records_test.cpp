@@ -1,14 +1,24 @@
 // The job records (studies/runner/src/job_records.h): what one stage writes the next reads back
 // field for field, and a record with a field missing or of another type is a one-line error
-// naming the file and the field, never a default.
+// naming the file and the field, never a default. Also the references the jobs share
+// (studies/runner/src/loaded_references.h): each read once, side by side by the workers.
 #include "job_records.h"
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
+#include <thread>
+#include <vector>
+
+#include "loaded_references.h"
 
 #include "shadefit/base/error.h"
 
@@ -142,6 +152,83 @@ TEST(JobRecords, HeadOfEitherKind) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), path + ": status: expected ok or no-fit");
   }
+}
+
+// A stand-in for a read reference: its path and a one-pixel image.
+reference_images::Reference FakeReference(const std::string& path) {
+  reference_images::Reference r;
+  r.image_path = path;
+  r.image = Image(1, 1, 3);
+  return r;
+}
+
+TEST(LoadedReferencesTest, WorkersAskingForOneSetReadItSideBySide) {
+  std::mutex mutex;
+  std::condition_variable changed;
+  int started = 0;
+  std::map<std::string, int> reads;
+  std::set<std::thread::id> readers;
+  LoadedReferences loaded(std::size_t{1} << 30, [&](const std::string& path) {
+    std::unique_lock lock(mutex);
+    ++reads[path];
+    readers.insert(std::this_thread::get_id());
+    ++started;
+    changed.notify_all();
+    // The first read waits for the other worker to start a read of its own (10 s at most): a
+    // worker that queues behind the first read never does.
+    if (started == 1) changed.wait_for(lock, std::chrono::seconds(10), [&] { return started > 1; });
+    return FakeReference(path);
+  });
+  const std::vector<std::string> paths = {"a.exr", "b.exr", "c.exr", "d.exr", "e.exr", "f.exr"};
+  std::vector<LoadedReferences::Shared> got[2];
+  std::thread other([&] { got[1] = loaded.GetAll(paths); });
+  got[0] = loaded.GetAll(paths);
+  other.join();
+  EXPECT_EQ(readers.size(), 2u) << "one worker read every reference while the other waited";
+  for (const std::string& p : paths) EXPECT_EQ(reads[p], 1) << p;
+  for (int t = 0; t < 2; ++t) {
+    ASSERT_EQ(got[t].size(), paths.size());
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+      ASSERT_TRUE(got[t][i]);
+      EXPECT_EQ(got[t][i]->image_path, paths[i]);
+      EXPECT_EQ(got[t][i], got[1 - t][i]) << "the workers hold one copy of " << paths[i];
+    }
+  }
+  // Asked again, the set is read already.
+  EXPECT_EQ(loaded.GetAll(paths)[2], got[0][2]);
+  EXPECT_EQ(reads["c.exr"], 1);
+}
+
+TEST(LoadedReferencesTest, AFailedReadGivesTheFirstFailingPathsErrorAndIsForgotten) {
+  std::mutex mutex;
+  std::map<std::string, int> reads;
+  bool broken = true;
+  LoadedReferences loaded(std::size_t{1} << 30, [&](const std::string& path) {
+    {
+      std::lock_guard lock(mutex);
+      ++reads[path];
+    }
+    if (broken && (path == "b.exr" || path == "d.exr")) throw Error(path, "", "cannot read");
+    return FakeReference(path);
+  });
+  const std::vector<std::string> paths = {"d.exr", "a.exr", "b.exr", "c.exr"};
+  std::string errors[2];
+  auto ask = [&](std::string* error) {
+    try {
+      loaded.GetAll(paths);
+    } catch (const Error& e) {
+      *error = e.what();
+    }
+  };
+  std::thread other(ask, &errors[1]);
+  ask(&errors[0]);
+  other.join();
+  for (const std::string& e : errors) EXPECT_NE(e.find("d.exr"), std::string::npos) << e;
+  // The other failing path was left to the second pass: asked for alone it reports itself.
+  EXPECT_THROW(loaded.Get("b.exr"), Error);
+  broken = false;
+  EXPECT_EQ(loaded.GetAll(paths)[0]->image_path, "d.exr");  // Forgotten: read again, now fine.
+  EXPECT_EQ(reads["a.exr"], 1);
 }
 
 }  // namespace

@@ -501,8 +501,9 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
 
   // The run's references, shared with its other jobs (a 96-light set is gigabytes): the encoding
   // search replaces them with its redecoded copies.
-  std::vector<SharedReference> references;
-  for (const ReferenceSpec& r : g.references) references.push_back(context.Reference(r.image_path));
+  std::vector<std::string> paths;
+  for (const ReferenceSpec& r : g.references) paths.push_back(r.image_path);
+  std::vector<SharedReference> references = context.References(paths);
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);
   clock.Lap("read");

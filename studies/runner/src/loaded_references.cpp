@@ -1,6 +1,7 @@
 #include "loaded_references.h"
 
 #include <exception>
+#include <utility>
 
 namespace shadefit::studies::internal {
 namespace {
@@ -13,6 +14,13 @@ std::size_t BytesOf(const reference_images::Reference& r) {
 }
 
 }  // namespace
+
+LoadedReferences::Loader LoadedReferences::DefaultLoader() {
+  return [](const std::string& image_path) { return reference_images::LoadReference(image_path); };
+}
+
+LoadedReferences::LoadedReferences(std::size_t byte_budget, Loader load)
+    : budget_(byte_budget), load_(std::move(load)) {}
 
 LoadedReferences::Shared LoadedReferences::Get(const std::string& image_path) {
   std::promise<Shared> made;
@@ -28,9 +36,39 @@ LoadedReferences::Shared LoadedReferences::Get(const std::string& image_path) {
     }
   }
   if (found.valid()) return found.get();
+  return Read(image_path, made);
+}
+
+std::vector<LoadedReferences::Shared> LoadedReferences::GetAll(
+    const std::vector<std::string>& image_paths) {
+  std::vector<Shared> got(image_paths.size());
+  // First the references nobody has asked for: this thread reads them. One read or being read
+  // is left to the second pass, as is everything after a failed read (the second pass reports
+  // the first failure in the paths' order, as a path-by-path Get would).
+  for (std::size_t i = 0; i < image_paths.size(); ++i) {
+    std::promise<Shared> made;
+    {
+      std::lock_guard lock(mutex_);
+      if (entries_.contains(image_paths[i])) continue;
+      order_.push_front(image_paths[i]);
+      entries_[image_paths[i]] = Entry{made.get_future().share(), 0, order_.begin()};
+    }
+    try {
+      got[i] = Read(image_paths[i], made);
+    } catch (...) {
+      break;
+    }
+  }
+  for (std::size_t i = 0; i < image_paths.size(); ++i) {
+    if (!got[i]) got[i] = Get(image_paths[i]);
+  }
+  return got;
+}
+
+LoadedReferences::Shared LoadedReferences::Read(const std::string& image_path,
+                                                std::promise<Shared>& made) {
   try {
-    Shared value =
-        std::make_shared<const reference_images::Reference>(reference_images::LoadReference(image_path));
+    Shared value = std::make_shared<const reference_images::Reference>(load_(image_path));
     made.set_value(value);
     std::lock_guard lock(mutex_);
     if (auto it = entries_.find(image_path); it != entries_.end() && it->second.bytes == 0) {

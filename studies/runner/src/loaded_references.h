@@ -4,12 +4,14 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <future>
 #include <list>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "shadefit/reference_images/reference.h"
 
@@ -22,10 +24,18 @@ namespace shadefit::studies::internal {
 class LoadedReferences {
  public:
   using Shared = std::shared_ptr<const reference_images::Reference>;
+  // How a reference is read: reference_images::LoadReference, or a test's stand-in.
+  using Loader = std::function<reference_images::Reference(const std::string& image_path)>;
 
-  explicit LoadedReferences(std::size_t byte_budget) : budget_(byte_budget) {}
+  explicit LoadedReferences(std::size_t byte_budget, Loader load = DefaultLoader());
 
   Shared Get(const std::string& image_path);
+
+  // Every path's reference, in the paths' order. Workers that ask for the same set at once (the
+  // models of one material start together) read different references side by side: each first
+  // reads those nobody is reading yet, then waits for the rest. A failed read is reported as
+  // Get would report it: the error of the first path, in the paths' order, that fails.
+  std::vector<Shared> GetAll(const std::vector<std::string>& image_paths);
 
  private:
   struct Entry {
@@ -33,9 +43,14 @@ class LoadedReferences {
     std::size_t bytes = 0;  // 0 until read.
     std::list<std::string>::iterator order;
   };
+  static Loader DefaultLoader();
+  // Reads the reference this thread has claimed (its entry holds `made`'s future), or forgets
+  // the claim and rethrows.
+  Shared Read(const std::string& image_path, std::promise<Shared>& made);
   void EvictLocked();
 
   const std::size_t budget_;
+  const Loader load_;
   std::mutex mutex_;
   std::map<std::string, Entry> entries_;
   std::list<std::string> order_;  // Most recently asked-for first.

@@ -26,9 +26,14 @@ using json = nlohmann::json;
 
 std::vector<probes::ProbeReference> ProbeReferences(const RunContext& context,
                                                     const ReferenceGroup& g, Renderer& renderer) {
+  std::vector<std::string> paths;
+  for (const ReferenceSpec& r : g.references) paths.push_back(r.image_path);
+  const std::vector<std::shared_ptr<const reference_images::Reference>> refs =
+      context.References(paths);
   std::vector<probes::ProbeReference> out;
-  for (const ReferenceSpec& r : g.references) {
-    const std::shared_ptr<const reference_images::Reference> ref = context.Reference(r.image_path);
+  for (std::size_t i = 0; i < refs.size(); ++i) {
+    const ReferenceSpec& r = g.references[i];
+    const reference_images::Reference* ref = refs[i].get();
     probes::ProbeReference pr;
     pr.name = r.name;
     pr.lighting = r.lighting;

@@ -1,9 +1,11 @@
 // What every unit of a run reads: the study, the options, where the files go and the log.
 #pragma once
 
+#include <memory>
 #include <mutex>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "brdf_space_fits.h"
 #include "job_graph.h"
@@ -49,6 +51,16 @@ struct RunContext {
     if (references) return references->Get(image_path);
     return std::make_shared<const reference_images::Reference>(
         reference_images::LoadReference(image_path));
+  }
+
+  // The references at `image_paths`, in their order: read side by side by the workers that ask
+  // for them at once where `references` is set (LoadedReferences::GetAll).
+  std::vector<std::shared_ptr<const reference_images::Reference>> References(
+      const std::vector<std::string>& image_paths) const {
+    if (references) return references->GetAll(image_paths);
+    std::vector<std::shared_ptr<const reference_images::Reference>> out;
+    for (const std::string& path : image_paths) out.push_back(Reference(path));
+    return out;
   }
 };
 
