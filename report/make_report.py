@@ -83,14 +83,16 @@ class MaterialFigures:
     start at once; finish() collects them, so that the caller draws the study-level figures
     meanwhile. `progress`: a callable told each material as it is done."""
 
-    def __init__(self, study_dir, study, fits, probes, fig_dir, jobs, progress=None):
+    def __init__(self, study_dir, study, fits, probes, fig_dir, jobs, progress=None,
+                 digests=None):
         global _FIGURE_INPUTS
         _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
         self.grid_order = list(materials_of(study))
         self.probed = sorted(probes)
         materials = self.grid_order + sorted(m for m in probes if m not in self.grid_order)
         code = figure_cache.code_fingerprint()
-        self.keys = {m: figure_cache.material_key(study_dir, study, fits, probes, m, code)
+        self.keys = {m: figure_cache.material_key(study_dir, study, fits, probes, m, code,
+                                                  digests)
                      for m in materials}
         self.fig_dir, self.progress, self.done = fig_dir, progress, {}
         for m in materials:
@@ -175,8 +177,11 @@ class Inputs:
     def __init__(self, study_dir):
         self.study_dir = study_dir
         self.jobs = report_jobs()
+        # The SHA-256 of each fit and probe record's file (report_inputs.read_jobs): the figure
+        # cache's keys.
+        self.digests = {}
         (self.study, self.rows, self.fits, self.probes,
-         self.provenance) = load_study(study_dir)
+         self.provenance) = load_study(study_dir, self.digests)
         self.charts = report_charts.load_charts(study_dir)
         self.ngan = report_ngan.ngan_comparison(self.study, self.fits,
                                                 report_inputs.read_ngan_fits(self.study))
@@ -256,8 +261,11 @@ def draw_figures(inp, answers, fig_dir, materials, progress=None):
         inp.study, inp.rows, fig_dir, manifest, to_float))
     # The charts are drawn from the files under charts/ (report_charts.load_charts).
     chart_files = glob.glob(os.path.join(inp.study_dir, "charts", "**", "*"), recursive=True)
-    charts = group("charts", {"charts": inp.charts, "fits": sorted(inp.fits.items()),
-                              "probes": inp.probes},
+    records = {**{("fit",) + k: job for k, job in inp.fits.items()},
+               **{("probe", m): job for m, job in inp.probes.items()}}
+    charts = group("charts", {"charts": inp.charts,
+                              "jobs": figure_cache.records_json(records, inp.digests,
+                                                                sorted(records))},
                    lambda manifest: manifest.extend(report_charts.chart_figures(
                        inp.study_dir, inp.study, inp.fits, fig_dir, [], inp.charts, inp.probes)),
                    chart_files)
@@ -282,7 +290,7 @@ def make_report(study_dir, quiet=True):
     with tempfile.TemporaryDirectory(prefix="shadefit-report-fonts-") as font_dir:
         report_figures.share_font_subsets(font_dir)
         material_figs = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes,
-                                        fig_dir, inp.jobs, progress.step)
+                                        fig_dir, inp.jobs, progress.step, inp.digests)
         try:
             return _write_report(inp, report_dir, fig_dir, material_figs, progress)
         except BaseException:

@@ -22,6 +22,7 @@ metrics/probes/src/output.cpp (probe jobs), outputs.cpp (results.csv, provenance
 import csv
 import dataclasses
 import glob
+import hashlib
 import json
 import os
 
@@ -517,10 +518,15 @@ def read_results(path):
 # Reading
 
 
-def load_json(path):
+def load_json(path, digest=None):
+    """The JSON document at `path`; `digest`: a list that receives the SHA-256 (hex) of the
+    bytes it was parsed from."""
     try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
+        with open(path, "rb") as f:
+            raw = f.read()
+        if digest is not None:
+            digest.append(hashlib.sha256(raw).hexdigest())
+        return json.loads(raw.decode("utf-8"))
     except OSError as e:
         raise ReportInputError(f"{path}: cannot read ({e.strerror})")
     except ValueError as e:
@@ -533,21 +539,30 @@ def read_checked(path, schema):
     return value
 
 
-def read_jobs(study_dir):
+def read_jobs(study_dir, digests=None):
     """(fits by (material, label), probe jobs by material); other job kinds are not the
-    report's."""
+    report's. `digests`: a dict that receives the SHA-256 of each kept record's file, under the
+    record's key (("fit", material, label), ("probe", material)): what the
+    figure cache keys figures by (figure_cache.py), the bytes the record was read from."""
     fits, probes = {}, {}
     for path in sorted(glob.glob(os.path.join(study_dir, "jobs", "*.json"))):
         if path.endswith(".timing.json"):
             continue  # wall-clock times (WriteTiming), not results
-        job = load_json(path)
+        digest = []
+        job = load_json(path, digest)
         kind = job.get("kind") if isinstance(job, dict) else None
         if kind in JOB_SCHEMAS:
             check_object(job, JOB_SCHEMAS[kind], path)
         if kind == "fit":
             fits[(job["material"], job["label"])] = job
+            key = ("fit", job["material"], job["label"])
         elif kind == "probe":
+            key = ("probe", job["material"])
             probes[job["material"]] = job
+        else:
+            continue
+        if digests is not None:
+            digests[key] = digest[0]
     return fits, probes
 
 
@@ -569,15 +584,16 @@ def check_verdict_columns(study, study_path, rows, csv_path):
                                    f"'{v['metric']}' is not a column of {csv_path}")
 
 
-def load_study(study_dir):
-    """(study, results rows, fits, probes, provenance), every field the report reads checked."""
+def load_study(study_dir, digests=None):
+    """(study, results rows, fits, probes, provenance), every field the report reads checked;
+    `digests`: read_jobs'."""
     study_path = os.path.join(study_dir, "study.json")
     study = load_json(study_path)
     check_study(study, study_path)
     csv_path = os.path.join(study_dir, "results.csv")
     rows = read_results(csv_path)
     check_verdict_columns(study, study_path, rows, csv_path)
-    fits, probes = read_jobs(study_dir)
+    fits, probes = read_jobs(study_dir, digests)
     prov_path = os.path.join(study_dir, "provenance.json")
     provenance = read_checked(prov_path, PROVENANCE) if os.path.exists(prov_path) else {}
     return study, rows, fits, probes, provenance

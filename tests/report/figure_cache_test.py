@@ -6,7 +6,8 @@ on the synthetic four-fit study of many_fits_test.py (2 materials, images and pr
   charts keep their modification times) and writes the same figures.json, summary.md and
   index.html bytes;
 - one preview image of one material rewritten with other pixels: that material's grids are
-  drawn again, the other material's are not;
+  drawn again, the other material's are not; so with one fit record of a material changed
+  (and the charts, drawn from every record);
 - a figure file deleted: it is drawn again;
 - the drawing shortcuts (report_figures: text measured, math parsed and glyphs drawn once per
   process, 8-bit opaque tiles, font subsets per set of characters, made from a subset of the
@@ -151,6 +152,25 @@ def main(argv):
           f"{os.path.basename(image)} changed, yet {gold}'s grids were not drawn again")
     check(all(after2[p] == after[p] for p in grids[red]),
           f"only {gold} changed, yet {red}'s grids were drawn again")
+
+    # One fit record of the first material, another number in its file: its figures are keyed
+    # by the bytes of its records' files (figure_cache.records_json).
+    import json
+    job = sorted(glob.glob(os.path.join(d, "jobs", f"fit.{red}.*.json")))[0]
+    with open(job, encoding="utf-8") as f:
+        record = json.load(f)
+    record["parameters"][0]["value"] += 0.01
+    with open(job, "w", encoding="utf-8") as f:
+        json.dump(record, f)
+    make_report.make_report(d)
+    after3 = stamps(d, "*")
+    check(all(after3[p] != after2[p] for p in grids[red]),
+          f"{os.path.basename(job)} changed, yet {red}'s grids were not drawn again")
+    check(all(after3[p] == after2[p] for p in grids[gold]),
+          f"only {red}'s record changed, yet {gold}'s grids were drawn again")
+    charts = sorted(stamps(d, "chart-*"))
+    check(all(after3[p] != after2[p] for p in charts),
+          f"{os.path.basename(job)} changed, yet the charts (drawn from every record) were not")
 
     victim = sorted(grids[red])[0]
     os.remove(victim)
