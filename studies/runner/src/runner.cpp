@@ -423,6 +423,12 @@ void StudyRun::WriteStudyOutputs(bool complete) {
   internal::WriteResultsCsv(context_, jobs_);
   const std::string stages = internal::StageTable(internal::WriteTimingsCsv(context_, jobs_));
   if (!stages.empty()) log_->Say(stages);
+  // How often the metrics found a reference's half already computed (the log only: a tuning
+  // figure, not a result).
+  const metrics::ReferenceCache::Stats cache = reference_cache_.stats();
+  log_->Line(fmt::format("reference cache: {} hits, {} misses, {:.0f} MiB held (budget {} MiB)",
+                         cache.hits, cache.misses, cache.bytes / 1048576.0,
+                         kReferenceCacheBytes >> 20));
   if (internal::WritesGeometry(spec_)) {
     // The data floor's geometry (report/data_floor.py): one G-buffer per reference, on a context
     // of its own (the workers' are gone; a merge never had one).
