@@ -143,18 +143,28 @@ def main(argv):
     for n, text in first.items():
         check(read(d, n) == text, f"unchanged inputs, yet {n} differs")
 
+    def redraws(changed, material, other, before, also=()):
+        """A report after `changed` (a file of `material`'s): its grids (and `also`) are drawn
+        again, `other`'s are not. Returns the figures' new times."""
+        make_report.make_report(d)
+        now = stamps(d, "*")
+        check(all(now[p] != before[p] for p in grids[material]),
+              f"{os.path.basename(changed)} changed, yet {material}'s grids were not drawn again")
+        check(all(now[p] == before[p] for p in grids[other]),
+              f"only {material}'s {os.path.basename(changed)} changed, yet {other}'s grids were "
+              "drawn again")
+        check(all(now[p] != before[p] for p in also),
+              f"{os.path.basename(changed)} changed, yet {sorted(also)} were not drawn again")
+        return now
+
     # One preview of the second material, new pixels.
     image = sorted(glob.glob(os.path.join(d, "images", f"{gold}-*.png")))[0]
     mf.write_png(image, 0.123)
-    make_report.make_report(d)
-    after2 = stamps(d, "*")
-    check(all(after2[p] != after[p] for p in grids[gold]),
-          f"{os.path.basename(image)} changed, yet {gold}'s grids were not drawn again")
-    check(all(after2[p] == after[p] for p in grids[red]),
-          f"only {gold} changed, yet {red}'s grids were drawn again")
+    after2 = redraws(image, gold, red, after)
 
     # One fit record of the first material, another number in its file: its figures are keyed
-    # by the bytes of its records' files (figure_cache.records_json).
+    # by the bytes of its records' files (figure_cache.records_json); so are the charts, drawn
+    # from every record.
     import json
     job = sorted(glob.glob(os.path.join(d, "jobs", f"fit.{red}.*.json")))[0]
     with open(job, encoding="utf-8") as f:
@@ -162,15 +172,7 @@ def main(argv):
     record["parameters"][0]["value"] += 0.01
     with open(job, "w", encoding="utf-8") as f:
         json.dump(record, f)
-    make_report.make_report(d)
-    after3 = stamps(d, "*")
-    check(all(after3[p] != after2[p] for p in grids[red]),
-          f"{os.path.basename(job)} changed, yet {red}'s grids were not drawn again")
-    check(all(after3[p] == after2[p] for p in grids[gold]),
-          f"only {red}'s record changed, yet {gold}'s grids were drawn again")
-    charts = sorted(stamps(d, "chart-*"))
-    check(all(after3[p] != after2[p] for p in charts),
-          f"{os.path.basename(job)} changed, yet the charts (drawn from every record) were not")
+    redraws(job, red, gold, after2, also=sorted(stamps(d, "chart-*")))
 
     victim = sorted(grids[red])[0]
     os.remove(victim)
