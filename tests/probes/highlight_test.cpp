@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "../../metrics/probes/src/probe_common.h"
 #include "probe_test_util.h"
 
 namespace shadefit::testing {
@@ -190,4 +191,33 @@ TEST(HighlightProbe, NoHighlightOnLambertMeansNotApplicable) {
 }
 
 }  // namespace
+// A pixel's theta_h and theta_d are its dominant light's, wherever that light is in the pixel's
+// list. Two lights over a surface seen from its normal: l0 at 20 degrees with a tenth of the
+// irradiance, l1 at 60 degrees; without a known BRDF the dominant light is the one giving the
+// most Lambertian shading (cos 60 x 1 > cos 20 x 0.1), l1, whose half vector is 30 degrees from
+// both n and l1 (10 for l0). The second pixel lists the two lights the other way round.
+TEST(HighlightDecomposition, AnglesAreTheDominantLightsWhereverItIsListed) {
+  const double d2r = M_PI / 180.0;
+  const PixelLight weak{{std::sin(20 * d2r), 0.0, std::cos(20 * d2r)}, {0.1, 0.1, 0.1}};
+  const PixelLight strong{{0.0, std::sin(60 * d2r), std::cos(60 * d2r)}, {1.0, 1.0, 1.0}};
+  std::vector<ShadingPoint> points(2);
+  for (int i = 0; i < 2; ++i) {
+    points[i].x = i;
+    points[i].n = {0.0, 0.0, 1.0};
+    points[i].v = {0.0, 0.0, 1.0};
+  }
+  points[0].lights = {weak, strong};
+  points[1].lights = {strong, weak};
+  Image image(2, 1, 4);
+  for (float& v : image.data) v = 1.0f;
+  const probes::internal::Decomposition dec = probes::internal::Decompose(
+      points, probes::internal::AnglesOf(points), image, nullptr, 0.5, 50.0);
+  ASSERT_EQ(dec.pixels.size(), 2u);
+  for (const probes::internal::PixelTerms& t : dec.pixels) {
+    EXPECT_NEAR(t.theta_v_deg, 0.0, 1e-6) << "pixel " << t.x;
+    EXPECT_NEAR(t.theta_h_deg, 30.0, 1e-9) << "pixel " << t.x;
+    EXPECT_NEAR(t.theta_d_deg, 30.0, 1e-9) << "pixel " << t.x;
+  }
+}
+
 }  // namespace shadefit::testing

@@ -78,11 +78,12 @@ struct LabelState {
 // label's pooled state.
 void MeasureImage(const FresnelOptions& o, const std::string& label, const ModelUnderTest* known,
                   const ProbeReference& ref, const std::vector<ShadingPoint>& points,
-                  const Image& image, LabelState* st, ProbeResult* result) {
+                  const internal::ShadingAngles& angles, const Image& image, LabelState* st,
+                  ProbeResult* result) {
   const int nbins = static_cast<int>(st->theta_d.num.size());
   const double w = o.bin_width_deg;
   const internal::Decomposition dec =
-      internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
+      internal::Decompose(points, angles, image, known, o.min_coverage, o.diffuse_percentile);
   st->has_lobe = dec.has_lobe;
   Binned tv(nbins);
   double max_lobe = 0;
@@ -194,9 +195,11 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
 
   // Each reference's shading points (its scene and G-buffer), shared by every image under it.
   std::vector<std::vector<ShadingPoint>> points;
+  std::vector<internal::ShadingAngles> angles;
   for (const ProbeReference* ref : refs) {
     points.push_back(
         PrepareShading(ref->scene, ref->gbuffer, static_cast<float>(o.min_coverage)));
+    angles.push_back(internal::AnglesOf(points.back()));
   }
   // The reference first, then every model.
   std::vector<std::pair<std::string, LabelState>> states;
@@ -204,7 +207,8 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
     LabelState st(nbins);
     const ModelUnderTest* truth = inputs.truth ? &*inputs.truth : nullptr;
     for (std::size_t i = 0; i < refs.size(); ++i) {
-      MeasureImage(o, "reference", truth, *refs[i], points[i], refs[i]->image, &st, &result);
+      MeasureImage(o, "reference", truth, *refs[i], points[i], angles[i], refs[i]->image, &st,
+                   &result);
     }
     if (!truth) {
       result.notes.push_back(
@@ -216,8 +220,8 @@ ProbeResult FresnelProbe(const ProbeInputs& inputs, const FresnelOptions& o) {
   for (const ModelUnderTest& m : inputs.models) {
     LabelState st(nbins);
     for (std::size_t i = 0; i < refs.size(); ++i) {
-      MeasureImage(o, m.label, &m, *refs[i], points[i], internal::RenderModel(inputs, m, *refs[i]),
-                   &st, &result);
+      MeasureImage(o, m.label, &m, *refs[i], points[i], angles[i],
+                   internal::RenderModel(inputs, m, *refs[i]), &st, &result);
     }
     states.emplace_back(m.label, std::move(st));
   }

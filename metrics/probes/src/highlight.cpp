@@ -196,9 +196,10 @@ ProbeResult HighlightProbe(const ProbeInputs& inputs, const HighlightOptions& o)
   for (const ProbeReference* ref : refs) {
     const auto points =
         PrepareShading(ref->scene, ref->gbuffer, static_cast<float>(o.min_coverage));
+    const internal::ShadingAngles angles = internal::AnglesOf(points);
     auto run = [&](const std::string& label, const ModelUnderTest* known, const Image& image) {
-      const internal::Decomposition dec =
-          internal::Decompose(points, image, known, o.min_coverage, o.diffuse_percentile);
+      const internal::Decomposition dec = internal::Decompose(points, angles, image, known,
+                                                              o.min_coverage, o.diffuse_percentile);
       const Shape s = Measure(dec, image.width, image.height, o);
       // A reference without a highlight (a Lambert material: its residual is render noise) has
       // no shape to reproduce: it gets no shape numbers, so its highlight verdicts read "not

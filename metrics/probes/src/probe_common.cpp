@@ -148,9 +148,30 @@ double AcosDeg(double c) { return std::acos(std::clamp(c, -1.0, 1.0)) * kRadToDe
 
 }  // namespace
 
-Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& image,
-                        const ModelUnderTest* known, double min_coverage,
+ShadingAngles AnglesOf(const std::vector<ShadingPoint>& points) {
+  ShadingAngles a;
+  a.theta_v_deg.reserve(points.size());
+  a.first_light.reserve(points.size() + 1);
+  for (const ShadingPoint& pt : points) {
+    a.theta_v_deg.push_back(AcosDeg(Dot(pt.n, pt.v)));
+    a.first_light.push_back(a.theta_h_deg.size());
+    for (const PixelLight& light : pt.lights) {
+      const Vec3d& l = light.l;
+      const Vec3d h = Normalize(l + pt.v);
+      a.theta_h_deg.push_back(AcosDeg(Dot(pt.n, h)));
+      a.theta_d_deg.push_back(AcosDeg(Dot(l, h)));
+    }
+  }
+  a.first_light.push_back(a.theta_h_deg.size());
+  return a;
+}
+
+Decomposition Decompose(const std::vector<ShadingPoint>& points, const ShadingAngles& angles,
+                        const Image& image, const ModelUnderTest* known, double min_coverage,
                         double diffuse_percentile) {
+  if (angles.theta_v_deg.size() != points.size()) {
+    throw Error("probe", "angles", "the angles are not those of the shading points");
+  }
   Decomposition out;
   out.has_lobe = known != nullptr;
   const ModelInfo* info = known ? &ValidateModel(*known) : nullptr;
@@ -158,13 +179,14 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
   std::vector<double> lobes;
   out.pixels.reserve(points.size());
   lambert_shading.reserve(points.size());
-  for (const ShadingPoint& pt : points) {
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const ShadingPoint& pt = points[k];
     if (image.channels >= 4 && image.at(pt.x, pt.y, 3) < min_coverage) continue;
     PixelTerms t;
     t.x = pt.x;
     t.y = pt.y;
     t.total = Luma(image.at(pt.x, pt.y, 0), image.at(pt.x, pt.y, 1), image.at(pt.x, pt.y, 2));
-    t.theta_v_deg = AcosDeg(Dot(pt.n, pt.v));
+    t.theta_v_deg = angles.theta_v_deg[k];
     int dominant = -1;
     double best = 0;
     double shading = 0;
@@ -200,10 +222,9 @@ Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& im
       }
     }
     if (dominant >= 0) {
-      const Vec3d& l = pt.lights[dominant].l;
-      const Vec3d h = Normalize(l + pt.v);
-      t.theta_h_deg = AcosDeg(Dot(pt.n, h));
-      t.theta_d_deg = AcosDeg(Dot(l, h));
+      const std::size_t j = angles.first_light[k] + static_cast<std::size_t>(dominant);
+      t.theta_h_deg = angles.theta_h_deg[j];
+      t.theta_d_deg = angles.theta_d_deg[j];
     }
     out.pixels.push_back(t);
     lambert_shading.push_back(shading);

@@ -53,11 +53,22 @@ struct Decomposition {
   std::string diffuse_source;  // "truth", "model", "lambert-percentile (kd = ...)"
 };
 
-// Pixels of `points` whose image coverage (alpha when present) is >= min_coverage. `known`:
-// the BRDF whose diffuse term (times its exposure) is subtracted and whose lobe is reported;
-// null: the Lambert-percentile estimate.
-Decomposition Decompose(const std::vector<ShadingPoint>& points, const Image& image,
-                        const ModelUnderTest* known, double min_coverage,
+// The angles a decomposition reports at each shading point: theta_v, and theta_h and theta_d
+// under each of the point's lights (whichever is dominant in an image). They depend on the
+// point alone, so a reference's are computed once and shared by the decompositions of the
+// reference and of every model under it (three acos per pixel and image before).
+struct ShadingAngles {
+  std::vector<double> theta_v_deg;         // per point
+  std::vector<std::size_t> first_light;    // per point, and one past the last: its lights' entries
+  std::vector<double> theta_h_deg, theta_d_deg;  // per point and light
+};
+ShadingAngles AnglesOf(const std::vector<ShadingPoint>& points);
+
+// Pixels of `points` whose image coverage (alpha when present) is >= min_coverage. `angles`:
+// AnglesOf(points). `known`: the BRDF whose diffuse term (times its exposure) is subtracted and
+// whose lobe is reported; null: the Lambert-percentile estimate.
+Decomposition Decompose(const std::vector<ShadingPoint>& points, const ShadingAngles& angles,
+                        const Image& image, const ModelUnderTest* known, double min_coverage,
                         double diffuse_percentile);
 
 // The references a probe uses: `lightings` (empty: all) whose scene the twin supports; the
