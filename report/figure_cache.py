@@ -40,27 +40,17 @@ def code_fingerprint():
     return h.hexdigest()
 
 
-def records_json(records, digests, keys):
-    """The records at `keys` of `records` for a hash: the SHA-256 of the files they were read
-    from where `digests` (report_inputs.read_jobs') has every key, else the records themselves.
-    A measured study's records are ~50 MB of JSON: writing them out again for the hash took
+def material_key(study_dir, study, fits, probes, material, code, digests):
+    """The hash of everything one material's figures are drawn from. Its fit and probe records
+    count by the SHA-256 of the files they were read from (`digests`: report_inputs.read_jobs'):
+    a measured study's records are ~50 MB of JSON, and writing them out again for the hash took
     ~2 s before the figure workers could start."""
-    if digests is not None and all(k in digests for k in keys):
-        return [[list(k), digests[k]] for k in keys]
-    return [records[k] for k in keys]
-
-
-def material_key(study_dir, study, fits, probes, material, code, digests=None):
-    """The hash of everything one material's figures are drawn from. `digests`: as for
-    records_json."""
     mine = {label: job for (m, label), job in sorted(fits.items()) if m == material}
     keys = [("fit", material, label) for label in mine] + (
         [("probe", material)] if material in probes else [])
-    records = {**{("fit", material, label): job for label, job in mine.items()},
-               ("probe", material): probes.get(material)}
     h = hashlib.sha256(code.encode())
     h.update(json.dumps({"study": study, "material": material,
-                         "jobs": records_json(records, digests, keys)}, sort_keys=True).encode())
+                         "jobs": [[k, digests[k]] for k in keys]}, sort_keys=True).encode())
     images = sorted({rel for job in mine.values() for e in job["evaluations"]
                      for rel in (e.get("images") or {}).values() if isinstance(rel, str)})
     for rel in images:

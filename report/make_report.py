@@ -81,10 +81,10 @@ class MaterialFigures:
     name): the same records, in the same order, with one process or several. A material whose
     figure inputs hash as at the last report (figure_cache) is not drawn again. The workers
     start at once; finish() collects them, so that the caller draws the study-level figures
-    meanwhile. `progress`: a callable told each material as it is done."""
+    meanwhile. `digests`: report_inputs.read_jobs' (the cache keys); `progress`: a callable
+    told each material as it is done."""
 
-    def __init__(self, study_dir, study, fits, probes, fig_dir, jobs, progress=None,
-                 digests=None):
+    def __init__(self, study_dir, study, fits, probes, fig_dir, jobs, digests, progress=None):
         global _FIGURE_INPUTS
         _FIGURE_INPUTS = (study_dir, study, fits, probes, fig_dir)
         self.grid_order = list(materials_of(study))
@@ -261,11 +261,8 @@ def draw_figures(inp, answers, fig_dir, materials, progress=None):
         inp.study, inp.rows, fig_dir, manifest, to_float))
     # The charts are drawn from the files under charts/ (report_charts.load_charts).
     chart_files = glob.glob(os.path.join(inp.study_dir, "charts", "**", "*"), recursive=True)
-    records = {**{("fit",) + k: job for k, job in inp.fits.items()},
-               **{("probe", m): job for m, job in inp.probes.items()}}
-    charts = group("charts", {"charts": inp.charts,
-                              "jobs": figure_cache.records_json(records, inp.digests,
-                                                                sorted(records))},
+    # Every fit and probe record, by its file's SHA-256 (report_inputs.read_jobs).
+    charts = group("charts", {"charts": inp.charts, "jobs": sorted(inp.digests.items())},
                    lambda manifest: manifest.extend(report_charts.chart_figures(
                        inp.study_dir, inp.study, inp.fits, fig_dir, [], inp.charts, inp.probes)),
                    chart_files)
@@ -290,7 +287,7 @@ def make_report(study_dir, quiet=True):
     with tempfile.TemporaryDirectory(prefix="shadefit-report-fonts-") as font_dir:
         report_figures.share_font_subsets(font_dir)
         material_figs = MaterialFigures(inp.study_dir, inp.study, inp.fits, inp.probes,
-                                        fig_dir, inp.jobs, progress.step, inp.digests)
+                                        fig_dir, inp.jobs, inp.digests, progress.step)
         try:
             return _write_report(inp, report_dir, fig_dir, material_figs, progress)
         except BaseException:

@@ -163,7 +163,7 @@ def main(argv):
     after2 = redraws(image, gold, red, after)
 
     # One fit record of the first material, another number in its file: its figures are keyed
-    # by the bytes of its records' files (figure_cache.records_json); so are the charts, drawn
+    # by the bytes of its records' files (figure_cache.material_key); so are the charts, drawn
     # from every record.
     import json
     job = sorted(glob.glob(os.path.join(d, "jobs", f"fit.{red}.*.json")))[0]

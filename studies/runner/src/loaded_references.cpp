@@ -31,8 +31,7 @@ LoadedReferences::Shared LoadedReferences::Get(const std::string& image_path) {
       order_.splice(order_.begin(), order_, it->second.order);
       found = it->second.value;
     } else {
-      order_.push_front(image_path);
-      entries_[image_path] = Entry{made.get_future().share(), 0, order_.begin()};
+      ClaimLocked(image_path, made);
     }
   }
   if (found.valid()) return found.get();
@@ -50,8 +49,7 @@ std::vector<LoadedReferences::Shared> LoadedReferences::GetAll(
     {
       std::lock_guard lock(mutex_);
       if (entries_.contains(image_paths[i])) continue;
-      order_.push_front(image_paths[i]);
-      entries_[image_paths[i]] = Entry{made.get_future().share(), 0, order_.begin()};
+      ClaimLocked(image_paths[i], made);
     }
     try {
       got[i] = Read(image_paths[i], made);
@@ -63,6 +61,11 @@ std::vector<LoadedReferences::Shared> LoadedReferences::GetAll(
     if (!got[i]) got[i] = Get(image_paths[i]);
   }
   return got;
+}
+
+void LoadedReferences::ClaimLocked(const std::string& image_path, std::promise<Shared>& made) {
+  order_.push_front(image_path);
+  entries_[image_path] = Entry{made.get_future().share(), 0, order_.begin()};
 }
 
 LoadedReferences::Shared LoadedReferences::Read(const std::string& image_path,

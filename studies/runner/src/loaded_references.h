@@ -44,6 +44,8 @@ class LoadedReferences {
     std::list<std::string>::iterator order;
   };
   static Loader DefaultLoader();
+  // Enters `image_path` as read by this thread (its value: `made`'s future), most recent first.
+  void ClaimLocked(const std::string& image_path, std::promise<Shared>& made);
   // Reads the reference this thread has claimed (its entry holds `made`'s future), or forgets
   // the claim and rethrows.
   Shared Read(const std::string& image_path, std::promise<Shared>& made);
