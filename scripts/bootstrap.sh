@@ -14,11 +14,12 @@ cd "$(dirname "$0")/.."
 # Every dependency is a Debian 12 package (README, "Dependencies").
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libceres-dev libopenimageio-dev openimageio-tools libopenexr-dev libglm-dev libopencv-dev libhdf5-dev
+  libceres-dev libopenimageio-dev openimageio-tools libopenexr-dev libglm-dev libhdf5-dev
+  libopencv-core-dev libopencv-imgproc-dev  # not libopencv-dev: every OpenCV module, 77 packages
   libegl-dev libegl-mesa0 libgl1-mesa-dri libepoxy-dev
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev libssl-dev
   libassimp-dev libembree-dev libmatio-dev libeigen3-dev  # meshes, ray casting, .mat normals
-  python3 python3-numpy python3-matplotlib python3-skimage python3-scipy python3-statsmodels
+  python3 python3-numpy python3-matplotlib python3-scipy python3-statsmodels
   python3-dev pybind11-dev  # the Python module `import shadefit` (docs/python.md)
   blender-data  # CC0 environment maps used by the environment-lit references, read by path
 )
@@ -28,6 +29,7 @@ packages=(
 # StudyEndToEnd.LatexTablesCompile.
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev  # the test suite and bench/
+  python3-skimage  # SsimTest's peer: scikit-image's structural_similarity
   blender
   texlive-latex-base texlive-latex-recommended
   chromium chromium-driver python3-selenium  # report_browser: index.html in headless Chromium
