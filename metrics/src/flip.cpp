@@ -38,6 +38,63 @@ std::shared_ptr<const FlipSide> ReferenceSide(ReferenceCache* cache, std::uint64
       [](const FlipSide& side) { return side.Bytes(); });
 }
 
+// Copies the kept half of `from` with this tone mapper and scale into `side` (this call's
+// coordinates: its image at `x0`, `y0` of the frame, `width` wide): false, and `side` untouched,
+// when there is none with this observer or it lacks a pixel of `wanted`.
+bool TakeKeptHalf(const internal::FlipTestHalves& from, int x0, int y0, int width, double ppd,
+                  int tone_mapper, float scale, const RowSpans& wanted, FlipSide& side) {
+  if (from.ppd != ppd) return false;
+  const auto half = std::find_if(from.halves.begin(), from.halves.end(), [&](const auto& k) {
+    return k.tone_mapper == tone_mapper && k.scale == scale;
+  });
+  if (half == from.halves.end()) return false;
+  const RowSpans& kept = half->spans;
+  const int dx = x0 - from.x0, dy = y0 - from.y0;
+  const int kept_rows = static_cast<int>(kept.begin.size());
+  const int kept_width = half->width;
+  const int rows = static_cast<int>(wanted.begin.size());
+  for (int y = 0; y < rows; ++y) {
+    if (wanted.begin[y] >= wanted.end[y]) continue;
+    const int ky = y + dy;
+    if (ky < 0 || ky >= kept_rows || wanted.begin[y] + dx < kept.begin[ky] ||
+        wanted.end[y] + dx > kept.end[ky]) {
+      return false;
+    }
+  }
+  const std::size_t n = static_cast<std::size_t>(width) * rows;
+  side.lab.resize(n);
+  side.features.edge.resize(n);
+  side.features.point.resize(n);
+  const FlipSide& k = half->side;
+  for (int y = 0; y < rows; ++y) {
+    if (wanted.begin[y] >= wanted.end[y]) continue;
+    const std::size_t to = static_cast<std::size_t>(y) * width + wanted.begin[y];
+    const std::size_t at = static_cast<std::size_t>(y + dy) * kept_width + wanted.begin[y] + dx;
+    const std::size_t count = static_cast<std::size_t>(wanted.end[y] - wanted.begin[y]);
+    std::copy_n(k.lab.begin() + at, count, side.lab.begin() + to);
+    std::copy_n(k.features.edge.begin() + at, count, side.features.edge.begin() + to);
+    std::copy_n(k.features.point.begin() + at, count, side.features.point.begin() + to);
+  }
+  return true;
+}
+
+// The test image's half at one exposure (tone mapper 0: LDR-FLIP), from reuse.from when it holds
+// it, else computed; a copy kept in reuse.keep.
+void TestSide(const Image& test, double ppd, const RowSpans& wanted, int tone_mapper,
+              const Exposure& exposure, const internal::FlipReuse& reuse, SideScratch& scratch,
+              FlipSide& side) {
+  if (reuse.from == nullptr || !TakeKeptHalf(*reuse.from, reuse.x0, reuse.y0, test.width, ppd,
+                                             tone_mapper, exposure.scale, wanted, side)) {
+    ComputeSide(test, ppd, wanted, exposure, scratch, side);
+  }
+  if (reuse.keep != nullptr) {
+    reuse.keep->x0 = reuse.x0;
+    reuse.keep->y0 = reuse.y0;
+    reuse.keep->ppd = ppd;
+    reuse.keep->halves.push_back({tone_mapper, exposure.scale, test.width, wanted, side});
+  }
+}
+
 FlipResult Pool(const Plane& map, const Image* mask) {
   std::vector<float> values;
   values.reserve(map.size());
@@ -101,21 +158,32 @@ RowSpans WantedSpans(const Image& ref, const Image* mask, bool whole_map) {
 
 FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
                    Image* flip_map) {
+  return internal::FlipLdr(reference, test, p, flip_map, {});
+}
+
+FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParameters& p,
+                   Image* flip_map, Image* exposure_map) {
+  return internal::FlipHdr(reference, test, p, flip_map, exposure_map, {});
+}
+
+FlipResult internal::FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
+                             Image* flip_map, const FlipReuse& reuse) {
   ValidateInputs(reference, test, p.mask, 3);
   const Image& ref = reference;  // The halves read the first three channels.
   const RowSpans wanted = WantedSpans(ref, p.mask, flip_map != nullptr);
   const auto ref_side =
       ReferenceSide(p.reference_cache, p.reference_cache ? HashPixels(ref) : 0, ref, p.ppd, wanted,
                     internal::HashSpans(wanted), 0, {});
-  const Plane map =
-      CombineSides(*ref_side, ComputeSide(test, p.ppd, wanted), ref.width, ref.height, wanted);
+  FlipSide test_side;
+  TestSide(test, p.ppd, wanted, 0, {}, reuse, internal::ThreadScratch(), test_side);
+  const Plane map = CombineSides(*ref_side, test_side, ref.width, ref.height, wanted);
   FlipResult result = Pool(map, p.mask);
   if (flip_map) *flip_map = ToImage(map, reference.width, reference.height);
   return result;
 }
 
-FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParameters& p,
-                   Image* flip_map, Image* exposure_map) {
+FlipResult internal::FlipHdr(const Image& reference, const Image& test, const FlipParameters& p,
+                             Image* flip_map, Image* exposure_map, const FlipReuse& reuse) {
   ValidateInputs(reference, test, p.mask, 3);
   const Image& ref = reference;  // The halves read the first three channels.
   const std::size_t n = ref.PixelCount();
@@ -168,7 +236,8 @@ FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParamete
     const Exposure exposure{true, static_cast<float>(std::exp2(start + e * step)), p.tone_mapper};
     const auto ref_side = ReferenceSide(p.reference_cache, ref_hash, ref, p.ppd, wanted, spans_hash,
                                         1 + static_cast<int>(p.tone_mapper), exposure);
-    ComputeSide(test, p.ppd, wanted, exposure, scratch, test_side);
+    TestSide(test, p.ppd, wanted, 1 + static_cast<int>(p.tone_mapper), exposure, reuse, scratch,
+             test_side);
     CombineSides(*ref_side, test_side, ref.width, wanted, map);
     // Outside `wanted` the map is not written and `worst` stays 0, as a map of 0 there leaves it.
     for (std::size_t y = 0; y < wanted.begin.size(); ++y) {

@@ -89,6 +89,43 @@ void ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted, const Exp
 FlipSide ComputeSide(const Image& rgb, double ppd, const RowSpans& wanted,
                      const Exposure& exposure = {});
 
+// A test image's half one FLIP call keeps for a later call on the same test pixels (a study's
+// measured pass after its covered pass, metrics/src/report.cpp): valid at `spans`, in the
+// coordinates of its call's image.
+struct KeptHalf {
+  int tone_mapper = 0;  // 0: LDR-FLIP's; 1 + FlipToneMapper: an HDR-FLIP exposure's.
+  float scale = 1.0f;   // The exposure's scale (1 for LDR-FLIP).
+  int width = 0;        // The image's (its height: the spans' rows).
+  RowSpans spans;
+  FlipSide side;
+};
+
+// The halves a call keeps, and where its image lies in the frame: (x0, y0) is its (0, 0) (a
+// window around a mask has its corner there).
+struct FlipTestHalves {
+  int x0 = 0, y0 = 0;
+  double ppd = 0.0;
+  std::vector<KeptHalf> halves;
+};
+
+// Where a FLIP call's images lie in the frame, and the test halves it keeps (`keep`) or takes
+// (`from`: an earlier call's on test pixels that are this call's, bit for bit, over this call's
+// image; the caller checks that). A half is taken when it has this call's observer, exposure and
+// tone mapper and holds every pixel this call wants: the pixels of a mask are as far from a
+// window's edge as the filters reach (or on the frame's edge), so a side's value there is the
+// frame's (ComputeSide), whichever window it was computed in.
+struct FlipReuse {
+  int x0 = 0, y0 = 0;
+  FlipTestHalves* keep = nullptr;
+  const FlipTestHalves* from = nullptr;
+};
+
+// FlipLdr and FlipHdr (flip.h) with the test halves of `reuse`; the same numbers and maps.
+FlipResult FlipLdr(const Image& reference, const Image& test, const FlipParameters& p,
+                   Image* flip_map, const FlipReuse& reuse);
+FlipResult FlipHdr(const Image& reference, const Image& test, const FlipParameters& p,
+                   Image* flip_map, Image* exposure_map, const FlipReuse& reuse);
+
 // The LDR-FLIP map from the two halves (Andersson et al. 2020, Sec. 4) at the pixels of `wanted`
 // (0 elsewhere).
 Plane CombineSides(const FlipSide& ref, const FlipSide& tst, int w, int h, const RowSpans& wanted);

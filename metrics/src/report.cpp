@@ -3,18 +3,22 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "flip_map.h"
 #include "internal.h"
+#include "kept_inputs.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/pixel_metrics.h"
 #include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
+
 namespace {
 
 // JSON has no infinities: non-finite numbers become null.
@@ -138,6 +142,72 @@ internal::MapStatistics KeptMapStatistics(const Image& map, int width, int heigh
   return internal::SummarizeMap(map, mask);
 }
 
+// The display encodings of a reference and a test image (for PSNR and SSIM: RGB; for SSIM's
+// luminance and MS-SSIM: luminance).
+struct Encoded {
+  Image ref, tst;
+};
+
+Encoded EncodeRgb(const Image& ref, const Image& tst, float stops) {
+  return {DisplayEncode(ref, stops), DisplayEncode(tst, stops)};
+}
+
+Encoded EncodeLuminance(const Image& ref, const Image& tst, float stops) {
+  return {DisplayEncode(Luminance(ref), stops), DisplayEncode(Luminance(tst), stops)};
+}
+
+// Whether a later call (its window at x0, y0, images `tst` and its parameters) can take from
+// `kept`: the same display exposure and observer, its window inside the keeping call's, and its
+// test's pixels the keeping call's test's, bit for bit.
+bool SameTest(const internal::KeptInputs& kept, int x0, int y0, const Image& tst,
+              const MetricsParameters& p) {
+  if (kept.exposure_stops != p.exposure_stops || kept.flip.ppd != p.ppd) return false;
+  const int dx = x0 - kept.x0, dy = y0 - kept.y0;
+  if (dx < 0 || dy < 0 || dx + tst.width > kept.tst.width || dy + tst.height > kept.tst.height ||
+      kept.tst.channels != tst.channels) {
+    return false;
+  }
+  const std::size_t row = static_cast<std::size_t>(tst.width) * tst.channels;
+  for (int y = 0; y < tst.height; ++y) {
+    const float* own = &tst.data[y * row];
+    const float* theirs =
+        &kept.tst.data[(static_cast<std::size_t>(dy + y) * kept.tst.width + dx) * tst.channels];
+    if (std::memcmp(own, theirs, row * sizeof(float)) != 0) return false;
+  }
+  return true;
+}
+
+// A later call's encodings from the keeping call's (`ref_kept`, `tst_kept`: one of KeptInputs'
+// pairs): its test's are the kept test's (SameTest), and at each pixel its reference's are the
+// kept reference's where its reference has the kept reference's bits there, else the test's where
+// it has the test's (a pixel patched with the test's values). Empty when a reference pixel is
+// neither: the caller encodes then.
+std::optional<Encoded> EncodedFromKept(const internal::KeptInputs& kept, int x0, int y0,
+                                       const Image& ref, const Image& tst, const Image& ref_kept,
+                                       const Image& tst_kept) {
+  const int w = ref.width, h = ref.height, c = ref_kept.channels;
+  const int dx = x0 - kept.x0, dy = y0 - kept.y0;
+  Encoded out{Image(w, h, c), Image(w, h, c)};
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * w + x;
+      const std::size_t k = static_cast<std::size_t>(dy + y) * kept.ref.width + dx + x;
+      const float* r = &ref.data[3 * i];
+      const float* from = nullptr;
+      if (std::memcmp(r, &kept.ref.data[3 * k], 3 * sizeof(float)) == 0) {
+        from = &ref_kept.data[c * k];
+      } else if (std::memcmp(r, &tst.data[3 * i], 3 * sizeof(float)) == 0) {
+        from = &tst_kept.data[c * k];
+      } else {
+        return std::nullopt;
+      }
+      std::copy_n(from, c, &out.ref.data[c * i]);
+      std::copy_n(&tst_kept.data[c * k], c, &out.tst.data[c * i]);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Image* mask,
@@ -145,8 +215,12 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   MetricClock clock(p.seconds);
   ValidateInputs(reference, test, mask, 3, p.names);
   const auto wanted = [&](MetricMap map) { return maps != nullptr && (p.maps_wanted & map) != 0; };
-  const Image ref = reference.channels == 3 ? reference : reference.Channels(0, 3);
-  const Image tst = test.channels == 3 ? test : test.Channels(0, 3);
+  // RGB: the inputs themselves, or their first three channels.
+  Image ref_rgb, tst_rgb;
+  if (reference.channels != 3) ref_rgb = reference.Channels(0, 3);
+  if (test.channels != 3) tst_rgb = test.Channels(0, 3);
+  const Image& ref = reference.channels == 3 ? reference : ref_rgb;
+  const Image& tst = test.channels == 3 ? test : tst_rgb;
 
   if (p.keep) *p.keep = {};  // Nothing of an earlier call's, whatever this one throws.
   MetricsReport r;
@@ -186,20 +260,40 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     return window ? Uncut(map, *window, ref.width, ref.height) : std::move(map);
   };
 
+  // The part's corner in the frame, and what a keeping call left for this one (KeptTerms::inputs)
+  // when its test is this one's.
+  const int x0 = window ? window->x : 0, y0 = window ? window->y : 0;
+  const internal::KeptInputs* from =
+      p.keep == nullptr && p.kept != nullptr && p.kept->inputs != nullptr &&
+              SameTest(*p.kept->inputs, x0, y0, tst_part, p)
+          ? p.kept->inputs.get()
+          : nullptr;
+  std::shared_ptr<internal::KeptInputs> keep_inputs;
+  if (p.keep != nullptr) keep_inputs = std::make_shared<internal::KeptInputs>();
+
   const PixelMetricParameters pixel{mask_part, p.relative_epsilon};
   r.rmse = Rmse(ref_part, tst_part, pixel);
   r.relative_rmse = RelativeRmse(ref_part, tst_part, pixel);
   r.log_rmse = LogRmse(ref_part, tst_part, pixel);
   r.mae = MeanAbsoluteError(ref_part, tst_part, pixel);
   // Display-encoded values in [0, 1], shared by PSNR and the structural metrics.
-  const Image ref_display = DisplayEncode(ref_part, p.exposure_stops);
-  const Image tst_display = DisplayEncode(tst_part, p.exposure_stops);
+  std::optional<Encoded> rgb_encoded;
+  if (from) {
+    rgb_encoded = EncodedFromKept(*from, x0, y0, ref_part, tst_part, from->ref_display,
+                                  from->tst_display);
+  }
+  if (!rgb_encoded) rgb_encoded = EncodeRgb(ref_part, tst_part, p.exposure_stops);
+  const Image& ref_display = rgb_encoded->ref;
+  const Image& tst_display = rgb_encoded->tst;
   r.psnr = internal::PsnrOfEncoded(ref_display, tst_display, mask_part);
   clock.Lap(&MetricsSeconds::pixel);
 
   ssim.mask = mask_part;
-  const Image ref_y = DisplayEncode(Luminance(ref_part), p.exposure_stops);
-  const Image tst_y = DisplayEncode(Luminance(tst_part), p.exposure_stops);
+  std::optional<Encoded> y_encoded;
+  if (from) y_encoded = EncodedFromKept(*from, x0, y0, ref_part, tst_part, from->ref_y, from->tst_y);
+  if (!y_encoded) y_encoded = EncodeLuminance(ref_part, tst_part, p.exposure_stops);
+  const Image& ref_y = y_encoded->ref;
+  const Image& tst_y = y_encoded->tst;
   Image ssim_map;
   try {
     // SSIM of the luminance is MS-SSIM's first scale (internal::MsSsimAndSsim), unless its map is
@@ -207,7 +301,7 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     MsSsimParameters ms;
     ms.ssim = ssim;
     // Kept terms (KeptTerms) are placed in the frame by the window's corner.
-    internal::SsimReuse luminance{window ? window->x : 0, window ? window->y : 0}, rgb = luminance;
+    internal::SsimReuse luminance{x0, y0}, rgb = luminance;
     if (p.keep) {
       luminance.keep = &p.keep->ssim.luminance;
       rgb.keep = &p.keep->ssim.rgb;
@@ -271,11 +365,16 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   flip.ppd = p.ppd;
   flip.mask = mask_part;
   flip.reference_cache = p.reference_cache;
-  r.flip_ldr = FlipLdr(ExposeAndClip(ref_part, p.exposure_stops),
-                       ExposeAndClip(tst_part, p.exposure_stops),
-                       flip, wanted(kFlipLdrMap) ? &maps->flip_ldr : nullptr);
+  // The test's halves: taken from a keeping call's (`from`) or kept for a later one.
+  const internal::FlipReuse flip_reuse{x0, y0, keep_inputs ? &keep_inputs->flip : nullptr,
+                                       from ? &from->flip : nullptr};
+  r.flip_ldr = internal::FlipLdr(ExposeAndClip(ref_part, p.exposure_stops),
+                                 ExposeAndClip(tst_part, p.exposure_stops), flip,
+                                 wanted(kFlipLdrMap) ? &maps->flip_ldr : nullptr, flip_reuse);
   clock.Lap(&MetricsSeconds::flip_ldr);
-  r.flip_hdr = FlipHdr(ref_part, tst_part, flip, wanted(kFlipHdrMap) ? &maps->flip_hdr : nullptr);
+  r.flip_hdr = internal::FlipHdr(ref_part, tst_part, flip,
+                                 wanted(kFlipHdrMap) ? &maps->flip_hdr : nullptr, nullptr,
+                                 flip_reuse);
   clock.Lap(&MetricsSeconds::flip_hdr);
 
   if (wanted(kAbsoluteErrorMap)) maps->absolute_error = AbsoluteErrorMap(ref, tst, mask);
@@ -283,6 +382,19 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     maps->relative_error = RelativeErrorMap(ref, tst, p.relative_epsilon, mask);
   }
   clock.Lap(&MetricsSeconds::maps);
+  if (keep_inputs) {
+    keep_inputs->x0 = x0;
+    keep_inputs->y0 = y0;
+    keep_inputs->exposure_stops = p.exposure_stops;
+    keep_inputs->flip.ppd = p.ppd;
+    keep_inputs->ref = window ? std::move(cut_ref) : ref;
+    keep_inputs->tst = window ? std::move(cut_tst) : tst;
+    keep_inputs->ref_display = std::move(rgb_encoded->ref);
+    keep_inputs->tst_display = std::move(rgb_encoded->tst);
+    keep_inputs->ref_y = std::move(y_encoded->ref);
+    keep_inputs->tst_y = std::move(y_encoded->tst);
+    p.keep->inputs = std::move(keep_inputs);
+  }
   return r;
 }
 

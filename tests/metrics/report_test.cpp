@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "shadefit/base/error.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/pixel_metrics.h"
+#include "../../metrics/src/kept_inputs.h"
 #include "test_images.h"
 
 namespace shadefit::metrics {
@@ -216,22 +218,39 @@ TEST(ReportTest, WindowAroundTheMaskGivesTheFramesValues) {
 // computes without them. The terms are read (changed values change the numbers: CIEDE2000's and
 // Delta E_ITP's maps, SSIM's luminance and RGB terms at the first scale, MS-SSIM's at a coarser
 // one); SSIM computes where a term is missing; point-wise maps that miss a pixel are refused.
-TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
-  const int w = 420, h = 330;
-  const Image ref = testing::HdrScene(w, h);
-  const Image tst = testing::HdrDistorted(ref, 0.2f, 7);
-  const Image covered = EllipseMask(w, h, 220.0, 180.0, 125.0, 100.0, false);
-  Image measured = covered, patched = ref;
+// A covered pass's images and mask, and its measured pass's: the covered pixels less a curved
+// band through the object (the "shadow edge"), its top rows and its left columns, the reference
+// patched with the test's values there.
+struct TwoPasses {
+  static constexpr int w = 420, h = 330;
+  Image ref, tst, covered, measured, patched;
+};
+
+TwoPasses MakeTwoPasses() {
+  TwoPasses t;
+  const int w = TwoPasses::w, h = TwoPasses::h;
+  t.ref = testing::HdrScene(w, h);
+  t.tst = testing::HdrDistorted(t.ref, 0.2f, 7);
+  t.covered = EllipseMask(w, h, 220.0, 180.0, 125.0, 100.0, false);
+  t.measured = t.covered;
+  t.patched = t.ref;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      // A curved band through the object (the "shadow edge") and its top rows.
       const double edge = 0.002 * (x - 220.0) * (x - 220.0) + 255.0;
-      if (covered.at(x, y, 0) > 0.5f && (std::abs(y - edge) < 3.0 || y < 120 || x < 140)) {
-        measured.at(x, y, 0) = 0.0f;
-        for (int c = 0; c < 3; ++c) patched.at(x, y, c) = tst.at(x, y, c);
+      if (t.covered.at(x, y, 0) > 0.5f && (std::abs(y - edge) < 3.0 || y < 120 || x < 140)) {
+        t.measured.at(x, y, 0) = 0.0f;
+        for (int c = 0; c < 3; ++c) t.patched.at(x, y, c) = t.tst.at(x, y, c);
       }
     }
   }
+  return t;
+}
+
+TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
+  const int w = TwoPasses::w, h = TwoPasses::h;
+  const TwoPasses two = MakeTwoPasses();
+  const Image &ref = two.ref, &tst = two.tst, &covered = two.covered, &measured = two.measured,
+              &patched = two.patched;
   MetricsParameters p;
   p.exposure_stops = -0.5f;
   KeptTerms kept;
@@ -309,6 +328,99 @@ TEST(ReportTest, KeptTermsGiveASecondPassItsOwnNumbers) {
   const KeptTerms none;
   reuse.kept = &none;
   EXPECT_THROW(ComputeMetrics(patched, tst, &measured, reuse), Error);
+}
+
+// The keeping call's inputs (KeptTerms::inputs) give the measured pass its test's display
+// encodings and FLIP halves (LDR-FLIP's, and HDR-FLIP's at an exposure both passes use), and its
+// reference's encodings where its pixels are the kept reference's or the test's: the numbers and
+// maps it computes without them. They are read (a changed kept value changes the numbers); not
+// taken when the test's pixels differ from the kept test's; a reference pixel that is neither the
+// kept reference's nor the test's is encoded.
+TEST(ReportTest, KeptInputsGiveASecondPassItsOwnNumbers) {
+  TwoPasses t = MakeTwoPasses();
+  // A highlight at the centre (measured), the brightest covered pixel: both passes' HDR-FLIP
+  // start at its exposure.
+  for (int c = 0; c < 3; ++c) {
+    t.ref.at(220, 180, c) = t.patched.at(220, 180, c) = 40.0f;
+    t.tst.at(220, 180, c) = 30.0f;
+  }
+  const auto json_of = [](const MetricsReport& r) { return MetricsToJson(r).dump(); };
+  MetricsParameters p;
+  p.exposure_stops = -0.5f;
+  p.maps_wanted = 0;
+  KeptTerms kept;
+  MetricsParameters keeping = p;
+  keeping.keep = &kept;
+  const MetricsReport covered = ComputeMetrics(t.ref, t.tst, &t.covered, keeping);
+  ASSERT_TRUE(kept.inputs);
+  const internal::KeptInputs& inputs = *kept.inputs;
+  ASSERT_GT(inputs.x0 + inputs.y0, 0);  // A window around the mask.
+  ASSERT_EQ(inputs.flip.halves.size(), 1u + covered.flip_hdr.num_exposures);
+  const MetricsReport own = ComputeMetrics(t.patched, t.tst, &t.measured, p);
+  ASSERT_EQ(own.flip_hdr.start_exposure, covered.flip_hdr.start_exposure);
+  ASSERT_NE(own.flip_hdr.stop_exposure, covered.flip_hdr.stop_exposure);
+  MetricsParameters reuse = p;
+  reuse.kept = &kept;
+  EXPECT_EQ(json_of(ComputeMetrics(t.patched, t.tst, &t.measured, reuse)), json_of(own));
+
+  // The measured pass with kept inputs changed by `change` (the centre pixel, measured, is k).
+  const int k = (180 - inputs.y0) * inputs.ref.width + (220 - inputs.x0);
+  ASSERT_GT(t.measured.at(220, 180, 0), 0.5f);
+  const auto changed = [&](auto change) {
+    auto in = std::make_shared<internal::KeptInputs>(inputs);
+    change(*in);
+    KeptTerms terms = kept;
+    terms.inputs = in;
+    MetricsParameters q = p;
+    q.kept = &terms;
+    return ComputeMetrics(t.patched, t.tst, &t.measured, q);
+  };
+  const auto set_lab = [k](internal::FlipSide& side) { side.lab[k] = {{100.0f, 90.0f, -90.0f}}; };
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NE(changed([&](auto& in) { in.tst_display.data[3 * k + c] = 0.0f; }).psnr, own.psnr);
+    EXPECT_NE(changed([&](auto& in) { in.ref_display.data[3 * k + c] = 0.0f; }).psnr, own.psnr);
+  }
+  EXPECT_NE(changed([&](auto& in) { set_lab(in.flip.halves[0].side); }).flip_ldr.max,
+            own.flip_ldr.max);
+  const MetricsReport hdr_moved = changed([&](auto& in) { set_lab(in.flip.halves[1].side); });
+  EXPECT_NE(hdr_moved.flip_hdr.mean, own.flip_hdr.mean);
+  EXPECT_EQ(hdr_moved.flip_ldr.mean, own.flip_ldr.mean);
+  // Not taken when a test pixel differs (the kept encodings and halves changed with it).
+  const MetricsReport other_test = changed([&](auto& in) {
+    in.tst.data[3 * k] += 0.25f;
+    in.tst_display.data[3 * k] = 1.0f;
+    set_lab(in.flip.halves[0].side);
+    set_lab(in.flip.halves[1].side);
+  });
+  EXPECT_EQ(json_of(other_test), json_of(own));
+
+  // Over the whole frame, with SSIM's map (it reads the patched pixels' encodings): the same map,
+  // also with a reference pixel that is neither the kept reference's nor the test's.
+  MetricsParameters whole = p;
+  whole.maps_wanted = kSsimMap;
+  KeptTerms frame;
+  keeping = whole;
+  keeping.keep = &frame;
+  MetricsMaps unused;
+  ComputeMetrics(t.ref, t.tst, &t.covered, keeping, &unused);
+  ASSERT_TRUE(frame.inputs);
+  ASSERT_EQ(frame.inputs->x0 + frame.inputs->y0, 0);
+  Image third = t.patched;
+  ASSERT_LT(t.measured.at(220, 100, 0), 0.5f);
+  ASSERT_GT(t.covered.at(220, 100, 0), 0.5f);
+  third.at(220, 100, 1) = 0.123f;
+  for (const Image* patched : {static_cast<const Image*>(&t.patched), static_cast<const Image*>(&third)}) {
+    MetricsMaps own_maps, got_maps;
+    const MetricsReport own_whole = ComputeMetrics(*patched, t.tst, &t.measured, whole, &own_maps);
+    MetricsParameters q = whole;
+    q.kept = &frame;
+    EXPECT_EQ(json_of(ComputeMetrics(*patched, t.tst, &t.measured, q, &got_maps)),
+              json_of(own_whole));
+    ASSERT_EQ(got_maps.ssim.data.size(), own_maps.ssim.data.size());
+    EXPECT_TRUE(std::equal(got_maps.ssim.data.begin(), got_maps.ssim.data.end(),
+                           own_maps.ssim.data.begin(),
+                           [](float a, float b) { return a == b || (a != a && b != b); }));
+  }
 }
 
 // The reference's CIELAB (CIEDE2000) and ICtCp (Delta E_ITP) kept in a ReferenceCache give the

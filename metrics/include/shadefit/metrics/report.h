@@ -2,6 +2,7 @@
 // Every field is documented in docs/metrics.md.
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -40,6 +41,10 @@ enum MetricMap : unsigned {
   kAllMaps = (1u << 7) - 1,
 };
 
+namespace internal {
+struct KeptInputs;  // metrics/src/kept_inputs.h
+}  // namespace internal
+
 // Per-pixel terms one ComputeMetrics call keeps (MetricsParameters::keep) for a later call
 // (MetricsParameters::kept) on a part of its mask, with the same test and parameters and a
 // reference equal to this call's on that part: a study's measured pass (the covered pixels less a
@@ -48,9 +53,14 @@ enum MetricMap : unsigned {
 // Delta E_ITP's at every pixel of its mask; SSIM's and MS-SSIM's at the pixels whose windows lie
 // inside its mask (the only ones they pool), at every scale. The same bits, for a pass over the
 // mask. A pixel the kept terms lack is an Error for the point-wise metrics; SSIM then computes.
+// The keeping call's inputs also give the later call what it would derive from its own where the
+// pixels are the same bits (checked): the display encodings of its test and, pixel by pixel, of
+// its reference (where that is the keeping call's reference or the test), and the test's
+// LDR-FLIP half and its HDR-FLIP half at an exposure both calls use.
 struct KeptTerms {
   Image ciede2000, delta_e_itp;  // Frame maps, NaN outside the keeping call's mask.
   SsimTerms ssim;
+  std::shared_ptr<const internal::KeptInputs> inputs;
 };
 
 struct MetricsParameters {
