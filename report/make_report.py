@@ -46,7 +46,9 @@ from report_util import flatten, fmt, materials_of, to_float, write_text  # noqa
 
 def report_jobs():
     """Processes that draw the per-material figures: $SHADEFIT_REPORT_JOBS, else one per CPU this
-    process may use (at most 8)."""
+    process may use (at most 8): its affinity mask's, and inside a Slurm job no more than its
+    allocation ($SLURM_CPUS_PER_TASK; a cluster that does not bind tasks to CPUs leaves the mask
+    at the whole node), as the C++ side counts them (shadefit/base/cpus.h)."""
     env = os.environ.get("SHADEFIT_REPORT_JOBS", "").strip()
     if env:
         try:
@@ -57,7 +59,11 @@ def report_jobs():
             raise ReportInputError(
                 f"SHADEFIT_REPORT_JOBS: expected a whole number >= 1, got '{env}'")
         return jobs
-    return max(1, min(8, len(os.sched_getaffinity(0))))
+    cpus = len(os.sched_getaffinity(0))
+    allocated = os.environ.get("SLURM_CPUS_PER_TASK", "")
+    if os.environ.get("SLURM_JOB_ID") and allocated.isdigit() and int(allocated) > 0:
+        cpus = min(cpus, int(allocated))
+    return max(1, min(8, cpus))
 
 
 # What the forked figure workers read (set before the pool starts; fork shares it unpickled).

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "prepared_reference.h"
+#include "shadefit/base/cpus.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
 #include "solve.h"
@@ -117,7 +118,7 @@ BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
   std::vector<Row> rows(static_cast<std::size_t>(sampling.theta_h_cells));
   const int threads = std::max(
       1,
-      std::min<int>(sampling.theta_h_cells, static_cast<int>(std::thread::hardware_concurrency())));
+      std::min<int>(sampling.theta_h_cells, UsableCpus()));
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {

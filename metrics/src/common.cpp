@@ -7,6 +7,7 @@
 #include <cmath>
 #include <thread>
 
+#include "shadefit/base/cpus.h"
 #include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
@@ -92,7 +93,7 @@ void SetMetricsThreads(int threads) { metrics_threads = std::max(0, threads); }
 int MetricsThreads() {
   const int set = metrics_threads.load();
   if (set > 0) return std::min(set, 16);
-  return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+  return std::clamp(UsableCpus(), 1, 16);
 }
 
 std::size_t CountValidPixels(const Image* mask, int width, int height) {

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "shadefit/base/cpus.h"
 #include "shadefit/base/files.h"
 #include "shadefit/render/brdf.h"
 #include "shadefit/render/environment.h"
@@ -341,7 +342,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
     }
   };
   int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+      options.threads > 0 ? options.threads : UsableCpus();
   threads = std::clamp(threads, 1, 256);
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);

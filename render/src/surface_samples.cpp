@@ -8,6 +8,7 @@
 #include <mutex>
 #include <thread>
 
+#include "shadefit/base/cpus.h"
 #include "shadefit/render/environment.h"
 #include "shadefit/render/pixel_surface.h"
 #include "shadefit/render/ray_caster.h"
@@ -16,11 +17,11 @@
 namespace shadefit::internal {
 namespace {
 
-// Runs fn(row) for every row on two threads (the machines this runs on have few cores; the
-// study runner's workers use the rest).
+// Runs fn(row) for every row on two threads, or one where this process may use one CPU (the
+// machines this runs on have few cores; the study runner's workers use the rest).
 template <typename F>
 void ForEachRow(int rows, F&& fn) {
-  const int threads = std::min(2, std::max(1, rows));
+  const int threads = std::min({2, std::max(1, rows), UsableCpus()});
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {

@@ -1,5 +1,9 @@
-// The one atomic writer (base/files.h): a complete file or nothing, never a temporary left.
+// base/: the one atomic writer (files.h: a complete file or nothing, never a temporary left),
+// the percentile (statistics.h) and the CPUs a process may use (cpus.h).
 #include "shadefit/base/files.h"
+
+#include <sched.h>
+#include <stdlib.h>
 
 #include <gtest/gtest.h>
 
@@ -11,7 +15,9 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
+#include "shadefit/base/cpus.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/statistics.h"
 
@@ -94,6 +100,59 @@ TEST(Percentile, OrderStatisticOfRankFloorQN) {
   EXPECT_EQ(Percentile(odd, 0.5), 3);
   std::vector<float> none;
   EXPECT_TRUE(std::isnan(Percentile(none, 0.5)));
+}
+
+// UsableCpus: the affinity mask's CPUs, and inside a Slurm job no more than its allocation. The
+// mask is set on this thread (sched_setaffinity(0) is the calling thread's) and restored.
+TEST(UsableCpusTest, AffinityMaskAndSlurmAllocation) {
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof(all), &all), 0);
+  std::vector<int> allowed;
+  for (int c = 0; c < CPU_SETSIZE; ++c) {
+    if (CPU_ISSET(c, &all)) allowed.push_back(c);
+  }
+  ASSERT_FALSE(allowed.empty());
+  const auto pin = [](std::vector<int> cpus) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    for (int c : cpus) CPU_SET(c, &set);
+    return sched_setaffinity(0, sizeof(set), &set) == 0;
+  };
+  const auto with_slurm = [](const char* job, const char* per_task) {
+    const auto set = [](const char* name, const char* value) {
+      if (value != nullptr) {
+        setenv(name, value, 1);
+      } else {
+        unsetenv(name);
+      }
+    };
+    set("SLURM_JOB_ID", job);
+    set("SLURM_CPUS_PER_TASK", per_task);
+    return UsableCpus();
+  };
+  const char* job_before = std::getenv("SLURM_JOB_ID");
+  const char* per_task_before = std::getenv("SLURM_CPUS_PER_TASK");
+  const std::string job_saved = job_before ? job_before : "";
+  const std::string per_task_saved = per_task_before ? per_task_before : "";
+
+  ASSERT_TRUE(pin({allowed.front()}));
+  EXPECT_EQ(with_slurm(nullptr, nullptr), 1);
+  EXPECT_EQ(with_slurm("7", "4"), 1);  // The mask's one CPU.
+  if (allowed.size() >= 2) {
+    ASSERT_TRUE(pin({allowed[0], allowed[1]}));
+    EXPECT_EQ(with_slurm(nullptr, nullptr), 2);
+    EXPECT_EQ(with_slurm(nullptr, "1"), 2);  // Not in a Slurm job: the variable is not ours.
+    EXPECT_EQ(with_slurm("7", "1"), 1);
+    EXPECT_EQ(with_slurm("7", "2"), 2);
+    EXPECT_EQ(with_slurm("7", "16"), 2);
+    for (const char* bad : {"", "0", "-1", "two", "1x"}) {
+      EXPECT_EQ(with_slurm("7", bad), 2) << "SLURM_CPUS_PER_TASK=" << bad;
+    }
+  }
+  ASSERT_EQ(sched_setaffinity(0, sizeof(all), &all), 0);
+  EXPECT_EQ(with_slurm(nullptr, nullptr), static_cast<int>(allowed.size()));
+  with_slurm(job_before ? job_saved.c_str() : nullptr,
+             per_task_before ? per_task_saved.c_str() : nullptr);
 }
 
 }  // namespace

@@ -30,6 +30,7 @@
 #include "progress_log.h"
 #include "run_context.h"
 #include "shadefit/metrics/common.h"
+#include "shadefit/base/cpus.h"
 #include "shadefit/base/error.h"
 #include "shadefit/base/files.h"
 #include "shadefit/render/gl_context.h"
@@ -199,8 +200,8 @@ void StudyRun::CheckMergeable() const {
 }
 
 void StudyRun::RunWorkers(int pending, RunSummary* summary) {
-  const unsigned cpus = std::max(1u, std::thread::hardware_concurrency());
-  int workers = options_.jobs > 0 ? options_.jobs : static_cast<int>(cpus);
+  const int cpus = UsableCpus();
+  int workers = options_.jobs > 0 ? options_.jobs : cpus;
   workers = std::max(1, std::min(workers, pending));
   options_.jobs = workers;
   const std::string part = options_.merge_only      ? " (merge)"
@@ -213,7 +214,7 @@ void StudyRun::RunWorkers(int pending, RunSummary* summary) {
   // Each worker runs its own metric calls: their row loops get the cores left over, not a
   // thread per core each (which only wait for the cores the other workers use).
   const int metrics_threads_before = metrics::MetricsThreads();
-  metrics::SetMetricsThreads(std::max(1, static_cast<int>(cpus) / workers));
+  metrics::SetMetricsThreads(std::max(1, cpus / workers));
   std::vector<std::thread> threads;
   for (int i = 0; i < workers; ++i) threads.emplace_back(&StudyRun::WorkerLoop, this, i);
   for (std::thread& t : threads) t.join();

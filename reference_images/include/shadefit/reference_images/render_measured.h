@@ -25,7 +25,7 @@ struct RenderMeasuredOptions {
   double lobe_alpha = -1.0;
   // Seed of the per-pixel random streams; the image does not depend on the thread count.
   std::uint64_t seed = 20240611;
-  // Worker threads; 0 = std::thread::hardware_concurrency().
+  // Worker threads; 0 = the CPUs this process may use (UsableCpus, shadefit/base/cpus.h).
   int threads = 0;
 };
 
