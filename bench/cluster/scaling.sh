@@ -5,8 +5,9 @@
 #
 # Prints, for the same study:
 #   - `study run -j CPUS` directly (no Slurm): the baseline;
-#   - through Slurm with 1, 2 and 4 shards (`study slurm --array N --cpus C`, C = CPUS / N, at
-#     least 1): wall time from submission until the merge (with its report) has finished;
+#   - through Slurm with 1, 2 and 4 shards (`study slurm --array N --cpus C --merge-cpus CPUS`,
+#     C = CPUS / N, at least 1): wall time from submission until the merge (with its report, on
+#     every CPU) has finished;
 #   - the Slurm path's per-job overhead: an array of 8 tasks that run `true`, and a shard whose
 #     jobs are all done (study loading, input hashing, manifest).
 # Each run starts from an empty output folder; the measured references are rendered by the
@@ -33,7 +34,8 @@ direct=$(since "$t")
 echo "direct   study run -j $cpus: ${direct} s"
 for n in 1 2 4; do
   c=$(( cpus / n )); [ "$c" -ge 1 ] || c=1
-  submit=$("$shadefit" study slurm "$study" --array "$n" --cpus "$c" -o "$work/s$n" 2>/dev/null)
+  submit=$("$shadefit" study slurm "$study" --array "$n" --cpus "$c" --merge-cpus "$cpus" \
+    -o "$work/s$n" 2>/dev/null)
   t=$(now)
   bash -c "$submit" >/dev/null
   local_slurm_wait 3600

@@ -18,7 +18,8 @@
 #
 # Without --slurm: `study run -j $(nproc)` from an empty folder, wall and CPU time, the stage
 # table, then the report's share. With --slurm N: a one-node Slurm cluster on this machine
-# (scripts/local-slurm.sh), `study slurm --array N --cpus nproc/N`, wall time from submission
+# (scripts/local-slurm.sh), `study slurm --array N --cpus nproc/N --merge-cpus nproc` (the merge
+# runs after the shards, on the whole node), wall time from submission
 # until the merge (with its report) is done, each shard's own seconds and the merge's.
 # Needs ../shared/brdf-data/merl-nbrdf (or SHADEFIT_MEASURED=folder).
 set -euo pipefail
@@ -108,7 +109,8 @@ else
   source "$repo/scripts/local-slurm.sh"
   local_slurm_start "$work/cluster"
   per=$((cpus / shards)); [ "$per" -ge 1 ] || per=1
-  submit=$("$shadefit" study slurm "$study" --array "$shards" --cpus "$per" -o "$work/out" 2>/dev/null)
+  submit=$("$shadefit" study slurm "$study" --array "$shards" --cpus "$per" --merge-cpus "$cpus" \
+    -o "$work/out" 2>/dev/null)
   t=$(now)
   bash -c "$submit" >/dev/null
   local_slurm_wait 7200

@@ -227,6 +227,8 @@ void RegisterStudyCommand(CLI::App& app) {
       ->capture_default_str();
   slurm->add_option("--cpus", sl->slurm.cpus, "CPUs per task (= the shard's workers)")
       ->capture_default_str();
+  slurm->add_option("--merge-cpus", sl->slurm.merge_cpus,
+                    "CPUs of the merge job, whose report draws on them (default: --cpus)");
   slurm->add_option("--gpus", sl->slurm.gpus, "GPUs per task (EGL then uses the NVIDIA device)")
       ->capture_default_str();
   slurm->add_option("-o,--out", sl->slurm.out_dir, "Output folder, shared by every node")

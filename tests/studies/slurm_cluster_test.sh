@@ -17,6 +17,13 @@ fail() { echo "FAILED: $*"; exit 1; }
 
 rm -rf "$work"
 mkdir -p "$work"
+
+# A bad option is one line naming it, a non-zero exit and no scripts (no cluster needed).
+if "$shadefit" study slurm "$study" --merge-cpus -1 -o "$work/bad" 2>"$work/bad.err"; then
+  fail "--merge-cpus -1 was accepted"
+fi
+grep -q -- "--merge-cpus" "$work/bad.err" || fail "the error does not name --merge-cpus: $(cat "$work/bad.err")"
+[ ! -e "$work/bad" ] || [ -z "$(find "$work/bad" -name '*.sbatch')" ] || fail "scripts written for a bad option"
 tmp=$(mktemp -d "$work/cluster.XXXXXX")
 # shellcheck source=../../scripts/local-slurm.sh
 source "$(dirname "$0")/../../scripts/local-slurm.sh"
@@ -26,10 +33,15 @@ local_slurm_start "$tmp" 2>"$tmp/why" || rc=$?
 [ "$rc" -eq 0 ] || skip "$(cat "$tmp/why")"
 
 # The scripts, from the command a user types on a login node; then its one submit line.
-submit=$("$shadefit" study slurm "$study" --quick --array 2 --cpus 1 --time 00:20:00 \
-  --partition local -o "$work/cluster")
+# The merge gets the node's CPUs for its report's drawing processes.
+merge_cpus=$(nproc)
+submit=$("$shadefit" study slurm "$study" --quick --array 2 --cpus 1 --merge-cpus "$merge_cpus" \
+  --time 00:20:00 --partition local -o "$work/cluster")
 echo "submit: $submit"
 grep -q -- '--array=1-2' "$work"/cluster/*/slurm/shards.sbatch || fail "no --array=1-2 in shards.sbatch"
+grep -q -- '--cpus-per-task=1$' "$work"/cluster/*/slurm/shards.sbatch || fail "shards.sbatch: not 1 CPU per task"
+grep -q -- "--cpus-per-task=$merge_cpus\$" "$work"/cluster/*/slurm/merge.sbatch ||
+  fail "merge.sbatch: not --cpus-per-task=$merge_cpus"
 t0=$(date +%s)
 bash -c "$submit" >"$tmp/submitted" || fail "sbatch failed: $(cat "$tmp/submitted")"
 echo "sbatch: $(cat "$tmp/submitted") (the merge, after the array)"

@@ -30,6 +30,11 @@ void Validate(const SlurmOptions& o) {
   if (o.cpus < 1 || o.cpus > 4096) {
     throw Error("", "--cpus", fmt::format("want 1..4096 CPUs per task, got {}", o.cpus));
   }
+  if (o.merge_cpus < 0 || o.merge_cpus > 4096) {
+    throw Error("", "--merge-cpus",
+                fmt::format("want 1..4096 CPUs for the merge (or 0: --cpus), got {}",
+                            o.merge_cpus));
+  }
   if (o.gpus < 0 || o.gpus > 64) {
     throw Error("", "--gpus", fmt::format("want 0..64 GPUs per task, got {}", o.gpus));
   }
@@ -91,7 +96,8 @@ SlurmScripts WriteSlurmScripts(const StudySpec& spec, const SlurmOptions& o) {
       quick, o.cpus, o.array);
 
   std::string merge = Header("shadefit-" + spec.name + "-merge", o);
-  merge += "#SBATCH --cpus-per-task=1\n";
+  // The tables are one thread's work; the report draws its figures on every CPU it is given.
+  merge += fmt::format("#SBATCH --cpus-per-task={}\n", o.merge_cpus > 0 ? o.merge_cpus : o.cpus);
   merge += fmt::format("#SBATCH --output={}\n", (dir / "merge.out").string());
   merge += fmt::format(
       "# Runs after every shard of shards.sbatch succeeded (--dependency=afterok): the study-wide\n"

@@ -124,6 +124,7 @@ struct SlurmOptions {
   std::string partition;          // Empty: the cluster's default.
   std::string time = "02:00:00";  // Per task, sbatch --time.
   int cpus = 2;                   // Per task: --cpus-per-task, and the shard's worker count.
+  int merge_cpus = 0;             // The merge's --cpus-per-task (its report draws on them); 0: cpus.
   int gpus = 0;                   // Per task: --gpus-per-task (EGL then picks the NVIDIA device).
   std::string out_dir = "out";
   bool quick = false;
