@@ -18,7 +18,6 @@
 #include "shadefit/base/error.h"
 
 namespace shadefit::metrics {
-
 namespace {
 
 // JSON has no infinities: non-finite numbers become null.
