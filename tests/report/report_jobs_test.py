@@ -2,6 +2,8 @@
 """The report is the same with one figure process or several (make_report.py draws the
 per-material figures in a forked pool, SHADEFIT_REPORT_JOBS): figures.json and every figure's PNG
 are the same bytes. A bad SHADEFIT_REPORT_JOBS is one line naming it, exit 1, and no report.
+Without it, the processes are the CPUs this process may use, no more than a Slurm job's
+allocation (report_jobs).
 
     report_jobs_test.py STUDY_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -28,9 +30,41 @@ def make(study_dir, out_dir, name, jobs):
     return copy, proc
 
 
+def default_jobs_failures():
+    """report_jobs() under Slurm's variables: the allocation inside a job, the affinity mask's
+    CPUs (at most 8) otherwise or when the allocation is not a count; the variable wins."""
+    sys.path.insert(0, os.path.dirname(SCRIPT))
+    import make_report  # noqa: E402 (the report's own folder)
+    mask = min(8, len(os.sched_getaffinity(0)))
+    cases = [({"SLURM_JOB_ID": "7", "SLURM_CPUS_PER_TASK": "1"}, 1),
+             ({"SLURM_CPUS_PER_TASK": "1"}, mask),  # not in a job: not ours
+             ({"SLURM_JOB_ID": "7", "SLURM_CPUS_PER_TASK": "64"}, mask),
+             ({"SLURM_JOB_ID": "7", "SLURM_CPUS_PER_TASK": "two"}, mask),
+             ({"SLURM_JOB_ID": "7", "SLURM_CPUS_PER_TASK": "0"}, mask),
+             ({"SLURM_JOB_ID": "7", "SLURM_CPUS_PER_TASK": "1", "SHADEFIT_REPORT_JOBS": "3"}, 3)]
+    names = ("SLURM_JOB_ID", "SLURM_CPUS_PER_TASK", "SHADEFIT_REPORT_JOBS")
+    saved = {n: os.environ.get(n) for n in names}
+    failures = []
+    try:
+        for env, want in cases:
+            for n in names:
+                os.environ.pop(n, None)
+            os.environ.update(env)
+            got = make_report.report_jobs()
+            if got != want:
+                failures.append(f"report_jobs() under {env}: {got}, want {want}")
+    finally:
+        for n, v in saved.items():
+            if v is None:
+                os.environ.pop(n, None)
+            else:
+                os.environ[n] = v
+    return failures
+
+
 def main(argv):
     study_dir, out_dir = argv[1], argv[2]
-    failures = []
+    failures = default_jobs_failures()
     one, p1 = make(study_dir, out_dir, "jobs1", "1")
     two, p2 = make(study_dir, out_dir, "jobs2", "2")
     for p, jobs in ((p1, 1), (p2, 2)):
