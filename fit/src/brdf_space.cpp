@@ -116,9 +116,7 @@ BrdfSpaceData SampleBrdfSpace(const reference_images::MeasuredBrdf& brdf,
   // Rows are independent; each thread takes every T-th row and the rows are joined in order,
   // so the data is the same bytes for any thread count.
   std::vector<Row> rows(static_cast<std::size_t>(sampling.theta_h_cells));
-  const int threads = std::max(
-      1,
-      std::min<int>(sampling.theta_h_cells, UsableCpus()));
+  const int threads = std::max(1, std::min(sampling.theta_h_cells, UsableCpus()));
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {

@@ -5,7 +5,6 @@
 #include <bit>
 #include <cstdint>
 #include <cmath>
-#include <thread>
 
 #include "shadefit/base/cpus.h"
 #include "shadefit/base/error.h"

@@ -341,8 +341,7 @@ Image RenderMeasured(const MeasuredBrdf& brdf, const Scene& scene, const GBuffer
       out.at(sp.x, sp.y, 3) = scene.background.transparent ? coverage : 1.0f;
     }
   };
-  int threads =
-      options.threads > 0 ? options.threads : UsableCpus();
+  int threads = options.threads > 0 ? options.threads : UsableCpus();
   threads = std::clamp(threads, 1, 256);
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
