@@ -385,7 +385,6 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     keep_inputs->x0 = x0;
     keep_inputs->y0 = y0;
     keep_inputs->exposure_stops = p.exposure_stops;
-    keep_inputs->flip.ppd = p.ppd;
     keep_inputs->ref = window ? std::move(cut_ref) : ref;
     keep_inputs->tst = window ? std::move(cut_tst) : tst;
     keep_inputs->ref_display = std::move(rgb_encoded->ref);
