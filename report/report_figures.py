@@ -372,9 +372,77 @@ use_matplotlib_text(False)
 PNG_COMPRESS_LEVEL = 1
 
 
-def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
+# The PDF's images are deflated at PNG_COMPRESS_LEVEL too (matplotlib's PdfFile._writePng saves
+# each as a PNG at Pillow's default, 6, and embeds its data): a grid's raster (~1.3 million
+# pixels, pdf_images_as_drawn) took ~80 ms at 6. The same pixels.
+_PDF_WRITE_PNG = _backend_pdf.PdfFile._writePng
+
+
+def _pdf_write_png(self, img):
+    save = img.save
+    img.save = lambda fp, format=None, **params: save(
+        fp, format=format, **{"compress_level": PNG_COMPRESS_LEVEL, **params})
+    return _PDF_WRITE_PNG(self, img)
+
+
+_backend_pdf.PdfFile._writePng = _pdf_write_png
+
+
+class _PdfRaster(matplotlib.artist.Artist):
+    """8-bit RGBA pixels (rows from the bottom up) drawn as they are, one pixel per 1/DPI in,
+    their lower left corner at (x, y) in `ax`'s data coordinates: for a vector renderer (the
+    PDF's draws an image of w x h pixels w x h x 72 / DPI points large). AxesImage would
+    resample them (interpolation "nearest", ~identity) or, uninterpolated, stretch them to
+    whole points."""
+
+    def __init__(self, ax, rgba, x, y):
+        super().__init__()
+        self._ax, self._rgba, self._corner = ax, rgba, (x, y)
+
+    def draw(self, renderer):
+        if not self.get_visible():
+            return
+        x, y = self._ax.transData.transform(self._corner)
+        gc = renderer.new_gc()
+        renderer.draw_image(gc, x, y, self._rgba)
+        gc.restore()
+
+
+def pdf_images_as_drawn(fig, ax):
+    """Replaces the images of `ax` (once the figure is drawn at DPI by Agg) by one image for the
+    PDF: Agg's pixels over the images' bounding box, embedded as they are (no resampling), at
+    the place they cover. A grid's ~70 tiles and colour bars were each resampled for the PDF and
+    embedded as an image of their own (encoded, most of them quantised to a palette): half of
+    a grid's PDF. The PDF's raster is then the PNG's pixels; its text and lines stay vectors
+    over it. Anything Agg drew inside the box (a tile's "missing", the bars' outlines) is in
+    the raster too, under its vector. Returns the number of images replaced."""
+    images = [im for im in ax.get_images() if im.get_visible()]
+    if len(images) < 2:
+        return 0
+    renderer = fig.canvas.get_renderer()
+    box = matplotlib.transforms.Bbox.union([im.get_window_extent(renderer) for im in images])
+    pixels = np.asarray(fig.canvas.buffer_rgba())
+    rows, cols = pixels.shape[:2]
+    # Agg places an image's rows from its integer height down (RendererAgg::draw_image): pixel
+    # row r covers display y from rows - r - 1 to rows - r.
+    c0, c1 = max(0, math.floor(box.x0)), min(cols, math.ceil(box.x1))
+    r0, r1 = max(0, rows - math.ceil(box.y1)), min(rows, rows - math.floor(box.y0))
+    if c1 <= c0 or r1 <= r0:
+        return 0
+    x, y = ax.transData.inverted().transform((c0, rows - r1))
+    for im in images:
+        im.set_visible(False)
+    # A renderer's draw_image takes an image's rows from the bottom up (as _make_image makes).
+    raster = _PdfRaster(ax, np.array(pixels[r0:r1, c0:c1][::-1]), x, y)
+    raster.set_zorder(-1)  # under the axes, so under every text and line of the figure
+    fig.add_artist(raster)
+    return len(images)
+
+
+def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=None):
     """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
-    fields for the record (a split grid's kind, material and part)."""
+    fields for the record (a split grid's kind, material and part). `pdf_raster`: an axes whose
+    images the PDF takes from the PNG's drawing, as one image (pdf_images_as_drawn)."""
     os.makedirs(fig_dir, exist_ok=True)
     # Whole pixels at DPI: Agg truncates width x dpi, so a hair above the pixel count gives
     # exactly the size figures.json records (the PDF moves by a thousandth of a point).
@@ -394,6 +462,8 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None):
     mpimg.imsave(png + ".tmp.png", np.asarray(fig.canvas.buffer_rgba()), format="png", dpi=DPI,
                  pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     os.replace(png + ".tmp.png", png)
+    if pdf_raster is not None:
+        pdf_images_as_drawn(fig, pdf_raster)
     # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
     # Each image stays its own (a grid's tiles share one axes; compositing them into one raster
     # drew no faster, measured 2026-12-06), resampled at the PNG's resolution: without

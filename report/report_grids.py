@@ -13,10 +13,27 @@ from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, as_float, linear_t
                             wrap_to_width)
 
 
+@functools.lru_cache(maxsize=None)
+def _srgb8_to_linear():
+    """srgb_to_linear of as_float's value for each 8-bit value: the same floats, looked up."""
+    return srgb_to_linear(as_float(np.arange(256, dtype=np.uint8)))
+
+
+@functools.lru_cache(maxsize=None)
+def _exposed8(stops):
+    """The 8-bit value opaque_rgba makes of exposed()'s float for each 8-bit value at `stops`."""
+    return opaque_rgba(exposed(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, 2),
+                               stops))[0, :, 0]
+
+
 def row_exposure(reference_rgb):
     """Whole stops that bring a dim reference's bright pixels (99th percentile of the lit ones)
-    up to mid-grey-to-white; 0 for lightings that already read. At most +6."""
-    lin = srgb_to_linear(reference_rgb).mean(axis=2)
+    up to mid-grey-to-white; 0 for lightings that already read. At most +6. `reference_rgb`:
+    read_rgb8's image (8-bit values are looked up: the same floats) or floats."""
+    if reference_rgb.dtype == np.uint8:
+        lin = _srgb8_to_linear()[reference_rgb[..., :3]].mean(axis=2)
+    else:
+        lin = srgb_to_linear(reference_rgb).mean(axis=2)
     lit = lin[lin > 1e-4]
     if lit.size == 0:
         return 0
@@ -29,6 +46,16 @@ def row_exposure(reference_rgb):
 def exposed(rgb, stops):
     """`rgb` (read_rgb8's or floats) brightened by whole stops; as it is at 0."""
     return rgb if stops == 0 else linear_to_srgb(srgb_to_linear(as_float(rgb)) * 2.0 ** stops)
+
+
+def exposed_rgba(rgb, stops):
+    """opaque_rgba(exposed(rgb, stops)); 8-bit values looked up (_exposed8: the same bytes)."""
+    if stops != 0 and rgb.dtype == np.uint8 and rgb.ndim == 3 and rgb.shape[2] == 3:
+        rgba = np.empty(rgb.shape[:2] + (4,), dtype=np.uint8)
+        rgba[..., :3] = _exposed8(stops)[rgb]
+        rgba[..., 3] = 255
+        return rgba
+    return opaque_rgba(exposed(rgb, stops))
 
 
 # 7 in page gives each image ~0.5 in. More fits split the grid into parts, one per training set
@@ -77,7 +104,7 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
         fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading, read)
         save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
                     {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
-                     "fits": part, "lightings": rows})
+                     "fits": part, "lightings": rows}, pdf_raster=fig.axes[0])
 
 
 # Rows of one grid figure: past this many lightings the figure shows a chosen subset (the
@@ -131,15 +158,28 @@ def grid_lightings(evals, labels, lightings, max_rows=GRID_MAX_ROWS):
     return train + chosen, note
 
 
-def object_box(images, threshold=1.5 / 255):
-    """(x0, y0, x1, y1), half-open pixel bounds of the pixels brighter than `threshold` in any of
+# A display value above this is the object's (object_box).
+LIT_THRESHOLD = 1.5 / 255
+
+
+def lit_pixels(img):
+    """Where any channel of `img` (display RGB: read_rgb8's 8-bit values or floats) is above
+    LIT_THRESHOLD. For 8-bit values, k / 255 > 1.5 / 255 is k >= 2: compared as they are, with
+    no float copy (a grid's crop reads ~150 previews)."""
+    if img.dtype == np.uint8:
+        return np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= 2
+    return img[..., :3].max(axis=2) > LIT_THRESHOLD
+
+
+def object_box(images):
+    """(x0, y0, x1, y1), half-open pixel bounds of the pixels lit (lit_pixels) in any of
     `images` (display RGB of one size), grown by GRID_CROP_MARGIN of the larger side and clipped
     to the frame; None when no pixel is. The fits' previews are renders composited over black, so
     their bright pixels are the object's (a photograph's background is not black: the reference
     preview alone cannot say where the object is)."""
     lit = None
     for img in images:
-        m = img[..., :3].max(axis=2) > threshold
+        m = lit_pixels(img)
         lit = m if lit is None else (lit | m if lit.shape == m.shape else lit)
     if lit is None or not lit.any():
         return None
@@ -166,8 +206,7 @@ def grid_crop(study_dir, evals, labels, rows, read=read_rgb8):
         for img in previews(key, ls):
             frame = frame or (img.shape[1], img.shape[0])
             if (img.shape[1], img.shape[0]) == frame:
-                # One channel: less memory (the maximum of 8-bit values, then as floats).
-                lit.append(as_float(img[..., :3].max(axis=2, keepdims=True)))
+                lit.append(img)
         if frame is not None:
             return object_box(lit) or (0, 0, frame[0], frame[1]), frame
     return None, None
@@ -260,8 +299,7 @@ def row_colour_bar(fig, tiles, g, y0, error_scale, first_row):
     colour bar's own axes (one per row, 700 in the measured study's grids) cost about a third
     of the grids' drawing time."""
     x1, y1 = g.bar_x + GRID_BAR_IN, y0 + g.cell_h
-    tiles.imshow(_bar_rgba(), interpolation="nearest", aspect="auto",
-                 extent=(g.bar_x, x1, y0, y1))
+    add_tile(tiles, _bar_rgba(), (g.bar_x, x1, y0, y1))
     tiles.add_patch(matplotlib.patches.Rectangle((g.bar_x, y0), GRID_BAR_IN, g.cell_h,
                                                  fill=False, linewidth=0.4, edgecolor="black",
                                                  clip_on=False))
@@ -281,6 +319,35 @@ def row_colour_bar(fig, tiles, g, y0, error_scale, first_row):
                  ha="left", va="bottom", fontsize=FONT_PT - 2)
 
 
+class _OpaqueTile(matplotlib.image.AxesImage):
+    """An image of opaque 8-bit RGBA (opaque_rgba's), kept as given: AxesImage.set_data copies
+    it, masks its invalid values (8-bit values have none), checks its range (0-255 by type) and
+    the axes' imshow scales a colour norm over it (unused by RGBA), ~1 ms a tile of the ~350 of
+    a material's grids. Anything else goes through set_data."""
+
+    def set_data(self, A):
+        if isinstance(A, np.ndarray) and A.dtype == np.uint8 and A.ndim == 3 and A.shape[2] == 4:
+            self._A = A
+            self._imcache = None
+            self.stale = True
+        else:
+            super().set_data(A)
+
+
+def add_tile(ax, rgba, extent):
+    """ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent) for opaque 8-bit
+    RGBA (_OpaqueTile) on an axes whose limits are set: the same image, drawn the same."""
+    if not matplotlib.__version__.startswith("3.6."):  # the steps below are 3.6's imshow's
+        return ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent)
+    ax.set_aspect("auto")
+    im = _OpaqueTile(ax, interpolation="nearest", extent=extent)
+    im.set_data(rgba)
+    im.set_clip_path(ax.patch)
+    im.set_extent(im.get_extent())
+    ax.add_image(im)
+    return im
+
+
 def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, read=read_rgb8):
     """Row i of the grid: the reference, each fit and each fit's error map under `light`, its
     label, and its colour bar. Returns the whole stops the row's images were brightened by.
@@ -289,7 +356,7 @@ def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, 
     first = evals[labels[0]].get(light, {}).get("images", {})
     ref_path = os.path.join(study_dir, first["reference"]) if first.get("reference") else None
     ref = read(ref_path) if ref_path and os.path.exists(ref_path) else None
-    stops = row_exposure(as_float(cropped(ref))) if ref is not None else 0
+    stops = row_exposure(cropped(ref)) if ref is not None else 0
     panels = [("reference", first.get("reference"), False)]
     panels += [(l, evals[l].get(light, {}).get("images", {}).get("fit"), False) for l in labels]
     panels += [(f"|error| {l}", evals[l].get(light, {}).get("images", {}).get("error"), True)
@@ -310,11 +377,10 @@ def grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped, frame, 
                 img = img[:, :img.shape[0]]
             lab = labels[j - 1 - len(labels)]
             error_scale = evals[lab].get(light, {}).get("images", {}).get("error_scale")
-            img = cropped(img)
+            img = opaque_rgba(cropped(img))
         else:
-            img = exposed(cropped(img), stops)
-        tiles.imshow(opaque_rgba(img), interpolation="nearest", aspect="auto",
-                     extent=(x0, x0 + g.cell_w, y0, y0 + g.cell_h))
+            img = exposed_rgba(cropped(img), stops)
+        add_tile(tiles, img, (x0, x0 + g.cell_w, y0, y0 + g.cell_h))
     split = next((evals[l].get(light, {}).get("split") for l in labels
                   if evals[l].get(light, {}).get("split")), "")
     row_label = light + (f"\n({split})" if split else "") + (f"\n+{stops} EV" if stops else "")
@@ -360,12 +426,14 @@ def grid_figure(study_dir, study, fits, material, labels, heading, read=None):
     tiles.set_axis_off()
     tiles.set_xticks([])
     tiles.set_yticks([])
+    # Inches, set before the tiles: fixed limits are not widened by each image's extent (an
+    # autoscaled axes set its limits again for every tile).
+    tiles.set_xlim(0, PAGE_IN)
+    tiles.set_ylim(0, g.height)
     if g.heading:
         fig.text((g.left_in + GRID_GAP_IN) / PAGE_IN, (g.height - 0.03) / g.height,
                  f"{material}, {g.heading}", ha="left", va="top", fontsize=FONT_PT)
     cropped = cropper(box, frame)
     exposures = [(light, grid_row(fig, tiles, g, study_dir, evals, labels, i, light, cropped,
                                   frame, read)) for i, light in enumerate(lightings)]
-    tiles.set_xlim(0, PAGE_IN)  # imshow widened the limits to its extents; inches again.
-    tiles.set_ylim(0, g.height)
     return fig, grid_caption(material, g.heading, exposures, box, frame, rows_note), lightings

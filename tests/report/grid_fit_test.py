@@ -10,6 +10,7 @@ fixed values), drawn by report_grids.image_grid. The grid must
   of the width), although the reference photograph's background is not black; and where a lit
   backdrop fills the frame, keep the whole frame at its 612 : 512 ratio,
 - record no overlapping or clipped text,
+- draw its tiles in the PDF as one raster that is the PNG's pixels, where the PNG has them,
 - give every row a colour bar: viridis from 0 at the bottom of the row's tiles to the row's error
   scale at their top (read from the PNG's pixels), with its three labels, "0", half the scale and
   the scale, at the bottom, middle and top of that bar.
@@ -19,11 +20,13 @@ fixed values), drawn by report_grids.image_grid. The grid must
 
 import json
 import os
-import re
 import shutil
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import figures_test  # noqa: E402  (pdf_raster_problems)
 
 W, H = 612, 512                   # The frame, as the data set's photographs.
 CX, CY, R = 250.0, 280.0, 110.0   # The ball: off centre, radius 110 px.
@@ -221,14 +224,10 @@ def check(report_grids, out, name, labels, fit_ground, min_fill):
             if fill < min_fill:
                 failures.append(f"the disc fills {fill:.2f} of its tile's width, want >= "
                                 f"{min_fill}")
-            # The PDF's tiles hold as many pixels as the PNG's (its images resampled at the
-            # PNG's resolution, not at a lower one): its widest image is a tile (the colour bars
-            # are narrower), as wide as this one in the PNG.
-            with open(os.path.join(d, fig["pdf"]), "rb") as f:
-                widths = [int(w) for w in re.findall(rb"/Subtype /Image /Width (\d+)", f.read())]
-            if tile_w and (not widths or max(widths) < tile_w - 2):
-                failures.append(f"the PDF's widest image is {max(widths, default=0)} px, the "
-                                f"PNG's tile {tile_w} px: the PDF's tiles are coarser")
+            # The PDF's tiles are the PNG's pixels, one raster where the PDF draws them (not
+            # resampled again, at a lower resolution or a shifted place).
+            failures += [f"{fig['pdf']}: {p}" for p in figures_test.pdf_raster_problems(
+                os.path.join(d, fig["pdf"]), os.path.join(d, fig["png"]))]
     failures += bar_problems(report_grids, d, study, fits, labels, png, rows)
     return [f"{name}: {f}" for f in failures]
 
