@@ -349,19 +349,46 @@ def _agg_draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
 _AGG_DRAW_TEXT = _backend_agg.RendererAgg.draw_text
 
 
+from matplotlib import markers as _markers  # noqa: E402
+
+_SET_MARKER = _markers.MarkerStyle._set_marker
+
+
+def _set_marker_from_spec(self, marker):
+    """MarkerStyle._set_marker (matplotlib 3.6) that, given another MarkerStyle made from a
+    named marker alone (a string or a number: the ticks' markers, "" for none), makes this one
+    from the same name, fill style and cap and join styles instead of deep-copying the other's
+    dictionary: the same state, since a 3.6 MarkerStyle's state is a function of those (its
+    setters are deprecated: it does not change after it is made). Line2D.update_from copies
+    every new tick's three lines' markers this way (Axis._copy_tick_props): a fifth of a probe
+    figure's drawing went to those deep copies."""
+    if (type(marker) is _markers.MarkerStyle and marker._user_transform is None
+            and isinstance(marker._marker, (str, int)) and not isinstance(marker._marker, bool)
+            and marker._marker in _markers.MarkerStyle.markers):
+        self._user_transform = None
+        self._user_capstyle = marker._user_capstyle
+        self._user_joinstyle = marker._user_joinstyle
+        self._fillstyle = marker._fillstyle
+        return _SET_MARKER(self, marker._marker)
+    return _SET_MARKER(self, marker)
+
+
 def use_matplotlib_text(own):
-    """own=True: matplotlib's own text measuring, math parsing and Agg text drawing (for the test
-    that the shortcuts above draw the same pixels and bytes); False: the shortcuts (on 3.6)."""
+    """own=True: matplotlib's own text measuring, math parsing, Agg text drawing and marker
+    copies (for the test that the shortcuts above draw the same pixels and bytes); False: the
+    shortcuts (on 3.6)."""
     if own or not matplotlib.__version__.startswith("3.6."):
         _mtext._get_text_metrics_with_cache = _TEXT_METRICS
         _mathtext.MathTextParser._parse_cached = _PARSE_CACHED
         _backend_agg.RendererAgg.draw_text = _AGG_DRAW_TEXT
+        _markers.MarkerStyle._set_marker = _SET_MARKER
     else:
         # The functions replaced are matplotlib 3.6's (their bodies copied above where needed);
         # on another version the report runs on matplotlib's own, slower and the same.
         _mtext._get_text_metrics_with_cache = _shared_text_metrics
         _mathtext.MathTextParser._parse_cached = _shared_math_parse
         _backend_agg.RendererAgg.draw_text = _agg_draw_text
+        _markers.MarkerStyle._set_marker = _set_marker_from_spec
 
 
 use_matplotlib_text(False)
@@ -439,6 +466,59 @@ def pdf_images_as_drawn(fig, ax):
     return len(images)
 
 
+class _InViewLocator(matplotlib.ticker.Locator):
+    """A log axis's tick locator that gives the locations of `locator` in the axis' view and a
+    thousandth of its span (in log space) around it. matplotlib makes a tick (three lines and
+    two texts, ~1 ms) for every location its locator gives, and draws those in the view; a
+    LogLocator gives a decade and more beyond each end (80 minor locations for a view of six
+    decades, 42 in it), most of a probe figure's first drawing. The ticks drawn are the same
+    (matplotlib keeps those within 1e-10 of the view; it drops a minor location within 1e-5 of
+    a major one: both are in the margin): the same pixels and PDF bytes. Its log formatters
+    label from the view, not from the locations."""
+
+    def __init__(self, locator):
+        self.locator = locator
+
+    def set_axis(self, axis):
+        super().set_axis(axis)
+        self.locator.set_axis(axis)
+
+    def __call__(self):
+        locs = np.asarray(self.locator())
+        if locs.ndim != 1 or locs.size == 0:
+            return locs
+        transform = self.axis.get_transform()
+        lo, hi = sorted(transform.transform(np.asarray(self.axis.get_view_interval(), float)))
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            return locs
+        margin = (hi - lo) * 1e-3
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = transform.transform(locs.astype(float))
+        return locs[(t >= lo - margin) & (t <= hi + margin)]
+
+    def tick_values(self, vmin, vmax):
+        return self.locator.tick_values(vmin, vmax)
+
+    def nonsingular(self, v0, v1):
+        return self.locator.nonsingular(v0, v1)
+
+    def view_limits(self, vmin, vmax):
+        return self.locator.view_limits(vmin, vmax)
+
+
+def ticks_in_view(fig):
+    """Every log axis of `fig` gets its ticks at the locations in its view only (_InViewLocator),
+    on matplotlib 3.6 (the version whose tick code the equality was checked on)."""
+    if not matplotlib.__version__.startswith("3.6."):
+        return
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            for ticker, setter in ((axis.major, axis.set_major_locator),
+                                   (axis.minor, axis.set_minor_locator)):
+                if isinstance(ticker.locator, matplotlib.ticker.LogLocator):
+                    setter(_InViewLocator(ticker.locator))
+
+
 def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=None):
     """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
     fields for the record (a split grid's kind, material and part). `pdf_raster`: an axes whose
@@ -449,6 +529,7 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     w_px, h_px = (int(round(v * DPI)) for v in fig.get_size_inches())
     fig.set_size_inches((w_px + 0.01) / DPI, (h_px + 0.01) / DPI)
     fig.set_dpi(DPI)
+    ticks_in_view(fig)
     overlaps, outside = text_problems(fig)
     # The titles stay where that drawing put them (matplotlib 3.6's flag; elsewhere it is only
     # an attribute): the PDF's drawing would place them again, measuring the axes' tick labels

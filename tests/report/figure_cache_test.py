@@ -10,9 +10,10 @@ on the synthetic four-fit study of many_fits_test.py (2 materials, images and pr
   (and the charts, drawn from every record);
 - a figure file deleted: it is drawn again;
 - the drawing shortcuts (report_figures: text measured, math parsed and glyphs drawn once per
-  process, 8-bit opaque tiles, font subsets per set of characters, made from a subset of the
-  font to the figures' characters) give the PNG pixels and PDF bytes matplotlib's own functions,
-  float tiles and the whole font give.
+  process, markers copied from their names, a log axis's ticks made for its view only, 8-bit
+  opaque tiles, font subsets per set of characters, made from a subset of the font to the
+  figures' characters) give the PNG pixels and PDF bytes matplotlib's own functions, every
+  location's tick, float tiles and the whole font give.
 
     figure_cache_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -40,14 +41,16 @@ def read(d, name):
         return f.read()
 
 
-def drawn(rf, tile):
+def drawn(rf, tile, in_view):
     """The PNG pixels and PDF bytes of a small figure with what the shortcuts cover: texts, a
-    log axis's math tick labels, a legend, and an image tile."""
+    log axis's math tick labels and minor ticks (made for the view's locations only: in_view), a
+    legend with markers, and an image tile."""
     import io
     import numpy as np
     fig = rf.plt.figure(figsize=(3.3, 2.0), dpi=rf.DPI)
     ax = fig.add_axes([0.2, 0.2, 0.5, 0.6])
     ax.plot([1, 2, 3], [0.01, 1.0, 30.0], label="blinn-phong@key+mirror60")
+    ax.plot([1.5, 2.5], [0.05, 3.0], marker="o", fillstyle="none", label="extrapolated")
     ax.set_yscale("log")
     ax.set_xlabel("theta_h (deg) \u207b\u00b2")
     ax.set_title("gold: fresnel")
@@ -55,6 +58,8 @@ def drawn(rf, tile):
     img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
     img.set_axis_off()
     img.imshow(tile, interpolation="nearest", aspect="auto")
+    if in_view:
+        rf.ticks_in_view(fig)
     fig.canvas.draw()
     pixels = np.asarray(fig.canvas.buffer_rgba()).copy()
     pdf = io.BytesIO()
@@ -74,10 +79,10 @@ def check_shortcuts(report_src):
     tile8 = rng.integers(0, 256, (40, 30, 3), dtype=np.uint8)
     tile = rf.as_float(tile8)
     rf.use_matplotlib_text(False)
-    short = [drawn(rf, rf.opaque_rgba(tile8)) for _ in range(2)]  # the second from the caches
+    short = [drawn(rf, rf.opaque_rgba(tile8), True) for _ in range(2)]  # the second: caches
     rf.use_matplotlib_text(True)
     try:
-        own = drawn(rf, tile)
+        own = drawn(rf, tile, False)
     finally:
         rf.use_matplotlib_text(False)
     for n, (pixels, pdf) in enumerate(short):
