@@ -79,10 +79,20 @@ class Map:
         self.value = value
 
 
+_JSON_TYPES = {type(None): "null", bool: BOOLEAN, int: NUMBER, float: NUMBER, str: STRING,
+               list: "array", dict: "object"}
+_KIND_NAMES = {Object: "object", Map: "object", Array: "array"}
+# The Python types json.loads makes of a scalar kind's values (an array of them is checked by
+# its set of types).
+_PYTHON_TYPES = {NUMBER: frozenset((int, float)), STRING: frozenset((str,)),
+                 BOOLEAN: frozenset((bool,))}
+
+
 def json_type(value):
     """The JSON name of a parsed value's type."""
-    if value is None:
-        return "null"
+    name = _JSON_TYPES.get(type(value))
+    if name is not None:
+        return name
     if isinstance(value, bool):
         return BOOLEAN
     if isinstance(value, (int, float)):
@@ -95,7 +105,19 @@ def json_type(value):
 def expected_name(kind):
     if isinstance(kind, str):
         return kind
-    return {Object: "object", Map: "object", Array: "array"}[type(kind)]
+    return _KIND_NAMES[type(kind)]
+
+
+# A field's place in its file is said only in an error: while checking it is `where`, a string
+# ("" at the top, or a top-level field's name) or (the parent's place, "." or "[", the name or
+# index), made into 'evaluations[0].images.fit' by where_text. A study's ~2,000 job files hold
+# ~5 million checked values (their curves' numbers): formatting every place took half of the
+# check.
+def where_text(where):
+    if isinstance(where, str):
+        return where
+    parent, sep, key = where
+    return f"{where_text(parent)}[{key}]" if sep == "[" else f"{where_text(parent)}.{key}"
 
 
 def check(value, kind, path, where, strict=False):
@@ -106,16 +128,32 @@ def check(value, kind, path, where, strict=False):
         return
     if kind == ANY:
         return
+    want = expected_name(kind)
     got = json_type(value)
-    if got != expected_name(kind):
-        raise ReportInputError(f"{path}: field '{where}': expected {expected_name(kind)}, "
+    if got != want:
+        raise ReportInputError(f"{path}: field '{where_text(where)}': expected {want}, "
                                f"got {got}")
     if isinstance(kind, Array):
-        for i, item in enumerate(value):
-            check(item, kind.item, path, f"{where}[{i}]", strict)
+        item = kind.item
+        # Scalars (a curve's numbers), nullable or not: their types here; a wrong one through
+        # check, which says why.
+        scalar, nullable = item, False
+        if isinstance(item, Field):
+            scalar = item.kind if item.one_of is None and not item.unread else None
+            nullable = item.nullable
+        ok = _PYTHON_TYPES.get(scalar) if isinstance(scalar, str) else None
+        if ok is not None:
+            ok = ok | {type(None)} if nullable else ok
+            if not set(map(type, value)) <= ok:
+                for i, x in enumerate(value):
+                    if type(x) not in ok:
+                        check(x, item, path, (where, "[", i), strict)
+        else:
+            for i, x in enumerate(value):
+                check(x, item, path, (where, "[", i), strict)
     elif isinstance(kind, Map):
-        for name, item in value.items():
-            check(item, kind.value, path, f"{where}.{name}", strict)
+        for name, x in value.items():
+            check(x, kind.value, path, (where, ".", name), strict)
     elif isinstance(kind, Object):
         check_object(value, kind, path, where, strict)
 
@@ -128,17 +166,17 @@ def check_field(value, field, path, where, strict=False):
         return
     if field.one_of is not None and value not in field.one_of:
         want = " or ".join(repr(v) for v in field.one_of)
-        raise ReportInputError(f"{path}: field '{where}': expected {want}, got {value!r}"
-                               + (f" ({field.hint})" if field.hint else ""))
+        raise ReportInputError(f"{path}: field '{where_text(where)}': expected {want}, got "
+                               f"{value!r}" + (f" ({field.hint})" if field.hint else ""))
     check(value, field.kind, path, where, strict)
 
 
 def check_object(obj, schema, path, where="", strict=False):
     for name, field in schema.fields.items():
-        at = f"{where}.{name}" if where else name
         if name in obj:
-            check_field(obj[name], field, path, at, strict)
+            check_field(obj[name], field, path, (where, ".", name) if where else name, strict)
         elif not field.optional:
+            at = f"{where_text(where)}.{name}" if where else name
             raise ReportInputError(f"{path}: field '{at}': missing"
                                    + (f" ({field.hint})" if field.hint else ""))
 
@@ -412,7 +450,9 @@ PROBE_RESULT = Object({
     "probe": Written(STRING),
     "numbers": Map(ANY),  # per series, nested numbers; flattened by report_util.flatten
     "curves": Array(Object({
-        "series": STRING, "kind": STRING, "x": Array(ANY), "y": Array(ANY),
+        # Numbers; null where not finite (internal::Num).
+        "series": STRING, "kind": STRING, "x": Array(Field(NUMBER, nullable=True)),
+        "y": Array(Field(NUMBER, nullable=True)),
         "x_label": STRING, "y_label": STRING, "x_scale": STRING, "y_scale": STRING,
         "reference": Field(STRING, nullable=True),  # null: a curve of no reference image
         "lighting": Field(STRING, nullable=True),  # that reference's lighting; null with it

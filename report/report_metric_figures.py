@@ -9,7 +9,7 @@ import numpy as np
 from report_figures import (COLUMN_IN, FONT_PT, PAGE_IN, bar_style, legend_layout, plt,
                             save_figure, style_of, text_width_in, wrap_to_width)
 from report_regions import lightings_of
-from report_util import materials_of
+from report_util import materials_of, rows_by
 from results_csv import REGIONS
 
 
@@ -45,14 +45,14 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
     for (x0, y0, w) in boxes:
         axes.append(fig.add_axes([x0 / PAGE_IN, y0 / height, w / PAGE_IN, axes_in / height],
                                  sharex=axes[0] if axes and stacked else None))
+    grouped = rows_by(rows, "material", "label", "split")
     for ax, split in zip(axes, ["train", "test"]):
         width = 0.8 / max(1, len(labels))
         x = np.arange(len(materials))
         for i, l in enumerate(labels):
             vals = []
             for m in materials:
-                v = [to_float(r[metric]) for r in rows
-                     if r["material"] == m and r["label"] == l and r["split"] == split]
+                v = [to_float(r[metric]) for r in grouped.get((m, l, split), ())]
                 v = [a for a in v if a is not None]
                 vals.append(np.mean(v) if v else np.nan)
             ax.bar(x + i * width, vals, width, label=l, **bar_style(i, l))

@@ -1,5 +1,6 @@
 """Small helpers every report module shares: the one atomic writer, the study's labels and
-materials in its order, number formatting, and the flattening of nested probe numbers."""
+materials in its order, results.csv's rows grouped, number formatting, and the flattening of
+nested probe numbers."""
 
 import math
 import os
@@ -19,6 +20,16 @@ def labels_of(study):
 
 def materials_of(study):
     return [g["material"] for g in study["groups"]]
+
+
+def rows_by(rows, *fields):
+    """{(row[f] for f in fields): [its rows, in their order]}: one pass over results.csv's rows
+    where a loop per material and fit would scan them all each time (100 materials x 14 fits
+    x 9,800 rows: seconds)."""
+    groups = {}
+    for r in rows:
+        groups.setdefault(tuple(r[f] for f in fields), []).append(r)
+    return groups
 
 
 def to_float(x):

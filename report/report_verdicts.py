@@ -8,7 +8,7 @@ import numpy as np
 
 import answer_rules
 from report_records import ToleranceCheck, ToleranceVerdict
-from report_util import flatten, labels_of, materials_of, probe_numbers, to_float
+from report_util import flatten, labels_of, materials_of, probe_numbers, rows_by, to_float
 
 
 def judge(kind, tol, ref, val, floor=0.0):
@@ -31,6 +31,7 @@ def compute_verdicts(study, rows, probes):
     labels = labels_of(study)
     model_of = {f["label"]: f["model"] for f in study["fits"]}
     detail, summary = [], []
+    grouped = rows_by(rows, "material", "label", "split")
     for name, v in study["verdicts"].items():
         tol, kind, source = float(v["tolerance"]), v["kind"], v["source"]
         for m in materials_of(study):
@@ -43,8 +44,8 @@ def compute_verdicts(study, rows, probes):
                                                     None, None, kind, tol, None, 0, why))
                     continue
                 if source == "metrics":
-                    vals = [to_float(r[v["metric"]]) for r in rows
-                            if r["material"] == m and r["label"] == label and r["split"] == v["split"]]
+                    vals = [to_float(r[v["metric"]])
+                            for r in grouped.get((m, label, v["split"]), ())]
                     vals = [x for x in vals if x is not None]
                     if vals:
                         val = float(np.mean(vals))

@@ -78,6 +78,29 @@ def first_fit_job(d):
     return os.path.join(d, "jobs", name)
 
 
+def first_probe_job(d):
+    name = sorted(n for n in os.listdir(os.path.join(d, "jobs"))
+                  if n.startswith("probe.") and not n.endswith(".timing.json"))[0]
+    return os.path.join(d, "jobs", name)
+
+
+def first_curve(j):
+    """The first curve of a probe job (its probes by name) and that probe's name."""
+    name = sorted(p for p in j["probes"] if j["probes"][p]["curves"])[0]
+    return j["probes"][name]["curves"][0], name
+
+
+def curve_value_as(value):
+    def change(j):
+        first_curve(j)[0]["y"][1] = value
+    return change
+
+
+def curve_field(d):
+    """The name of the first curve's y in the first probe job ('probes.fresnel.curves[0].y')."""
+    return f"probes.{first_curve(report_inputs.load_json(first_probe_job(d)))[1]}.curves[0].y"
+
+
 def every_fit_job(d, change):
     for n in os.listdir(os.path.join(d, "jobs")):
         if n.startswith("fit.") and not n.endswith(".timing.json"):
@@ -96,6 +119,9 @@ BROKEN = [
     ("a fit job with a flag written as a number",
      lambda d: edit_json(first_fit_job(d), lambda j: j.update(converged=1)),
      first_fit_job, "field 'converged': expected boolean, got number"),
+    ("a probe job with a curve's number written as a string",
+     lambda d: edit_json(first_probe_job(d), curve_value_as("0.5")),
+     first_probe_job, lambda d: f"field '{curve_field(d)}[1]': expected number, got string"),
     ("study.json with a fit's label missing",
      lambda d: edit_json(os.path.join(d, "study.json"), lambda j: j["fits"][0].pop("label")),
      lambda d: os.path.join(d, "study.json"), "field 'fits[0].label': missing"),
@@ -215,7 +241,7 @@ def main(argv):
         breaker(d)
         before = files_under(d)
         code, err = run_report(d)
-        want = f"make_report: error: {file_of(d)}: {rest}"
+        want = f"make_report: error: {file_of(d)}: {rest(d) if callable(rest) else rest}"
         written = sorted(set(files_under(d)) - set(before))
         ok = code != 0 and err == want and not written
         print(f"{'ok' if ok else 'FAILED'}: {name}: exit {code}: {err[-300:]}"
@@ -225,6 +251,7 @@ def main(argv):
             failures.append(name)
     copy_study(src, d)
     every_fit_job(d, drop_optional)
+    edit_json(first_probe_job(d), curve_value_as(None))  # a value that is not finite: null
     code, err = run_report(d)
     ok = code == 0 and os.path.exists(os.path.join(d, "report", "index.html"))
     print(f"{'ok' if ok else 'FAILED'}: optional fields left out: exit {code}: {err[-300:]}")
