@@ -26,6 +26,10 @@ from matplotlib.backends import _backend_pdf_ps  # noqa: E402
 import numpy as np  # noqa: E402
 import PIL.Image  # noqa: E402
 
+# The version whose internals the drawing shortcuts below replace or follow (use_matplotlib_text,
+# ticks_in_view, report_grids.add_tile); on any other, matplotlib's own code runs.
+MATPLOTLIB_3_6 = matplotlib.__version__.startswith("3.6.")
+
 DPI = 200
 COLUMN_IN = 3.3  # One column of a two-column paper (ACM, IEEE: 3.3-3.5 in).
 PAGE_IN = 7.0    # Both columns.
@@ -377,7 +381,7 @@ def use_matplotlib_text(own):
     """own=True: matplotlib's own text measuring, math parsing, Agg text drawing and marker
     copies (for the test that the shortcuts above draw the same pixels and bytes); False: the
     shortcuts (on 3.6)."""
-    if own or not matplotlib.__version__.startswith("3.6."):
+    if own or not MATPLOTLIB_3_6:
         _mtext._get_text_metrics_with_cache = _TEXT_METRICS
         _mathtext.MathTextParser._parse_cached = _PARSE_CACHED
         _backend_agg.RendererAgg.draw_text = _AGG_DRAW_TEXT
@@ -509,7 +513,7 @@ class _InViewLocator(matplotlib.ticker.Locator):
 def ticks_in_view(fig):
     """Every log axis of `fig` gets its ticks at the locations in its view only (_InViewLocator),
     on matplotlib 3.6 (the version whose tick code the equality was checked on)."""
-    if not matplotlib.__version__.startswith("3.6."):
+    if not MATPLOTLIB_3_6:
         return
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
@@ -546,12 +550,10 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     if pdf_raster is not None:
         pdf_images_as_drawn(fig, pdf_raster)
     # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
-    # Each image stays its own (a grid's tiles share one axes; compositing them into one raster
-    # drew no faster, measured 2026-12-06), resampled at the PNG's resolution: without
-    # `dpi` matplotlib resamples a PDF's images at the figure's first resolution (100 dpi: a grid
-    # tile of 0.51 in was 51 px in the PDF and 102 px in the PNG). Text and lines stay vectors.
-    # Natively sized tiles (interpolation "none") made the grids' PDFs 6x larger and their
-    # drawing 3x slower.
+    # Other figures' images (a chart's) stay their own, not composited by matplotlib, and are
+    # resampled at the PNG's resolution: without `dpi` matplotlib resamples a PDF's images at
+    # the figure's first resolution (100 dpi). Text and lines stay vectors. A grid's tiles are
+    # one raster of the PNG's pixels by now (pdf_raster above).
     with matplotlib.rc_context({"image.composite_image": False}):
         fig.savefig(pdf + ".tmp.pdf", format="pdf", dpi=DPI, metadata={"CreationDate": None})
     os.replace(pdf + ".tmp.pdf", pdf)

@@ -8,9 +8,9 @@ import types
 
 import numpy as np
 
-from report_figures import (FONT_PT, PAGE_IN, UNITS_RADIANCE, as_float, linear_to_srgb,
-                            matplotlib, opaque_rgba, plt, read_rgb8, save_figure, srgb_to_linear,
-                            wrap_to_width)
+from report_figures import (FONT_PT, MATPLOTLIB_3_6, PAGE_IN, UNITS_RADIANCE, as_float,
+                            linear_to_srgb, matplotlib, opaque_rgba, plt, read_rgb8, save_figure,
+                            srgb_to_linear, wrap_to_width)
 
 
 @functools.lru_cache(maxsize=None)
@@ -337,7 +337,7 @@ class _OpaqueTile(matplotlib.image.AxesImage):
 def add_tile(ax, rgba, extent):
     """ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent) for opaque 8-bit
     RGBA (_OpaqueTile) on an axes whose limits are set: the same image, drawn the same."""
-    if not matplotlib.__version__.startswith("3.6."):  # the steps below are 3.6's imshow's
+    if not MATPLOTLIB_3_6:  # the steps below are 3.6's imshow's
         return ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent)
     ax.set_aspect("auto")
     im = _OpaqueTile(ax, interpolation="nearest", extent=extent)
