@@ -319,6 +319,10 @@ def row_colour_bar(fig, tiles, g, y0, error_scale, first_row):
                  ha="left", va="bottom", fontsize=FONT_PT - 2)
 
 
+# The tiles resampled once (_OpaqueTile._make_image); False: matplotlib's two resamplings.
+_ONE_RESAMPLE = MATPLOTLIB_3_6
+
+
 class _OpaqueTile(matplotlib.image.AxesImage):
     """An image of opaque 8-bit RGBA (opaque_rgba's), kept as given: AxesImage.set_data copies
     it, masks its invalid values (8-bit values have none), checks its range (0-255 by type) and
@@ -332,6 +336,40 @@ class _OpaqueTile(matplotlib.image.AxesImage):
             self.stale = True
         else:
             super().set_data(A)
+
+    def _make_image(self, A, *args, **kwargs):
+        """AxesImage's, with one resampling of the tile instead of two. matplotlib 3.6 resamples
+        an RGBA image's alpha plane, then a copy of its RGB made RGBA again (alpha 255), and
+        puts the first's result into the second's alpha: for an opaque tile the copy is the
+        tile itself and the alpha plane's result is the tile's resampled alpha, so the tile is
+        resampled once, as it is, for both (the same pixels: figure_cache_test compares them)."""
+        if not (_ONE_RESAMPLE and A is self._A and isinstance(self, _OpaqueTile)):
+            return super()._make_image(A, *args, **kwargs)
+        resample, rgb_to_rgba = matplotlib.image._resample, matplotlib.image._rgb_to_rgba
+        done = []
+
+        def view_of(data, channels, first):
+            """Is `data` A[..., first:first + channels] (channels 1: the plane A[..., first])?"""
+            at = A.__array_interface__["data"][0] + first
+            return (data.__array_interface__["data"][0] == at and data.strides[:2] == A.strides[:2]
+                    and data.shape == (A.shape[:2] if channels == 1 else A.shape[:2] + (channels,)))
+
+        def once(image_obj, data, out_shape, transform, **kw):
+            if not done and data.ndim == 2 and view_of(data, 1, 3):  # alpha: the tile, once
+                done.append(resample(image_obj, A, out_shape, transform, **kw))
+                return done[0][..., 3]
+            if data is A and done:  # the RGB made RGBA: the same tile
+                return done[0]
+            return resample(image_obj, data, out_shape, transform, **kw)
+
+        def same_tile(rgb):
+            return A if done and rgb.ndim == 3 and view_of(rgb, 3, 0) else rgb_to_rgba(rgb)
+
+        matplotlib.image._resample, matplotlib.image._rgb_to_rgba = once, same_tile
+        try:
+            return super()._make_image(A, *args, **kwargs)
+        finally:
+            matplotlib.image._resample, matplotlib.image._rgb_to_rgba = resample, rgb_to_rgba
 
 
 def add_tile(ax, rgba, extent):

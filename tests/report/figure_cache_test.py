@@ -41,10 +41,11 @@ def read(d, name):
         return f.read()
 
 
-def drawn(rf, tile, in_view):
+def drawn(rf, tile, in_view, grid_tile=None):
     """The PNG pixels and PDF bytes of a small figure with what the shortcuts cover: texts, a
     log axis's math tick labels and minor ticks (made for the view's locations only: in_view), a
-    legend with markers, and an image tile."""
+    legend with markers, an image tile, and a grid's tile at an extent whose edges cut pixels
+    (grid_tile: report_grids.add_tile's opaque 8-bit tile, resampled once; else imshow's)."""
     import io
     import numpy as np
     fig = rf.plt.figure(figsize=(3.3, 2.0), dpi=rf.DPI)
@@ -58,6 +59,18 @@ def drawn(rf, tile, in_view):
     img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
     img.set_axis_off()
     img.imshow(tile, interpolation="nearest", aspect="auto")
+    cell = fig.add_axes([0.031, 0.043, 0.137, 0.113])
+    cell.set_axis_off()
+    cell.set_xlim(0, 1)
+    cell.set_ylim(0, 1)
+    extent = (0.113, 0.871, 0.097, 0.933)
+    if grid_tile is not None:
+        import report_grids
+        report_grids.add_tile(cell, grid_tile, extent)
+    else:
+        cell.imshow(tile, interpolation="nearest", aspect="auto", extent=extent)
+        cell.set_xlim(0, 1)
+        cell.set_ylim(0, 1)
     if in_view:
         rf.ticks_in_view(fig)
     fig.canvas.draw()
@@ -79,7 +92,8 @@ def check_shortcuts(report_src):
     tile8 = rng.integers(0, 256, (40, 30, 3), dtype=np.uint8)
     tile = rf.as_float(tile8)
     rf.use_matplotlib_text(False)
-    short = [drawn(rf, rf.opaque_rgba(tile8), True) for _ in range(2)]  # the second: caches
+    short = [drawn(rf, rf.opaque_rgba(tile8), True, rf.opaque_rgba(tile8))
+             for _ in range(2)]  # the second: caches
     rf.use_matplotlib_text(True)
     try:
         own = drawn(rf, tile, False)
