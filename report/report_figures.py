@@ -637,8 +637,12 @@ def opaque_rgba(rgb):
     (figures_test checks it)."""
     if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind not in "fu":
         return rgb
+    if rgb.dtype == np.uint8:
+        # Pillow's RGB to RGBA (alpha 255) is one C loop: a material's ~300 cropped tiles in
+        # ~0.10 s against ~0.15 s for numpy's copy into three of every four bytes.
+        return np.asarray(PIL.Image.fromarray(np.ascontiguousarray(rgb), "RGB").convert("RGBA"))
     rgba = np.empty(rgb.shape[:2] + (4,), dtype=np.uint8)
-    rgba[..., :3] = rgb if rgb.dtype == np.uint8 else rgb * rgb.dtype.type(255)
+    rgba[..., :3] = rgb * rgb.dtype.type(255)
     rgba[..., 3] = 255
     return rgba
 

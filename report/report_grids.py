@@ -51,10 +51,7 @@ def exposed(rgb, stops):
 def exposed_rgba(rgb, stops):
     """opaque_rgba(exposed(rgb, stops)); 8-bit values looked up (_exposed8: the same bytes)."""
     if stops != 0 and rgb.dtype == np.uint8 and rgb.ndim == 3 and rgb.shape[2] == 3:
-        rgba = np.empty(rgb.shape[:2] + (4,), dtype=np.uint8)
-        rgba[..., :3] = _exposed8(stops)[rgb]
-        rgba[..., 3] = 255
-        return rgba
+        return opaque_rgba(_exposed8(stops)[rgb])
     return opaque_rgba(exposed(rgb, stops))
 
 
