@@ -69,6 +69,19 @@ def pdf_streams(pdf):
     return out
 
 
+def decode_idat(idat, width, height, color_type):
+    """Pillow's decoding of a PNG made around `idat` (a PNG's IDAT data, or a PDF image's Flate
+    stream with PNG predictors; 8 bits per sample; colour type 2: RGB, 0: gray)."""
+    def chunk(kind, body):
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+    png = (b"\x89PNG\r\n\x1a\n"
+           + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, color_type, 0, 0, 0))
+           + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+    with PIL.Image.open(io.BytesIO(png)) as im:
+        return np.asarray(im)
+
+
 def pdf_raster_problems(pdf_path, png_path):
     """A grid's PDF draws its tiles and colour bars as one image that is the PNG's pixels where
     the PDF puts it (report_figures.pdf_images_as_drawn): exactly one image XObject; its data
@@ -86,11 +99,7 @@ def pdf_raster_problems(pdf_path, png_path):
     h = int(re.search(rb"/Height (\d+)", d).group(1))
     if b"/DeviceRGB" not in d or b"/Predictor 10" not in d or b"/SMask" in d:
         return [f"image dictionary not opaque 8-bit RGB with PNG predictors: {d[:160]!r}"]
-    chunk = lambda kind, body: (struct.pack(">I", len(body)) + kind + body +
-                                struct.pack(">I", zlib.crc32(kind + body)))
-    png_bytes = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-                 + chunk(b"IDAT", data) + chunk(b"IEND", b""))
-    raster = np.asarray(PIL.Image.open(io.BytesIO(png_bytes)).convert("RGB"))
+    raster = decode_idat(data, w, h, 2)
     content = b"".join(zlib.decompress(data) for dd, data in streams
                        if b"/Subtype" not in dd and b"/Length1" not in dd
                        and b"/FlateDecode" in dd)

@@ -8,29 +8,14 @@ PDF embeds.
     png_test.py REPORT_DIR      exit 0 pass, 1 fail
 """
 
-import io
 import os
-import struct
 import sys
 import tempfile
-import zlib
 
 import numpy as np
 import PIL.Image
 
-
-def chunk(kind, data):
-    return (struct.pack(">I", len(data)) + kind + data
-            + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-
-
-def decode_idat(idat, width, height, color_type):
-    """Pillow's decoding of a PNG made around `idat` (8 bits per sample)."""
-    png = (b"\x89PNG\r\n\x1a\n"
-           + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, color_type, 0, 0, 0))
-           + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
-    with PIL.Image.open(io.BytesIO(png)) as im:
-        return np.asarray(im)
+from figures_test import decode_idat  # the same folder
 
 
 def main(argv):
