@@ -340,7 +340,7 @@ class _OpaqueTile(matplotlib.image.AxesImage):
         puts the first's result into the second's alpha: for an opaque tile the copy is the
         tile itself and the alpha plane's result is the tile's resampled alpha, so the tile is
         resampled once, as it is, for both (the same pixels: figure_cache_test compares them)."""
-        if not (_ONE_RESAMPLE and A is self._A and isinstance(self, _OpaqueTile)):
+        if not (_ONE_RESAMPLE and A is self._A):
             return super()._make_image(A, *args, **kwargs)
         resample, rgb_to_rgba = matplotlib.image._resample, matplotlib.image._rgb_to_rgba
         done = []
