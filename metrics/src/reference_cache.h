@@ -20,7 +20,7 @@ std::uint64_t HashPixels(const Image& image);
 
 struct ReferenceCache::Impl {
   // Which half an entry holds: each kind's values have their own type (below).
-  enum class Kind { kFlip, kLab, kIctcp };
+  enum class Kind { kFlip, kLab, kIctcp, kDisplay };
   struct Key {
     Kind kind;
     std::uint64_t pixels;  // HashPixels of the reference as the metric reads it.

@@ -13,6 +13,7 @@
 #include "flip_map.h"
 #include "internal.h"
 #include "kept_inputs.h"
+#include "reference_cache.h"
 #include "shadefit/metrics/false_color.h"
 #include "shadefit/metrics/pixel_metrics.h"
 #include "shadefit/base/error.h"
@@ -147,12 +148,26 @@ struct Encoded {
   Image ref, tst;
 };
 
-Encoded EncodeRgb(const Image& ref, const Image& tst, float stops) {
-  return {DisplayEncode(ref, stops), DisplayEncode(tst, stops)};
+// The reference's display encoding (RGB, or luminance), from `cache` when it holds it: every fit
+// of a study evaluated under one lighting encodes the same reference. `pixels`: HashPixels(ref).
+Image ReferenceDisplay(ReferenceCache* cache, std::uint64_t pixels, const Image& ref, float stops,
+                       bool luminance) {
+  const auto encode = [&] { return DisplayEncode(luminance ? Luminance(ref) : ref, stops); };
+  if (cache == nullptr) return encode();
+  const ReferenceCache::Impl::Key key{ReferenceCache::Impl::Kind::kDisplay, pixels, 0,
+                                      {stops, luminance ? 1.0 : 0.0, 0.0}};
+  return *FindOrMake<Image>(cache, key, encode,
+                            [](const Image& im) { return im.data.size() * sizeof(float); });
 }
 
-Encoded EncodeLuminance(const Image& ref, const Image& tst, float stops) {
-  return {DisplayEncode(Luminance(ref), stops), DisplayEncode(Luminance(tst), stops)};
+Encoded EncodeRgb(ReferenceCache* cache, std::uint64_t pixels, const Image& ref, const Image& tst,
+                  float stops) {
+  return {ReferenceDisplay(cache, pixels, ref, stops, false), DisplayEncode(tst, stops)};
+}
+
+Encoded EncodeLuminance(ReferenceCache* cache, std::uint64_t pixels, const Image& ref,
+                        const Image& tst, float stops) {
+  return {ReferenceDisplay(cache, pixels, ref, stops, true), DisplayEncode(Luminance(tst), stops)};
 }
 
 // Whether a later call (its window at x0, y0, images `tst` and its parameters) can take from
@@ -281,7 +296,12 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
     rgb_encoded = EncodedFromKept(*from, x0, y0, ref_part, tst_part, from->ref_display,
                                   from->tst_display);
   }
-  if (!rgb_encoded) rgb_encoded = EncodeRgb(ref_part, tst_part, p.exposure_stops);
+  // The part's pixels identify the reference's encodings in the cache (a window of it has its
+  // own).
+  const std::uint64_t ref_part_hash = p.reference_cache ? HashPixels(ref_part) : 0;
+  if (!rgb_encoded) {
+    rgb_encoded = EncodeRgb(p.reference_cache, ref_part_hash, ref_part, tst_part, p.exposure_stops);
+  }
   const Image& ref_display = rgb_encoded->ref;
   const Image& tst_display = rgb_encoded->tst;
   r.psnr = internal::PsnrOfEncoded(ref_display, tst_display, mask_part);
@@ -290,7 +310,10 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
   ssim.mask = mask_part;
   std::optional<Encoded> y_encoded;
   if (from) y_encoded = EncodedFromKept(*from, x0, y0, ref_part, tst_part, from->ref_y, from->tst_y);
-  if (!y_encoded) y_encoded = EncodeLuminance(ref_part, tst_part, p.exposure_stops);
+  if (!y_encoded) {
+    y_encoded =
+        EncodeLuminance(p.reference_cache, ref_part_hash, ref_part, tst_part, p.exposure_stops);
+  }
   const Image& ref_y = y_encoded->ref;
   const Image& tst_y = y_encoded->tst;
   Image ssim_map;

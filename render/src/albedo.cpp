@@ -1,7 +1,9 @@
 #include "shadefit/render/albedo.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -83,11 +85,8 @@ double PdfGgxReflection(const Vec3d& l, const Vec3d& v, double alpha) {
   return D_GGX(h.z, one_minus, alpha) * h.z / (4.0 * VoH);
 }
 
-}  // namespace
-
-AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& params,
-                                 double cos_theta_v, const AlbedoOptions& options) {
-  const double cv = std::clamp(cos_theta_v, 1e-6, 1.0);
+AlbedoEstimate Estimate(ModelId model, const std::vector<double>& params, double cv,
+                        const AlbedoOptions& options) {
   const Vec3d n{0, 0, 1};
   const Vec3d v{std::sqrt(std::max(0.0, 1.0 - cv * cv)), 0.0, cv};
   const double alpha = SpecularLobeAlpha(model, params.data());
@@ -141,6 +140,45 @@ AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& param
       out.std_error[c] = std::sqrt(var / count);
     }
   }
+  return out;
+}
+
+// What an estimate is a function of: the model, its parameters' bits, the view and the strata.
+struct EstimateKey {
+  ModelId model;
+  std::vector<std::uint64_t> params;
+  std::uint64_t cv;
+  int strata;
+  unsigned seed;
+  auto operator<=>(const EstimateKey&) const = default;
+};
+
+// The estimates made so far in this process. A study's probe job asks for the same ones twice:
+// the energy probe's first pass and the BRDF-space probe's model albedos take 128^2 strata at
+// 10 of the same view angles for every fit of the material. Each estimate is deterministic, so a
+// kept one is the bits a new call would give. At most kMaxKept (~100 bytes each); full, the
+// store starts again.
+std::mutex estimates_mutex;
+std::map<EstimateKey, AlbedoEstimate> estimates;
+constexpr std::size_t kMaxKept = 1 << 14;
+
+}  // namespace
+
+AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& params,
+                                 double cos_theta_v, const AlbedoOptions& options) {
+  const double cv = std::clamp(cos_theta_v, 1e-6, 1.0);
+  EstimateKey key{model, {}, std::bit_cast<std::uint64_t>(cv), options.strata_per_axis,
+                  options.seed};
+  key.params.reserve(params.size());
+  for (const double p : params) key.params.push_back(std::bit_cast<std::uint64_t>(p));
+  {
+    std::lock_guard lock(estimates_mutex);
+    if (const auto it = estimates.find(key); it != estimates.end()) return it->second;
+  }
+  const AlbedoEstimate out = Estimate(model, params, cv, options);
+  std::lock_guard lock(estimates_mutex);
+  if (estimates.size() >= kMaxKept) estimates.clear();
+  estimates.emplace(std::move(key), out);
   return out;
 }
 

@@ -481,6 +481,36 @@ TEST(ReferenceCacheTest, PointWiseHalvesAreKeptPerPixelsMaskAndParameters) {
   EXPECT_EQ(stats.misses, 10u);
 }
 
+// ComputeMetrics keeps the reference's display encodings (RGB and luminance, for PSNR and SSIM)
+// in its ReferenceCache with the other halves; they are found again only for the same reference
+// pixels in the same window around the mask and the same exposure: a call that changes any of
+// them in turn, with one cache, gives the numbers of a call without it.
+TEST(ReferenceCacheTest, DisplayEncodingsAreKeptPerPixelsWindowAndExposure) {
+  const Image ref = testing::HdrScene(96, 80);
+  const Image tst = testing::HdrDistorted(ref, 0.15f, 5);
+  Image other_ref = ref;
+  other_ref.at(40, 40, 1) *= 1.5f;  // Inside both masks.
+  const Image mask = EllipseMask(96, 80, 47.0, 41.0, 30.0, 25.0, false);
+  const Image smaller = EllipseMask(96, 80, 47.0, 41.0, 22.0, 18.0, false);  // Its own window.
+  struct Call {
+    const Image* reference;
+    const Image* mask;
+    float exposure_stops;
+  };
+  const Call calls[] = {{&ref, &mask, 0.0f},   {&ref, &mask, 0.0f},     {&other_ref, &mask, 0.0f},
+                        {&ref, &smaller, 0.0f}, {&ref, &mask, -1.5f}, {&ref, &mask, 0.0f}};
+  ReferenceCache cache(64 << 20);
+  for (const Call& c : calls) {
+    MetricsParameters p;
+    p.exposure_stops = c.exposure_stops;
+    const std::string plain = MetricsToJson(ComputeMetrics(*c.reference, tst, c.mask, p)).dump();
+    p.reference_cache = &cache;
+    EXPECT_EQ(MetricsToJson(ComputeMetrics(*c.reference, tst, c.mask, p)).dump(), plain)
+        << "stops " << c.exposure_stops;
+  }
+  EXPECT_GT(cache.stats().hits, 0u);
+}
+
 TEST(FalseColorTest, EndsOfTheScaleAndNan) {
   Image map(3, 1, 1);
   map.data = {0.0f, 1.0f, std::nanf("")};

@@ -71,6 +71,42 @@ TEST(BrdfPhysics, LambertAlbedoEqualsKd) {
   }
 }
 
+// DirectionalAlbedo keeps its estimates (the energy and BRDF-space probes ask for the same ones):
+// an estimate asked for again is the same bits, and one that differs in any input (the model,
+// a parameter, the view, the strata, the seed) is its own, not the kept one of another.
+TEST(BrdfPhysics, AlbedoEstimatesAreKeptPerModelParametersViewStrataAndSeed) {
+  const ModelInfo& ggx = FindModel("ggx");
+  const ModelInfo& beckmann = FindModel("beckmann");
+  std::vector<double> p = DefaultParams(ggx);
+  p[ggx.Offset("roughness")] = 0.3;
+  ASSERT_EQ(DefaultParams(beckmann).size(), p.size());
+  AlbedoOptions o;
+  o.strata_per_axis = 32;
+  const AlbedoEstimate base = DirectionalAlbedo(ggx.id, p, 0.5, o);
+  std::vector<double> rougher = p;
+  rougher[ggx.Offset("roughness")] = 0.31;
+  AlbedoOptions more_strata = o, other_seed = o;
+  more_strata.strata_per_axis = 34;
+  other_seed.seed = o.seed + 1;
+  const struct {
+    const char* what;
+    AlbedoEstimate e;
+  } others[] = {{"model", DirectionalAlbedo(beckmann.id, p, 0.5, o)},
+                {"parameter", DirectionalAlbedo(ggx.id, rougher, 0.5, o)},
+                {"view", DirectionalAlbedo(ggx.id, p, 0.6, o)},
+                {"strata", DirectionalAlbedo(ggx.id, p, 0.5, more_strata)},
+                {"seed", DirectionalAlbedo(ggx.id, p, 0.5, other_seed)}};
+  for (const auto& other : others) {
+    EXPECT_NE(other.e.value[0], base.value[0]) << other.what;
+    EXPECT_NE(other.e.std_error[0], base.std_error[0]) << other.what;
+  }
+  const AlbedoEstimate again = DirectionalAlbedo(ggx.id, p, 0.5, o);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(again.value[c], base.value[c]);
+    EXPECT_EQ(again.std_error[c], base.std_error[c]);
+  }
+}
+
 // Closed form of the normalised Blinn-Phong albedo at normal view (v = n, so theta_l = 2
 // theta_h and dl = 4 (v.h) dh): E = (n + 8) [2 (1 - 2^-(n+4)/2) / (n + 4) - (1 - 2^-(n+2)/2) /
 // (n + 2)]. It checks the integrator, and shows that (n + 8) / (8 pi) over-normalises by up to

@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 #include <OpenEXR/ImfRgbaFile.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -112,6 +115,48 @@ TEST(ImageIo, OtherFilesTakeOpenImageIOsPath) {
     ADD_FAILURE() << "a truncated EXR was read";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("cut.exr"), std::string::npos) << e.what();
+  }
+}
+
+// An 8-bit PNG stores each value clamped to [0, 1] and rounded half away from zero (NaN: 0):
+// what std::lround gives, at every rounding boundary k + 1/2 of the 255 steps, the floats on
+// either side of it, and the values outside [0, 1]; in the colour channels of an RGB image and
+// in the alpha channel of an RGBA one (read back, colour is associated with alpha: only alpha
+// is compared there).
+TEST(ImageIo, Png8RoundsAsLroundAtEveryBoundary) {
+  std::vector<float> values = {0.0f, 1.0f, -1.0f, 2.0f, std::numeric_limits<float>::quiet_NaN(),
+                               std::numeric_limits<float>::infinity(),
+                               -std::numeric_limits<float>::infinity(), 1e-30f};
+  for (int k = 0; k < 255; ++k) {
+    const float boundary = (static_cast<float>(k) + 0.5f) / 255.0f;
+    values.push_back(boundary);
+    values.push_back(std::nextafter(boundary, 0.0f));
+    values.push_back(std::nextafter(boundary, 1.0f));
+  }
+  const auto expected = [](float v) {
+    return static_cast<int>(std::lround(std::clamp(std::isnan(v) ? 0.0f : v, 0.0f, 1.0f) * 255.0f));
+  };
+  const auto byte = [](float read) { return static_cast<int>(std::lround(read * 255.0f)); };
+  const std::string dir = testing::TestOutputDir("image_io");
+  const int n = static_cast<int>(values.size());
+  // Two rows each: the second row is stored as its differences from the first (Up filter).
+  Image rgb((n + 2) / 3, 2, 3, 0.25f), rgba(n, 2, 4, 1.0f);
+  std::copy(values.begin(), values.end(), rgb.data.begin());
+  for (int i = 0; i < n; ++i) rgba.at(i, 0, 3) = values[i];
+  WritePng8(dir + "/rounding-rgb.png", rgb);
+  WritePng8(dir + "/rounding-rgba.png", rgba);
+  const Image read_rgb = ReadImage(dir + "/rounding-rgb.png");
+  const Image read_rgba = ReadImage(dir + "/rounding-rgba.png");
+  ASSERT_EQ(read_rgb.data.size(), rgb.data.size());
+  ASSERT_EQ(read_rgba.data.size(), rgba.data.size());
+  for (std::size_t i = 0; i < rgb.data.size(); ++i) {
+    ASSERT_EQ(byte(read_rgb.data[i]), expected(rgb.data[i])) << "RGB value " << rgb.data[i];
+  }
+  for (int y = 0; y < 2; ++y) {
+    for (int x = 0; x < n; ++x) {
+      ASSERT_EQ(byte(read_rgba.at(x, y, 3)), expected(rgba.at(x, y, 3)))
+          << "alpha value " << rgba.at(x, y, 3);
+    }
   }
 }
 

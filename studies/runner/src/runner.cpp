@@ -96,7 +96,8 @@ class StudyRun {
   std::string GlRendererForProvenance() const;
   double Elapsed() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
-  // The references' halves of FLIP, CIEDE2000 and Delta E_ITP: every fit of a material is
+  // The references' halves of FLIP, CIEDE2000 and Delta E_ITP and their display encodings
+  // (16 bytes a pixel): every fit of a material is
   // compared with the same references (10 fits x 7 lightings x ~15 HDR-FLIP exposures in the
   // measured study). A FLIP half is 20 bytes a pixel (CIELAB and ICtCp add 24 each): ~150 MB for
   // a material's 7 references at 256^2 and 15 exposures, so 768 MiB holds about five materials
