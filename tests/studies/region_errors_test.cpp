@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "run_context.h"
+
 namespace shadefit::studies::internal {
 namespace {
 
@@ -60,6 +62,37 @@ TEST(RegionErrors, OnlyMeasuredPixelsCount) {
   EXPECT_TRUE(r["rim"]["signed"].is_null());
   // 14 measured pixels, all grey 1: the brightest 5% is the one at the top of the sort.
   EXPECT_EQ(r["highlight"]["pixels"].get<int>() + r["body"]["pixels"].get<int>(), 14);
+}
+
+// A study finds a reference's regions once (ReferenceRegions, by image path) and sums each fit
+// over them: one map of the frame above serves a fit that is exact and one that is not, each with
+// its own numbers; a second path gets a map of its own, a path seen before the first one's.
+TEST(RegionErrors, OneReferenceMapServesEveryFit) {
+  Frame f;
+  ReferenceRegions store;
+  int made = 0;
+  const auto make = [&] {
+    ++made;
+    return PixelRegions(f.ref, f.measured, f.gb);
+  };
+  const auto regions = store.Get("/refs/grey-key.exr", make);
+  const nlohmann::json exact = RegionErrors(f.ref, f.ref, *store.Get("/refs/grey-key.exr", make));
+  for (int c = 0; c < 3; ++c) f.fit.at(3, 4, c) = 8.0f;  // The highlight 2 too dark.
+  const nlohmann::json darker = RegionErrors(f.ref, f.fit, *store.Get("/refs/grey-key.exr", make));
+  EXPECT_EQ(made, 1);
+  EXPECT_EQ(exact["highlight"]["pixels"], 1);
+  EXPECT_EQ(exact["rim"]["pixels"], 5);
+  EXPECT_EQ(exact["body"]["pixels"], 14);
+  EXPECT_NEAR(exact["highlight"]["signed"].get<double>(), 0.0, 1e-12);
+  EXPECT_NEAR(darker["highlight"]["signed"].get<double>(), -2.0, 1e-6);
+  EXPECT_NEAR(darker["body"]["abs"].get<double>(), 0.0, 1e-12);
+  const auto other = store.Get("/refs/grey-rim.exr", [&] {
+    ++made;
+    return std::vector<signed char>(20, 2);
+  });
+  EXPECT_EQ(made, 2);
+  EXPECT_NE(other.get(), regions.get());
+  EXPECT_EQ(store.Get("/refs/grey-key.exr", make).get(), regions.get());
 }
 
 }  // namespace

@@ -19,9 +19,11 @@ class BrdfSpaceFits {
   // The BRDF-space fit of `model` (held values `fixed`) to the measured BRDF at `brdf_path`,
   // with `options` (l2, fixed exposure, no start points; the caller's). `key` names everything
   // the options depend on besides the material and the model (the study's settings).
+  // `solved_here`: the fit's seconds (FitResult::seconds) when this call made it, else 0 (found,
+  // or made by another job): what the caller's timing counts as its solver's.
   fit::FitResult Get(const std::string& brdf_path, const ModelInfo& model,
                      const std::vector<FixedValue>& fixed, const fit::FitOptions& options,
-                     const std::string& key);
+                     const std::string& key, double* solved_here);
 
  private:
   MadeOnce<fit::FitResult> fits_;

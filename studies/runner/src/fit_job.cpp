@@ -81,29 +81,35 @@ fit::FitOptions FitOptionsOf(const FitSettings& s, Renderer& renderer) {
 }
 
 // The material's BRDF-space fit of the job's model with `options` (l2, fixed exposure, no start
-// points), from the run's BrdfSpaceFits, which makes each such fit once.
+// points), from the run's BrdfSpaceFits, which makes each such fit once; `solved_here`: its
+// seconds when this job made it, else 0 (BrdfSpaceFits::Get).
 fit::FitResult BrdfSpaceFitOf(const RunContext& context, const Job& job, const FitSettings& s,
-                              const std::string& path, const fit::FitOptions& options) {
+                              const std::string& path, const fit::FitOptions& options,
+                              double* solved_here) {
   FitSettings key = s;  // Everything the options come from; the loss is Ngan's l2.
   key.loss = fit::Loss::kL2;
-  return context.brdf_fits->Get(path, *job.model, s.fixed, options, key.ToJson().dump());
+  return context.brdf_fits->Get(path, *job.model, s.fixed, options, key.ToJson().dump(),
+                                solved_here);
 }
 
 // [fit] start = "brdf": the material's BRDF-space fit of the same model (l2 on MERL's cells,
 // fixed exposure: fit/brdf_space.h) as one more start of its image fit; nothing for a group that
 // is not a [[measured]] material. Logged with its cost, so that a reader of study.log sees it.
-void AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSettings& s,
-                       const std::string& material, fit::FitOptions* fo) {
+// Returns the seconds of that fit when this job made it (a solve of the job's), else 0.
+double AddBrdfSpaceStart(const RunContext& context, const Job& job, const FitSettings& s,
+                         const std::string& material, fit::FitOptions* fo) {
   const std::string path = MeasuredBrdfPath(context.spec, material);
-  if (path.empty()) return;
+  if (path.empty()) return 0.0;
   fit::FitOptions brdf_options = *fo;
   brdf_options.loss = fit::Loss::kL2;
   brdf_options.exposure = fit::Exposure::kFixed;
   brdf_options.start_points.clear();
-  const fit::FitResult start = BrdfSpaceFitOf(context, job, s, path, brdf_options);
+  double solved_here = 0.0;
+  const fit::FitResult start = BrdfSpaceFitOf(context, job, s, path, brdf_options, &solved_here);
   fo->start_points.push_back(start.values);
   context.log->Line(fmt::format("{}: BRDF-space start (cost {:.6g}) added", job.id,
                                 start.final_cost));
+  return solved_here;
 }
 
 // A quarter of the reference's 99th-percentile radiance (mean RGB over covered, lit pixels): one
@@ -305,10 +311,28 @@ void CheckFinite(const Image& prediction, const Image& reference, const std::str
   }
 }
 
-// The fit rendered under one reference's lighting and compared with it.
+// The reference's pixel regions (region_errors.h): the run's map of it when `ref` is the run's
+// reference of that path (not a copy the encoding search redecoded), else found here.
+std::shared_ptr<const std::vector<signed char>> RegionsOf(const RunContext& context,
+                                                          const ReferenceSpec& rs,
+                                                          const reference_images::Reference& ref,
+                                                          bool run_reference, const Image& ref_rgb,
+                                                          const Image& measured,
+                                                          Renderer& renderer) {
+  const auto make = [&] {
+    return PixelRegions(ref_rgb, measured, renderer.RenderGBuffer(ref.scene));
+  };
+  if (!run_reference || context.reference_regions == nullptr) {
+    return std::make_shared<const std::vector<signed char>>(make());
+  }
+  return context.reference_regions->Get(rs.image_path, make);
+}
+
+// The fit rendered under one reference's lighting and compared with it. `run_reference`: `ref`
+// is the run's reference at rs.image_path as read (not redecoded).
 EvaluationRecord Evaluate(const RunContext& context, const Job& job, const ReferenceSpec& rs,
-              const reference_images::Reference& ref, const fit::FitResult& result,
-              Renderer& renderer, json* outputs, StageClock* clock) {
+              const reference_images::Reference& ref, bool run_reference,
+              const fit::FitResult& result, Renderer& renderer, json* outputs, StageClock* clock) {
   const StudySpec& spec = context.spec;
   Image prediction;
   const double rmse = fit::EvaluateModelOnReference(ref, *job.model, result.values, result.exposure,
@@ -407,8 +431,9 @@ EvaluationRecord Evaluate(const RunContext& context, const Job& job, const Refer
   }
   if (!main.report) e["metrics_none"] = main.why_none;
   // Where the error lies, over the same pixels as "metrics": none where that pass has none.
-  e["regions"] = main.report ? RegionErrors(ref_rgb, fit_rgb, measured,
-                                            renderer.RenderGBuffer(ref.scene))
+  e["regions"] = main.report ? RegionErrors(ref_rgb, fit_rgb,
+                                            *RegionsOf(context, rs, ref, run_reference, ref_rgb,
+                                                       measured, renderer))
                              : json(nullptr);
   if (!all.report) e["metrics_all_none"] = all.why_none;
   clock->Lap("regions");
@@ -435,14 +460,17 @@ json ParametersJson(const fit::FitResult& result) {
 
 // Solves the fit the job's training set asks for: in BRDF space, with the encoding search (then
 // `references` are redecoded and `encoding` is the search's record), or on the images.
+// `solved_here`: the seconds of the fit when this job solved it (a BRDF-space fit another job
+// made: 0).
 fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitSettings& s,
                            const std::string& material, const fit::FitProblem& problem,
                            const fit::FitOptions& fo, std::vector<SharedReference>* references,
-                           json* encoding) {
+                           json* encoding, double* solved_here) {
   if (TrainsInBrdfSpace(job.train)) {
     // The measured BRDF itself, on MERL's cells (fit/brdf_space.h); LoadStudy checked that
     // the exposure is fixed, and the job's loss is l2 (StudySpec::Fits).
-    return BrdfSpaceFitOf(context, job, s, MeasuredBrdfPath(context.spec, material), fo);
+    return BrdfSpaceFitOf(context, job, s, MeasuredBrdfPath(context.spec, material), fo,
+                          solved_here);
   }
   if (s.encoding == fit::EncodingMode::kFit) {
     fit::EncodingSearchResult search = fit::FitWithEncodingSearch(problem, fo);
@@ -453,9 +481,12 @@ fit::FitResult SolveFitJob(const RunContext& context, const Job& job, const FitS
     }
     context.log->Line(fmt::format("{}: encoding {} chosen (stored-value RMSE {:.6g})", job.id,
                                   search.chosen.Name(), (*encoding)["stored_rmse"].get<double>()));
+    *solved_here = search.fit.seconds;
     return std::move(search.fit);
   }
-  return fit::Fit(problem, fo);
+  fit::FitResult fit = fit::Fit(problem, fo);
+  *solved_here = fit.seconds;
+  return fit;
 }
 
 // Removes the fit's previews of the references evaluated before a failure: a failed fit leaves
@@ -507,15 +538,21 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   const fit::FitProblem problem = FitProblemOf(job, s, g, references);
   fit::FitOptions fo = FitOptionsOf(s, renderer);
   clock.Lap("read");
+  // The seconds of the fits this job solved (its timing's solver_seconds): a BRDF-space start it
+  // made, and its own fit unless another job made it (a BRDF-space training set's).
+  double solver_seconds = 0.0;
   if (s.start == StartFrom::kBrdf && !TrainsInBrdfSpace(job.train)) {
-    AddBrdfSpaceStart(context, job, s, g.material, &fo);
+    solver_seconds += AddBrdfSpaceStart(context, job, s, g.material, &fo);
   }
   clock.Lap("brdf_start");
   if (FaultArmed("gl-lost")) throw GlContextLostError("", "GL", "context lost (simulated)");
   fit::FitResult result;
   json encoding;  // The encoding search's record (encoding = "fit"), else null.
   try {
-    result = SolveFitJob(context, job, s, g.material, problem, fo, &references, &encoding);
+    double solved_here = 0.0;
+    result = SolveFitJob(context, job, s, g.material, problem, fo, &references, &encoding,
+                         &solved_here);
+    solver_seconds += solved_here;
   } catch (const fit::DegenerateReferenceError& e) {
     WriteFailedFit(context, job, FitStatus::kDegenerateReference, e.what());
     return;
@@ -542,9 +579,8 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
   json outputs = json::array();
   try {
     for (std::size_t i = 0; i < references.size(); ++i) {
-      evaluations.push_back(
-          Evaluate(context, job, g.references[i], *references[i], result, renderer, &outputs,
-                   &clock));
+      evaluations.push_back(Evaluate(context, job, g.references[i], *references[i],
+                                     encoding.is_null(), result, renderer, &outputs, &clock));
     }
   } catch (const NonFiniteRenderError& e) {
     RemoveFitPreviews(context, outputs);
@@ -555,7 +591,7 @@ void RunFitJob(const RunContext& context, const Job& job, Renderer& renderer) {
       FitRecord(context, job, s, result, std::move(evaluations), outputs, encoding);
   const std::string text = ToJson(record).dump(1) + "\n";
   clock.Lap("write");
-  WriteTiming(context, job, clock, result.seconds);
+  WriteTiming(context, job, clock, solver_seconds);
   WriteJobJson(context.paths.JobJson(job), text);
 }
 

@@ -22,8 +22,8 @@ struct Sums {
 
 }  // namespace
 
-nlohmann::json RegionErrors(const Image& ref_rgb, const Image& fit_rgb, const Image& measured,
-                            const GBuffer& gbuffer) {
+std::vector<signed char> PixelRegions(const Image& ref_rgb, const Image& measured,
+                                      const GBuffer& gbuffer) {
   // The highlight: the ceil(share n) brightest of the n lit measured pixels (ties broken by
   // scan order, so that a flat reference still gets exactly that many).
   std::vector<std::pair<double, int>> lit;  // (-luminance, pixel index): brightest first.
@@ -35,19 +35,30 @@ nlohmann::json RegionErrors(const Image& ref_rgb, const Image& fit_rgb, const Im
   }
   const auto count = static_cast<std::size_t>(std::ceil(kHighlightShare * lit.size()));
   std::partial_sort(lit.begin(), lit.begin() + count, lit.end());
-  std::vector<char> highlight(static_cast<std::size_t>(measured.width) * measured.height, 0);
-  for (std::size_t i = 0; i < count; ++i) highlight[lit[i].second] = 1;
-  std::array<Sums, 3> sums;  // In kRegionNames' order: highlight, rim, body.
+  std::vector<signed char> regions(static_cast<std::size_t>(measured.width) * measured.height, -1);
   for (int y = 0; y < measured.height; ++y) {
     for (int x = 0; x < measured.width; ++x) {
       if (!(measured.at(x, y, 0) > 0.5f)) continue;
-      const double ref = Luminance(ref_rgb, x, y);
       double cos_nv = 1;
       if (gbuffer.Hit(x, y)) {
         cos_nv = 0;
         for (int c = 0; c < 3; ++c) cos_nv += gbuffer.normal.at(x, y, c) * gbuffer.view.at(x, y, c);
       }
-      const int region = highlight[y * measured.width + x] ? 0 : cos_nv < kRimCosine ? 1 : 2;
+      regions[y * measured.width + x] = cos_nv < kRimCosine ? 1 : 2;
+    }
+  }
+  for (std::size_t i = 0; i < count; ++i) regions[lit[i].second] = 0;
+  return regions;
+}
+
+nlohmann::json RegionErrors(const Image& ref_rgb, const Image& fit_rgb,
+                            const std::vector<signed char>& regions) {
+  std::array<Sums, 3> sums;  // In kRegionNames' order: highlight, rim, body.
+  for (int y = 0; y < ref_rgb.height; ++y) {
+    for (int x = 0; x < ref_rgb.width; ++x) {
+      const int region = regions[static_cast<std::size_t>(y) * ref_rgb.width + x];
+      if (region < 0) continue;
+      const double ref = Luminance(ref_rgb, x, y);
       const double d = Luminance(fit_rgb, x, y) - ref;
       Sums& s = sums[region];
       s.signed_sum += d;
@@ -68,6 +79,11 @@ nlohmann::json RegionErrors(const Image& ref_rgb, const Image& fit_rgb, const Im
                             {"pixels", s.pixels}};
   }
   return out;
+}
+
+nlohmann::json RegionErrors(const Image& ref_rgb, const Image& fit_rgb, const Image& measured,
+                            const GBuffer& gbuffer) {
+  return RegionErrors(ref_rgb, fit_rgb, PixelRegions(ref_rgb, measured, gbuffer));
 }
 
 }  // namespace shadefit::studies::internal

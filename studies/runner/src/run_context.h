@@ -1,6 +1,7 @@
 // What every unit of a run reads: the study, the options, where the files go and the log.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -16,6 +17,28 @@
 #include "shadefit/studies/study.h"
 
 namespace shadefit::studies::internal {
+
+// The pixel regions (region_errors.h) of the run's references, by image path: every fit
+// compared with a reference splits its pixels the same way, so the first one finds them (a
+// G-buffer render and a partial sort) and the rest take its map.
+class ReferenceRegions {
+ public:
+  // The map kept for `image_path`, else make()'s, kept.
+  template <typename Make>
+  std::shared_ptr<const std::vector<signed char>> Get(const std::string& image_path, Make make) {
+    {
+      std::lock_guard lock(mutex_);
+      if (const auto it = maps_.find(image_path); it != maps_.end()) return it->second;
+    }
+    auto map = std::make_shared<const std::vector<signed char>>(make());
+    std::lock_guard lock(mutex_);
+    return maps_.emplace(image_path, std::move(map)).first->second;  // Another's, if it was first.
+  }
+
+ private:
+  std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const std::vector<signed char>>> maps_;
+};
 
 // The reference previews written in this run: every fit of a material writes the same preview of
 // each reference (the reference's image, the study's display exposure), so the first one does.
@@ -45,6 +68,8 @@ struct RunContext {
   BrdfSpaceFits* brdf_fits = nullptr;
   // Shared by the workers; null: every job reads its own references.
   LoadedReferences* references = nullptr;
+  // Shared by the workers; null: every evaluation finds its reference's pixel regions.
+  ReferenceRegions* reference_regions = nullptr;
 
   // The reference at `image_path`, read once per run where `references` is set.
   std::shared_ptr<const reference_images::Reference> Reference(const std::string& image_path) const {

@@ -70,7 +70,7 @@ class StudyRun {
         reference_cache_(kReferenceCacheBytes),
         loaded_references_(kReferenceBytes),
         context_{spec_,        options_,           {},         nullptr, &reference_cache_,
-                 &reference_previews_, &brdf_fits_, &loaded_references_} {}
+                 &reference_previews_, &brdf_fits_, &loaded_references_, &reference_regions_} {}
 
   RunSummary Run();
 
@@ -114,6 +114,7 @@ class StudyRun {
   metrics::ReferenceCache reference_cache_;
   internal::WrittenOnce reference_previews_;
   internal::BrdfSpaceFits brdf_fits_;
+  internal::ReferenceRegions reference_regions_;
   internal::LoadedReferences loaded_references_;
   internal::RunContext context_;
   std::unique_ptr<internal::Log> log_;

@@ -12,8 +12,13 @@ namespace shadefit::studies::internal {
 // The stages of the jobs, in the order timings.csv and the closing table list them.
 inline const std::vector<std::string> kStageNames = {
     "read",        // reading the references (images, sidecars, scenes, domains)
-    "brdf_start",  // the BRDF-space start of an image fit ([fit] start = "brdf")
-    "fit",         // fit::Fit: preparing the G-buffers and the solve (solver_seconds: its solve)
+    // The BRDF-space start of an image fit ([fit] start = "brdf"): made by the first job that
+    // asks for it (its seconds are that job's solver_seconds too), found by the others.
+    "brdf_start",
+    // fit::Fit: preparing the G-buffers and the solve. A job's solver_seconds are the seconds of
+    // the fits it solved: this one (a BRDF-space training set's only when the job made it, not
+    // found it) and a BRDF-space start it made.
+    "fit",
     "render",      // the fit rendered under every lighting of the material
     // Every image metric, over the measured and over all covered pixels, one stage per family
     // (metrics::MetricsSeconds) and "metrics" for the rest (masks, pixel counts, the patched
