@@ -423,16 +423,23 @@ TEST(ReportTest, KeptInputsGiveASecondPassItsOwnNumbers) {
   }
 }
 
+// The ReferenceCache tests' inputs: a reference, a test image, the reference with one pixel
+// changed inside the masks below, and an elliptical mask.
+struct CacheInputs {
+  Image ref = testing::HdrScene(96, 80);
+  Image tst = testing::HdrDistorted(ref, 0.15f, 5);
+  Image other_ref = ref;
+  Image mask = EllipseMask(96, 80, 47.0, 41.0, 30.0, 25.0, false);
+  CacheInputs() { other_ref.at(40, 40, 1) *= 1.5f; }
+};
+
 // The reference's CIELAB (CIEDE2000) and ICtCp (Delta E_ITP) kept in a ReferenceCache give the
 // numbers and maps of a call without one, and are found again only for the same reference pixels,
 // mask and parameters: a call that changes any of them in turn, with one cache, must match a
 // call without it.
 TEST(ReferenceCacheTest, PointWiseHalvesAreKeptPerPixelsMaskAndParameters) {
-  const Image ref = testing::HdrScene(96, 80);
-  const Image tst = testing::HdrDistorted(ref, 0.15f, 5);
-  Image other_ref = ref;
-  other_ref.at(40, 40, 1) *= 1.5f;  // Inside both masks.
-  const Image mask = EllipseMask(96, 80, 47.0, 41.0, 30.0, 25.0, false);
+  const CacheInputs in;
+  const Image &ref = in.ref, &tst = in.tst, &other_ref = in.other_ref, &mask = in.mask;
   Image smaller = mask;
   for (int x = 0; x < 96; ++x) smaller.at(x, 41, 0) = 0.0f;  // A row shorter: other offsets.
   struct Call {
@@ -486,11 +493,8 @@ TEST(ReferenceCacheTest, PointWiseHalvesAreKeptPerPixelsMaskAndParameters) {
 // pixels in the same window around the mask and the same exposure: a call that changes any of
 // them in turn, with one cache, gives the numbers of a call without it.
 TEST(ReferenceCacheTest, DisplayEncodingsAreKeptPerPixelsWindowAndExposure) {
-  const Image ref = testing::HdrScene(96, 80);
-  const Image tst = testing::HdrDistorted(ref, 0.15f, 5);
-  Image other_ref = ref;
-  other_ref.at(40, 40, 1) *= 1.5f;  // Inside both masks.
-  const Image mask = EllipseMask(96, 80, 47.0, 41.0, 30.0, 25.0, false);
+  const CacheInputs in;
+  const Image &ref = in.ref, &tst = in.tst, &other_ref = in.other_ref, &mask = in.mask;
   const Image smaller = EllipseMask(96, 80, 47.0, 41.0, 22.0, 18.0, false);  // Its own window.
   struct Call {
     const Image* reference;
