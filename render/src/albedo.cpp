@@ -85,6 +85,7 @@ double PdfGgxReflection(const Vec3d& l, const Vec3d& v, double alpha) {
   return D_GGX(h.z, one_minus, alpha) * h.z / (4.0 * VoH);
 }
 
+// DirectionalAlbedo's estimate at cos(theta_v) = cv (already clamped), made anew.
 AlbedoEstimate Estimate(ModelId model, const std::vector<double>& params, double cv,
                         const AlbedoOptions& options) {
   const Vec3d n{0, 0, 1};
@@ -143,7 +144,8 @@ AlbedoEstimate Estimate(ModelId model, const std::vector<double>& params, double
   return out;
 }
 
-// What an estimate is a function of: the model, its parameters' bits, the view and the strata.
+// What an estimate is a function of: the model, its parameters' bits, the view, the strata and
+// the seed.
 struct EstimateKey {
   ModelId model;
   std::vector<std::uint64_t> params;

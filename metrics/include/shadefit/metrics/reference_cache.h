@@ -1,9 +1,9 @@
 // What the metrics compute from the reference alone, kept for the next comparison with the same
 // reference: FLIP's half of the map at each exposure (flip.h), CIELAB for CIEDE2000
 // (ciede2000.h), ICtCp for Delta E_ITP (delta_e_itp.h) and the display encodings (sRGB, of RGB
-// and of luminance) that ComputeMetrics' PSNR and SSIM read (report.h). A study compares every fit of a
-// material with the same references (10 fits x 15 HDR-FLIP exposures each); the reference's half
-// of each metric is half of that work. The values found are those a call without the cache
+// and of luminance) that ComputeMetrics' PSNR and SSIM read (report.h). A study compares every
+// fit of a material with the same references (10 fits x 15 HDR-FLIP exposures each); the
+// reference's half of each metric is half of that work. The values found are those a call without the cache
 // computes: the results are the same bits with and without one.
 #pragma once
 

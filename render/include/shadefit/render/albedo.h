@@ -22,6 +22,8 @@ struct AlbedoEstimate {
 // the azimuth of v does not matter). Deterministic, stratified, and importance sampled with two
 // techniques (cosine-weighted and the model's GGX-equivalent specular lobe) combined by the
 // balance heuristic (Veach and Guibas 1995), the same scheme as the environment lighting.
+// Estimates are kept per process (the probes ask for the same ones): a call with the inputs of an
+// earlier one returns its result, the same bits it would compute.
 AlbedoEstimate DirectionalAlbedo(ModelId model, const std::vector<double>& params,
                                  double cos_theta_v, const AlbedoOptions& options = {});
 
