@@ -1,7 +1,6 @@
 // What every unit of a run reads: the study, the options, where the files go and the log.
 #pragma once
 
-#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -11,8 +10,9 @@
 #include "brdf_space_fits.h"
 #include "job_graph.h"
 #include "loaded_references.h"
-#include "shadefit/metrics/flip.h"
 #include "progress_log.h"
+#include "shadefit/base/made_once.h"
+#include "shadefit/metrics/flip.h"
 #include "shadefit/studies/runner.h"
 #include "shadefit/studies/study.h"
 
@@ -26,18 +26,13 @@ class ReferenceRegions {
   // The map kept for `image_path`, else make()'s, kept.
   template <typename Make>
   std::shared_ptr<const std::vector<signed char>> Get(const std::string& image_path, Make make) {
-    {
-      std::lock_guard lock(mutex_);
-      if (const auto it = maps_.find(image_path); it != maps_.end()) return it->second;
-    }
-    auto map = std::make_shared<const std::vector<signed char>>(make());
-    std::lock_guard lock(mutex_);
-    return maps_.emplace(image_path, std::move(map)).first->second;  // Another's, if it was first.
+    return maps_.Get(image_path, [&] {
+      return std::make_shared<const std::vector<signed char>>(make());
+    });
   }
 
  private:
-  std::mutex mutex_;
-  std::map<std::string, std::shared_ptr<const std::vector<signed char>>> maps_;
+  MadeOnce<std::shared_ptr<const std::vector<signed char>>> maps_;
 };
 
 // The reference previews written in this run: every fit of a material writes the same preview of
