@@ -11,6 +11,7 @@ This file runs the steps in order: read (report_inputs, results_csv), compute, t
 concern has its module, mapped in docs/architecture.md ("report/").
 """
 
+import gc
 import glob
 import json
 import multiprocessing
@@ -278,6 +279,12 @@ def draw_figures(inp, answers, fig_dir, materials, progress=None):
 def make_report(study_dir, quiet=True):
     """Writes the report; returns index.html's path. `quiet`: no progress line (progress.py)."""
     inp = Inputs(study_dir)  # Every input is read and checked before the first file is written.
+    # The inputs (a measured study's ~50 MB of records) live until the end and hold no garbage:
+    # frozen, the collector's full passes, which the figures' many short-lived objects set off
+    # ~100 times, no longer walk them. In a one-process report of the measured study those
+    # passes took 9.2 of 51.8 s, 4.2 after (most of it now freeing the closed figures). The
+    # figure workers fork after this and inherit it.
+    gc.freeze()
     materials = set(materials_of(inp.study)) | set(inp.probes)
     # Steps: the inputs, the answers and tables, each material's figures, the three study-level
     # figure groups, the pages.

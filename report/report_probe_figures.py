@@ -1,9 +1,11 @@
 """Probe figures: a probe's curves (one panel per curve kind) or, without curves, its numbers
 as grouped bars."""
 
+import collections
 import textwrap
 
 import numpy as np
+from matplotlib.transforms import Bbox
 
 from report_figures import (COLUMN_IN, FONT_PT, GROUND_SERIES, PAGE_IN, bar_style,
                             legend_layout, plt, save_figure, style_of, text_width_in)
@@ -66,11 +68,73 @@ def clip_log_axis(ax):
         ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-5))
 
 
-def probe_curve_figure(probe, material, curves, labels):
+# --- Curve figures kept from one material to the next --------------------------------------------
+# A process draws the same probe figures for material after material, and making a figure was a
+# quarter of their time: the axes, and on the first drawing their ticks (a brdf figure's five log
+# axes make ~200, of five artists each). The measured study's 100 probe figures, in one process:
+# 23.4-25.9 s made anew, 19.3 s kept (BENCHMARKS.md, the report row). A
+# figure of the same layout (probe, panel grid, size) is therefore kept and emptied for the next
+# material instead: its axes keep their ticks. Emptied, it draws what a new figure would, byte for
+# byte (tests/report/kept_figure_test.py draws both). Only probe_figures keeps them (it is done
+# with a figure, saved and closed, before it asks for the next); False: every figure is new.
+KEEP_FIGURES = True
+_KEPT_AT_MOST = 8  # layouts per process (a study has one per probe)
+_kept = collections.OrderedDict()  # layout -> (figure, each axes' first _autotitlepos)
+
+
+def _empty(fig, width, height, titlepos):
+    """`fig` as plt.figure(figsize=(width, height)) followed by the same add_axes calls left it:
+    no data, lines, legend or scale, the limits and autoscaling of a new axes, the title placed
+    by matplotlib again (save_figure fixes it after drawing); the axes and their ticks kept."""
+    for legend in list(fig.legends):
+        legend.remove()
+    fig.set_size_inches(width, height)  # save_figure rounds it to whole pixels
+    for ax, pos in zip(fig.axes, titlepos):
+        for artist in (list(ax.lines) + list(ax.collections) + list(ax.patches) + list(ax.texts)
+                       + list(ax.images)):
+            artist.remove()
+        ax.set_xscale("linear")
+        ax.set_yscale("linear")
+        # A new axes' data and view limits: a null box (its smallest positive value too, which a
+        # log axis without data would read), the unit box, both autoscaled.
+        ax.dataLim = Bbox.null()
+        ax.ignore_existing_data_limits = True
+        ax.set_xlim(0.0, 1.0)
+        ax.set_ylim(0.0, 1.0)
+        ax.set_autoscale_on(True)
+        ax.set_title("")
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax._autotitlepos = pos
+
+
+def _curve_figure(layout, width, height, rects, keep):
+    """A figure of `width` x `height` in with an axes at each of `rects` (figure fractions):
+    with `keep`, the last figure of this `layout` emptied where there was one, and kept for the
+    next; else new."""
+    kept = _kept.pop(layout, None) if keep else None
+    if kept is not None:
+        fig, titlepos = kept
+        _empty(fig, width, height, titlepos)
+    else:
+        fig = plt.figure(figsize=(width, height))
+        for rect in rects:
+            fig.add_axes(rect)
+        titlepos = [ax._autotitlepos for ax in fig.axes]
+    if keep:
+        _kept[layout] = (fig, titlepos)
+        while len(_kept) > _KEPT_AT_MOST:
+            _kept.popitem(last=False)
+    return fig
+
+
+def probe_curve_figure(probe, material, curves, labels, keep=False):
     """One panel per curve kind, in the order the probe measured them, PANELS_PER_ROW to a row;
     per-reference curves show one reference (PREFERRED_LIGHTING). `curves`: the probe's curve
     records, {"series", "reference", "kind", "x", "y", "x_label", "y_label", "x_scale",
-    "y_scale", "extrapolated" (optional)} (ProbeResultToJson, docs/probes.md)."""
+    "y_scale", "extrapolated" (optional)} (ProbeResultToJson, docs/probes.md). `keep`: the
+    figure may be the last one of its layout, emptied (the caller is done with that one), and is
+    kept for the next (KEEP_FIGURES)."""
     curves = [c for c in curves if c["x"] and len(c["x"]) == len(c["y"])]
     if not curves:
         return None
@@ -91,16 +155,19 @@ def probe_curve_figure(probe, material, curves, labels):
     legend_h = max(0.55, legend_in + 0.12)
     height = rows * panel_h + legend_h + 0.25
     label_chars = 40 if cols < 3 else 30
-    fig = plt.figure(figsize=(width, height))
-    handles, series_of = {}, {}  # legend entry -> its handle, and the series it belongs to
-    series = sorted({c["series"] for c in curves if c["series"] not in GROUND_SERIES},
-                    key=lambda x: (labels.index(x) if x in labels else len(labels), x))
-    for k_i, kind in enumerate(kinds):
+    rects = []
+    for k_i in range(n):
         row, col = divmod(k_i, cols)
         left_in = 0.72  # Room for a two-line axis label and its tick labels.
         bottom_in = legend_h + 0.3 + (rows - 1 - row) * panel_h
-        ax = fig.add_axes([(left_in + col * width / cols) / width, bottom_in / height,
-                           (width / cols - left_in - 0.2) / width, (1.9 - 0.45) / height])
+        rects.append([(left_in + col * width / cols) / width, bottom_in / height,
+                      (width / cols - left_in - 0.2) / width, (1.9 - 0.45) / height])
+    fig = _curve_figure((probe, tuple(tuple(r) for r in rects), width, height), width, height,
+                        rects, keep)
+    handles, series_of = {}, {}  # legend entry -> its handle, and the series it belongs to
+    series = sorted({c["series"] for c in curves if c["series"] not in GROUND_SERIES},
+                    key=lambda x: (labels.index(x) if x in labels else len(labels), x))
+    for kind, ax in zip(kinds, fig.axes):
         # Fits in the study's order, the ground truth (dashed black) last, on top of them.
         items = sorted((c for c in curves if c["kind"] == kind), key=lambda c: (
             c["series"] in GROUND_SERIES,
@@ -189,7 +256,7 @@ def probe_figures(study, probes, fig_dir, manifest, flatten):
             curves = result["curves"]
             fig = None
             if probe != "portability" and curves:
-                fig = probe_curve_figure(probe, material, curves, labels)
+                fig = probe_curve_figure(probe, material, curves, labels, keep=KEEP_FIGURES)
             if fig is None:
                 fig = probe_bar_figure(probe, material, result["numbers"], flatten,
                                        labels)
