@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "shadefit/base/cpus.h"
+#include "shadefit/base/made_once.h"
 #include "shadefit/render/environment.h"
 #include "shadefit/render/pixel_surface.h"
 #include "shadefit/render/ray_caster.h"
@@ -446,16 +447,10 @@ Image ShadowEdgeMask(const Scene& scene) {
   return cache.emplace(key, std::move(mask)).first->second;
 }
 
-Image SelfOcclusion(const Scene& scene) {
-  if (!scene.HasSurfaceObjects()) return Image();
-  const std::string key = internal::SurfaceGeometryKey(scene, 1);
-  static std::mutex mutex;
-  static std::map<std::string, Image> cache;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    auto it = cache.find(key);
-    if (it != cache.end()) return it->second;
-  }
+namespace {
+
+// SelfOcclusion's image, made anew.
+Image MakeSelfOcclusion(const Scene& scene) {
   const internal::SurfaceSamples centres =
       scene.objects.front().type == SceneObject::Type::kNormalMap
           ? internal::PixelSurfaceSamples(scene, 1)
@@ -486,8 +481,20 @@ Image SelfOcclusion(const Scene& scene) {
       share.at(x, y, 0) = static_cast<float>(hidden) / (kSide * kSide);
     }
   });
-  std::lock_guard<std::mutex> lock(mutex);
-  return cache.emplace(key, std::move(share)).first->second;
+  return share;
+}
+
+}  // namespace
+
+Image SelfOcclusion(const Scene& scene) {
+  if (!scene.HasSurfaceObjects()) return Image();
+  // Made once per geometry: every light of a photometric-stereo set has the same, and a study's
+  // workers read the set's references side by side, each asking for it at once; the second now
+  // waits for the first's (made on every core) instead of casting its ~24M rays again. The
+  // 96-light 612 x 512 set's read stage: 10.1-10.4 -> 7.5-7.7 job-s (BENCHMARKS.md).
+  static MadeOnce<Image> made;
+  return made.Get(internal::SurfaceGeometryKey(scene, 1),
+                  [&] { return MakeSelfOcclusion(scene); });
 }
 
 }  // namespace shadefit

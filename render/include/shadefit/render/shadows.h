@@ -34,7 +34,7 @@ Image ShadowEdgeMask(const Scene& scene);
 // without surface objects. Light from those directions, in a real scene, is light reflected by
 // the object itself: where the share is large, interreflection (which this renderer, direct light
 // only, does not reproduce) is strong (reference_images/reference.h, kInterreflectionShareMax).
-// CPU only (ray cast); cached by geometry.
+// CPU only (ray cast); made once per geometry (a second caller waits for the first).
 Image SelfOcclusion(const Scene& scene);
 
 }  // namespace shadefit
