@@ -36,6 +36,21 @@ void ParallelRows(int rows, Body body) {
   for (auto& thread : pool) thread.join();
 }
 
+// While one is alive on a thread, ValidateInputs on that thread skips the scans that
+// ComputeMetrics made of the images it derives every metric's inputs from (a window of them, or
+// their display encodings, clipped to [0, 1]): finite values, and a mask with a valid pixel. A
+// metric's own checks of sizes and channels still run. Ends with its scope, thrown or not.
+class CheckedInputs {
+ public:
+  CheckedInputs();
+  ~CheckedInputs();
+  CheckedInputs(const CheckedInputs&) = delete;
+  CheckedInputs& operator=(const CheckedInputs&) = delete;
+
+ private:
+  bool was_;  // Nested in another one.
+};
+
 inline bool IsValid(const Image* mask, std::size_t pixel) {
   return mask == nullptr || mask->data[pixel] > 0.5f;
 }

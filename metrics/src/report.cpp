@@ -228,6 +228,8 @@ MetricsReport ComputeMetrics(const Image& reference, const Image& test, const Im
                              const MetricsParameters& p, MetricsMaps* maps) {
   MetricClock clock(p.seconds);
   ValidateInputs(reference, test, mask, 3, p.names);
+  // Every metric below reads windows or clipped encodings of these: checked once, here.
+  const internal::CheckedInputs checked;
   const auto wanted = [&](MetricMap map) { return maps != nullptr && (p.maps_wanted & map) != 0; };
   // RGB: the inputs themselves, or their first three channels.
   Image ref_rgb, tst_rgb;

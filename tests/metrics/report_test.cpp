@@ -101,6 +101,28 @@ TEST(ReportTest, ErrorsNameTheFile) {
   }
 }
 
+// ComputeMetrics scans its inputs' values once (metrics/src/internal.h, CheckedInputs): the
+// metrics inside it take windows and clipped encodings of them and do not scan again. That ends
+// with the call, thrown or not: a metric called afterwards on the same thread still refuses a NaN
+// and an empty mask.
+TEST(ReportTest, InputsAreScannedOnceAndOnlyInsideTheCall) {
+  const Image ref(32, 32, 3, 0.5f);
+  Image nan_test = ref;
+  nan_test.at(3, 4, 1) = std::numeric_limits<float>::quiet_NaN();
+  const Image empty_mask(32, 32, 1, 0.0f);
+  const PixelMetricParameters empty{&empty_mask};
+  MetricsParameters p;
+  EXPECT_THROW(ComputeMetrics(ref, nan_test, nullptr, p), Error);
+  ComputeMetrics(ref, ref, nullptr, p);  // Ends normally.
+  EXPECT_THROW(Rmse(ref, nan_test), Error);
+  EXPECT_THROW(Rmse(ref, ref, empty), Error);
+  // Throws from inside, after its own check: SSIM's window does not fit a 4 x 4 frame.
+  const Image small(4, 4, 3, 0.5f);
+  EXPECT_THROW(ComputeMetrics(small, small, nullptr, p), Error);
+  EXPECT_THROW(Rmse(ref, nan_test), Error);
+  EXPECT_THROW(Rmse(ref, ref, empty), Error);
+}
+
 // A mask for the window tests: an ellipse (centre, radii); when `scattered`, with holes and with
 // single pixels over the whole frame.
 Image EllipseMask(int w, int h, double cx, double cy, double rx, double ry, bool scattered) {

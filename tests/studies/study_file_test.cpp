@@ -14,8 +14,11 @@ namespace fs = std::filesystem;
 
 const std::string kRefs = std::string(SHADEFIT_SOURCE_DIR) + "/reference_images/cycles";
 
+// In a folder of the running test's own: ctest runs this file's tests as processes side by side,
+// and two of them writing "g1.toml" in one folder read each other's (a failure seen once in 784).
 std::string WriteStudy(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "studies" / "files";
+  const fs::path dir = fs::path(SHADEFIT_TEST_OUTPUT) / "studies" / "files" /
+                       ::testing::UnitTest::GetInstance()->current_test_info()->name();
   fs::create_directories(dir);
   const fs::path p = dir / name;
   std::ofstream(p) << text;
