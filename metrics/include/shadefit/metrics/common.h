@@ -26,7 +26,9 @@ struct InputNames {
 // Throws shadefit::Error naming the file and field when: an image is empty; channel counts
 // differ or are below `min_channels` (0: no requirement); sizes differ; a pixel is NaN or
 // infinite; the mask is not single-channel, has another size, has non-finite values, or has no
-// valid pixel ("empty mask").
+// valid pixel ("empty mask"). Inside ComputeMetrics, which checks its own inputs so, the metrics
+// it calls on windows and clipped encodings of them skip the value scans (metrics/src/internal.h,
+// CheckedInputs); called on their own, they make them.
 void ValidateInputs(const Image& reference, const Image& test, const Image* mask,
                     int min_channels, const InputNames& names = {});
 
