@@ -7,8 +7,8 @@ import textwrap
 import numpy as np
 from matplotlib.transforms import Bbox
 
-from report_figures import (COLUMN_IN, FONT_PT, GROUND_SERIES, PAGE_IN, bar_style,
-                            legend_layout, plt, save_figure, style_of, text_width_in)
+from report_figures import (COLUMN_IN, FONT_PT, GROUND_SERIES, MATPLOTLIB_3_6, PAGE_IN,
+                            bar_style, legend_layout, plt, save_figure, style_of, text_width_in)
 
 
 # --- Probe curves and bars ----------------------------------------------------------------------
@@ -77,7 +77,9 @@ def clip_log_axis(ax):
 # material instead: its axes keep their ticks. Emptied, it draws what a new figure would, byte for
 # byte (tests/report/kept_figure_test.py draws both). Only probe_figures keeps them (it is done
 # with a figure, saved and closed, before it asks for the next); False: every figure is new.
-KEEP_FIGURES = True
+# Emptying sets matplotlib's own state (a title's automatic placement): matplotlib 3.6 only, as the
+# report's other shortcuts (report_figures); any other version makes every figure anew.
+KEEP_FIGURES = MATPLOTLIB_3_6
 _KEPT_AT_MOST = 8  # layouts per process (a study has one per probe)
 _kept = collections.OrderedDict()  # layout -> (figure, each axes' first _autotitlepos)
 
