@@ -71,14 +71,13 @@ def clip_log_axis(ax):
 # --- Curve figures kept from one material to the next --------------------------------------------
 # A process draws the same probe figures for material after material, and making a figure was a
 # quarter of their time: the axes, and on the first drawing their ticks (a brdf figure's five log
-# axes make ~200, of five artists each). The measured study's 100 probe figures, in one process:
-# 23.4-25.9 s made anew, 19.3 s kept (BENCHMARKS.md, the report row). A
-# figure of the same layout (probe, panel grid, size) is therefore kept and emptied for the next
-# material instead: its axes keep their ticks. Emptied, it draws what a new figure would, byte for
-# byte (tests/report/kept_figure_test.py draws both). Only probe_figures keeps them (it is done
-# with a figure, saved and closed, before it asks for the next); False: every figure is new.
-# Emptying sets matplotlib's own state (a title's automatic placement): matplotlib 3.6 only, as the
-# report's other shortcuts (report_figures); any other version makes every figure anew.
+# axes make ~200, of five artists each). So a figure of the same layout (probe, panel grid, size)
+# is kept and emptied for the next material: its axes keep their ticks, and it draws what a new
+# figure would, byte for byte (tests/report/kept_figure_test.py draws both). The measured study's
+# 100 probe figures in one process: 23.4-25.9 s made anew, 19.3 s kept. Only probe_figures keeps
+# them (it has saved and closed a figure before it asks for the next). Emptying sets matplotlib's
+# own state (a title's automatic placement): under matplotlib 3.6 only, as the report's other
+# shortcuts (report_figures); any other version makes every figure anew.
 KEEP_FIGURES = MATPLOTLIB_3_6
 _KEPT_AT_MOST = 8  # layouts per process (a study has one per probe)
 _kept = collections.OrderedDict()  # layout -> (figure, each axes' first _autotitlepos)
