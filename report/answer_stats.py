@@ -9,7 +9,6 @@ answer_rules.py. The statistics are scipy's and statsmodels' (Debian python3-sci
 python3-statsmodels); nothing here is a hand-written statistic. No file is read, no word written.
 """
 
-import gc
 import math
 import warnings
 
@@ -18,6 +17,7 @@ from scipy import stats
 from statsmodels.stats.multitest import multipletests
 
 from report_records import Comparison
+from report_util import frozen_heap
 
 BOOTSTRAP_RESAMPLES = 10000
 
@@ -110,15 +110,9 @@ def holm_by_pair(tests):
         families.setdefault((c.fit, c.baseline), []).append(c)
     # statsmodels' Holm branch calls gc.collect() on every call (0.15 s each with the report's
     # heap: 20 s for the measured study's 140 families); frozen objects are not traversed.
-    # Frozen by the caller already (make_report freezes its inputs): left frozen after.
-    frozen_before = gc.get_freeze_count() > 0
-    gc.freeze()
-    try:
+    with frozen_heap():
         for family in families.values():
             adjusted = multipletests([c.p for c in family], method="holm")[1]
             for c, p in zip(family, adjusted):
                 c.p_holm = float(p)
                 c.holm_family = len(family)
-    finally:
-        if not frozen_before:
-            gc.unfreeze()

@@ -11,7 +11,6 @@ This file runs the steps in order: read (report_inputs, results_csv), compute, t
 concern has its module, mapped in docs/architecture.md ("report/").
 """
 
-import gc
 import glob
 import json
 import multiprocessing
@@ -42,7 +41,8 @@ import report_inputs  # noqa: E402
 import section_words  # noqa: E402
 from report_inputs import ReportInputError, load_study  # noqa: E402
 from progress import Progress  # noqa: E402
-from report_util import flatten, fmt, materials_of, to_float, write_text  # noqa: E402
+from report_util import (flatten, fmt, frozen_heap, materials_of, to_float,  # noqa: E402
+                         write_text)
 
 
 def report_jobs():
@@ -279,12 +279,16 @@ def draw_figures(inp, answers, fig_dir, materials, progress=None):
 def make_report(study_dir, quiet=True):
     """Writes the report; returns index.html's path. `quiet`: no progress line (progress.py)."""
     inp = Inputs(study_dir)  # Every input is read and checked before the first file is written.
-    # The inputs (a measured study's ~50 MB of records) live until the end and hold no garbage:
-    # frozen, the collector's full passes, which the figures' many short-lived objects set off
-    # ~100 times, no longer walk them. In a one-process report of the measured study those
-    # passes took 9.2 of 51.8 s, 4.2 after (most of it now freeing the closed figures). The
-    # figure workers fork after this and inherit it.
-    gc.freeze()
+    # The inputs (a measured study's ~50 MB of records) live until the end: frozen, the
+    # collector's full passes, which the figures' many short-lived objects set off ~100 times, no
+    # longer walk them. In a one-process report of the measured study those passes took 9.2 of
+    # 51.8 s, 4.2 after (most of it now freeing the closed figures). The figure workers fork
+    # inside the block and inherit it; a caller that makes several reports keeps nothing frozen.
+    with frozen_heap():
+        return _make_report(inp, study_dir, quiet)
+
+
+def _make_report(inp, study_dir, quiet):
     materials = set(materials_of(inp.study)) | set(inp.probes)
     # Steps: the inputs, the answers and tables, each material's figures, the three study-level
     # figure groups, the pages.

@@ -1,7 +1,9 @@
 """Small helpers every report module shares: the one atomic writer, the study's labels and
 materials in its order, results.csv's rows grouped, number formatting, and the flattening of
-nested probe numbers."""
+nested probe numbers, and the heap left out of the collector's passes."""
 
+import contextlib
+import gc
 import math
 import os
 
@@ -12,6 +14,23 @@ def write_text(path, text):
     with open(tmp, "w", encoding="utf-8", newline="") as f:
         f.write(text)
     os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def frozen_heap():
+    """The objects alive on entry are left out of the garbage collector's passes until the block
+    ends (gc.freeze): the passes that many short-lived objects set off no longer walk a large heap
+    that holds no garbage. The garbage there is collected first, so none is kept frozen. Inside
+    another such block, the outer one ends the freeze."""
+    outer = gc.get_freeze_count() > 0
+    if not outer:
+        gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        if not outer:
+            gc.unfreeze()
 
 
 def labels_of(study):
