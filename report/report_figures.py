@@ -379,15 +379,63 @@ def _set_marker_from_spec(self, marker):
     return _SET_MARKER(self, marker)
 
 
+# --- A legend laid out once per drawing ----------------------------------------------------------
+# A legend is a tree of packers (offsetbox: VPacker, HPacker, PaddedBox) over its entries' text
+# and handle boxes. Drawing it measures the tree for its window extent, then each packer measures
+# its subtree again to place its children, and each child its own: a leaf is measured once per
+# level above it, ~4 times in a probe figure's legend of ~24 entries. Within one Legend.draw
+# nothing a measure reads changes (the texts, their fonts, the renderer and its resolution), so
+# each box's extent is measured once and remembered until the draw ends: the same numbers, the
+# same pixels and PDF bytes (figure_cache_test draws a legend both ways). A TextArea's measure
+# also sets its baseline transform, the same each time. A probe figure's legends: ~6% of its
+# drawing, both files.
+from matplotlib import legend as _mlegend  # noqa: E402
+from matplotlib import offsetbox as _offsetbox  # noqa: E402
+
+_LEGEND_EXTENTS = None  # {(box id, method): its result} while a legend draws
+_EXTENT_METHODS = [(cls, name, getattr(cls, name)) for cls, name in (
+    (_offsetbox.HPacker, "get_extent_offsets"), (_offsetbox.VPacker, "get_extent_offsets"),
+    (_offsetbox.PaddedBox, "get_extent_offsets"), (_offsetbox.TextArea, "get_extent"),
+    (_offsetbox.DrawingArea, "get_extent"))]
+_LEGEND_DRAW = _mlegend.Legend.draw
+
+
+def _remembered_extent(name, measure):
+    def extent(self, renderer):
+        memo = _LEGEND_EXTENTS
+        if memo is None:
+            return measure(self, renderer)
+        key = (id(self), name)
+        if key not in memo:
+            memo[key] = measure(self, renderer)
+        return memo[key]
+    return extent
+
+
+def _legend_draw_once(self, renderer):
+    """Legend.draw with every box of the legend measured once (see above)."""
+    global _LEGEND_EXTENTS
+    if _LEGEND_EXTENTS is not None:  # a legend inside a legend: the outer one's memo
+        return _LEGEND_DRAW(self, renderer)
+    _LEGEND_EXTENTS = {}
+    try:
+        return _LEGEND_DRAW(self, renderer)
+    finally:
+        _LEGEND_EXTENTS = None
+
+
 def use_matplotlib_text(own):
-    """own=True: matplotlib's own text measuring, math parsing, Agg text drawing and marker
-    copies (for the test that the shortcuts above draw the same pixels and bytes); False: the
-    shortcuts (on 3.6)."""
+    """own=True: matplotlib's own text measuring, math parsing, Agg text drawing, marker copies
+    and legend layout (for the test that the shortcuts above draw the same pixels and bytes);
+    False: the shortcuts (on 3.6)."""
     if own or not MATPLOTLIB_3_6:
         _mtext._get_text_metrics_with_cache = _TEXT_METRICS
         _mathtext.MathTextParser._parse_cached = _PARSE_CACHED
         _backend_agg.RendererAgg.draw_text = _AGG_DRAW_TEXT
         _markers.MarkerStyle._set_marker = _SET_MARKER
+        _mlegend.Legend.draw = _LEGEND_DRAW
+        for cls, name, measure in _EXTENT_METHODS:
+            setattr(cls, name, measure)
     else:
         # The functions replaced are matplotlib 3.6's (their bodies copied above where needed);
         # on another version the report runs on matplotlib's own, slower and the same.
@@ -395,6 +443,9 @@ def use_matplotlib_text(own):
         _mathtext.MathTextParser._parse_cached = _shared_math_parse
         _backend_agg.RendererAgg.draw_text = _agg_draw_text
         _markers.MarkerStyle._set_marker = _set_marker_from_spec
+        _mlegend.Legend.draw = _legend_draw_once
+        for cls, name, measure in _EXTENT_METHODS:
+            setattr(cls, name, _remembered_extent(name, measure))
 
 
 use_matplotlib_text(False)

@@ -44,8 +44,10 @@ def read(d, name):
 def drawn(rf, tile, in_view, grid_tile=None):
     """The PNG pixels and PDF bytes of a small figure with what the shortcuts cover: texts, a
     log axis's math tick labels and minor ticks (made for the view's locations only: in_view), a
-    legend with markers, an image tile, and a grid's tile at an extent whose edges cut pixels
-    (grid_tile: report_grids.add_tile's opaque 8-bit tile, resampled once; else imshow's)."""
+    legend with markers (laid out once per drawing), an image tile, and grid tiles at extents
+    whose edges cut pixels, on a small axes (clipped) and on one spanning the figure (inside it:
+    unclipped; across its edge: clipped) (grid_tile: report_grids.add_tile's opaque 8-bit tile,
+    resampled once; else imshow's)."""
     import io
     import numpy as np
     fig = rf.plt.figure(figsize=(3.3, 2.0), dpi=rf.DPI)
@@ -71,6 +73,20 @@ def drawn(rf, tile, in_view, grid_tile=None):
         cell.imshow(tile, interpolation="nearest", aspect="auto", extent=extent)
         cell.set_xlim(0, 1)
         cell.set_ylim(0, 1)
+    # A grid's axes spans the figure in inches: a tile inside it (drawn unclipped by add_tile)
+    # and one across its right edge (clipped), each at an extent whose edges cut pixels.
+    sheet = fig.add_axes([0, 0, 1, 1])
+    sheet.set_axis_off()
+    sheet.set_xlim(0, 3.3)
+    sheet.set_ylim(0, 2.0)
+    for sheet_extent in ((2.403, 2.987, 1.103, 1.771), (3.013, 3.5, 0.071, 0.689)):
+        if grid_tile is not None:
+            import report_grids
+            report_grids.add_tile(sheet, grid_tile, sheet_extent)
+        else:
+            sheet.imshow(tile, interpolation="nearest", aspect="auto", extent=sheet_extent)
+            sheet.set_xlim(0, 3.3)
+            sheet.set_ylim(0, 2.0)
     if in_view:
         rf.ticks_in_view(fig)
     fig.canvas.draw()
