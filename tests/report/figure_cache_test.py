@@ -57,6 +57,9 @@ def drawn(rf, tile, in_view, grid_tile=None):
     ax.set_yscale("log")
     ax.set_xlabel("theta_h (deg) \u207b\u00b2")
     ax.set_title("gold: fresnel")
+    # The title's words again, larger and right-aligned (placed by their measured width): the
+    # remembered measures are per font size too.
+    fig.text(0.98, 0.9, "gold: fresnel", fontsize=rf.FONT_PT + 3, ha="right")
     fig.legend(loc="lower right", frameon=False)
     img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
     img.set_axis_off()
