@@ -383,8 +383,9 @@ def add_tile(ax, rgba, extent):
     """ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent) for opaque 8-bit
     RGBA (_OpaqueTile) on an axes whose limits are set: the same image, drawn the same. A tile
     inside a grid's axes (which spans the figure: _inside) is not clipped to it, which would
-    change no pixel: setting the clip path (a transformed copy of the patch's path per tile) and
-    Agg's drawing through its mask were ~0.4 s of a measured study's grids."""
+    change no pixel: setting the clip path (a transformed copy of the patch's path per tile) took
+    0.5 of the 4.7 s that making the measured study's 100 grids took (their previews read), and
+    Agg drew each tile through the clip's mask."""
     if not MATPLOTLIB_3_6:  # the steps below are 3.6's imshow's
         return ax.imshow(rgba, interpolation="nearest", aspect="auto", extent=extent)
     ax.set_aspect("auto")
