@@ -320,6 +320,34 @@ def _shared_text_metrics(renderer, text, fontprop, ismath, dpi):
     return metrics
 
 
+# A text's layout (Text._get_layout: its lines' sizes and offsets and its box around the anchor)
+# is a function of the text, its font, line spacing, rotation, alignments and rotation mode, the
+# figure's resolution and the measures above; the report lays out the same tick labels, legend
+# entries and titles ~20000 times per 8 materials, each time measuring every line again and
+# rotating its box with a new Affine2D. Remembered per process under those properties (the
+# callers read the layout's box and lines and never change them).
+_TEXT_LAYOUT = _mtext.Text._get_layout
+_TEXT_LAYOUTS = {}
+
+
+def _shared_layout(self, renderer):
+    """Text._get_layout (matplotlib 3.6) remembered across texts and renderers of one kind."""
+    kind = type(renderer)
+    if kind not in _PURE_RENDERERS or self.get_usetex():
+        return _TEXT_LAYOUT(self, renderer)
+    key = (kind, renderer.dpi, self.get_text(), _font_key(self._fontproperties),
+           self._linespacing, self.figure.dpi, self.get_rotation(), self._get_multialignment(),
+           self._horizontalalignment, self._verticalalignment, self.get_rotation_mode(),
+           self.get_parse_math(), str(plt.rcParams["text.hinting"]))
+    layout = _TEXT_LAYOUTS.get(key)
+    if layout is None:
+        layout = _TEXT_LAYOUT(self, renderer)
+        if len(_TEXT_LAYOUTS) >= _TEXT_METRICS_AT_MOST:
+            _TEXT_LAYOUTS.clear()
+        _TEXT_LAYOUTS[key] = layout
+    return layout
+
+
 _PARSE_CACHED = _mathtext.MathTextParser._parse_cached
 
 
@@ -438,11 +466,12 @@ def _legend_draw_once(self, renderer):
 
 
 def use_matplotlib_text(own):
-    """own=True: matplotlib's own text measuring, math parsing, Agg text drawing, marker copies
-    and legend layout (for the test that the shortcuts above draw the same pixels and bytes);
-    False: the shortcuts (on 3.6)."""
+    """own=True: matplotlib's own text measuring and layout, math parsing, Agg text drawing,
+    marker copies and legend layout (for the test that the shortcuts above draw the same pixels
+    and bytes); False: the shortcuts (on 3.6)."""
     if own or not MATPLOTLIB_3_6:
         _mtext._get_text_metrics_with_cache = _TEXT_METRICS
+        _mtext.Text._get_layout = _TEXT_LAYOUT
         _mathtext.MathTextParser._parse_cached = _PARSE_CACHED
         _backend_agg.RendererAgg.draw_text = _AGG_DRAW_TEXT
         _markers.MarkerStyle._set_marker = _SET_MARKER
@@ -453,6 +482,7 @@ def use_matplotlib_text(own):
         # The functions replaced are matplotlib 3.6's (their bodies copied above where needed);
         # on another version the report runs on matplotlib's own, slower and the same.
         _mtext._get_text_metrics_with_cache = _shared_text_metrics
+        _mtext.Text._get_layout = _shared_layout
         _mathtext.MathTextParser._parse_cached = _shared_math_parse
         _backend_agg.RendererAgg.draw_text = _agg_draw_text
         _markers.MarkerStyle._set_marker = _set_marker_from_spec

@@ -60,6 +60,19 @@ def drawn(rf, tile, in_view, grid_tile=None):
     # The title's words again, larger and right-aligned (placed by their measured width): the
     # remembered measures are per font size too.
     fig.text(0.98, 0.9, "gold: fresnel", fontsize=rf.FONT_PT + 3, ha="right")
+    # The same words and size laid out otherwise, each pair apart in one property (rotation,
+    # horizontal or vertical alignment), and two lines aligned two ways and spaced two ways: the
+    # remembered layouts are per each of those.
+    words = {"s": "gold: fresnel", "fontsize": rf.FONT_PT + 3}
+    fig.text(0.3, 0.3, **words)  # left, baseline
+    fig.text(0.3, 0.5, va="top", **words)  # left, top
+    fig.text(0.01, 0.98, rotation=90, va="top", **words)  # left, top, rotated
+    fig.text(0.5, 0.99, ha="center", va="top", **words)  # centre, top
+    lines = "theta_h\n(deg) 10"
+    fig.text(0.75, 0.45, lines, multialignment="right")
+    fig.text(0.75, 0.6, lines, multialignment="center")
+    fig.text(0.98, 0.6, lines, multialignment="center", ha="right")
+    fig.text(0.75, 0.75, lines, multialignment="center", linespacing=1.6)
     fig.legend(loc="lower right", frameon=False)
     img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
     img.set_axis_off()
