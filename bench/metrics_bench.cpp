@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "shadefit/metrics/ciede2000.h"
 #include "shadefit/metrics/common.h"
 #include "shadefit/metrics/flip.h"
 #include "shadefit/metrics/ssim.h"
@@ -103,6 +104,19 @@ void BM_FlipHdr512(benchmark::State& state) {
   state.counters["exposures"] = exposures;
 }
 BENCHMARK(BM_FlipHdr512)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// CIEDE2000 as a study job runs it: one metrics thread, the reference's CIELAB from the cache,
+// so each call converts the test image and takes the colour difference per pixel.
+void BM_Ciede2000_512CachedReferenceOneThread(benchmark::State& state) {
+  const int threads_before = m::MetricsThreads();
+  m::SetMetricsThreads(1);
+  m::ReferenceCache cache(std::size_t{1} << 30);
+  m::DeltaE2000Parameters p;
+  p.reference_cache = &cache;
+  for (auto _ : state) benchmark::DoNotOptimize(m::DeltaE2000(Reference(), Test(), p).mean);
+  m::SetMetricsThreads(threads_before);
+}
+BENCHMARK(BM_Ciede2000_512CachedReferenceOneThread)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 
