@@ -141,7 +141,10 @@ def drawn_texts(fig):
         if ax.get_legend() is not None:
             texts += list(ax.get_legend().get_texts())
         for axis in (ax.xaxis, ax.yaxis):
-            for tick in axis._update_ticks():
+            # The ticks this figure's last drawing drew (text_problems draws it just before),
+            # else made again.
+            drawn = axis.__dict__.get("_drawn_ticks")
+            for tick in drawn if drawn is not None else axis._update_ticks():
                 texts += [t for t in (tick.label1, tick.label2) if t.get_visible()]
         texts.append(ax.yaxis.get_offset_text())
         texts.append(ax.xaxis.get_offset_text())
@@ -151,6 +154,9 @@ def drawn_texts(fig):
 
 def text_problems(fig):
     """Pairs of overlapping texts and texts outside the figure, in pixels at the figure's DPI."""
+    for ax in fig.axes:  # what an earlier drawing of a kept figure recorded (_tick_boxes)
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.__dict__.pop("_drawn_ticks", None)
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     boxes = []
@@ -490,10 +496,13 @@ def _axis_draw(self, renderer, *args, **kwargs):
 
 
 def _tick_boxes(self, ticks, renderer=None):
+    """Axis._get_ticklabel_bboxes; the first call of an axis's drawing also records its boxes
+    (_sibling_boxes) and its ticks (drawn_texts: the ticks the drawing drew)."""
     boxes = _TICK_BOXES(self, ticks, renderer)
     drawn = self.__dict__.get("_drawn_boxes")
     if drawn == [] and renderer is not None:
         drawn.append((renderer, boxes))
+        self._drawn_ticks = ticks
     return boxes
 
 

@@ -134,6 +134,24 @@ def check_shortcuts(report_src):
     for n, (pixels, pdf) in enumerate(short):
         check(np.array_equal(pixels, own[0]), f"shortcuts, drawing {n + 1}: other PNG pixels")
         check(pdf == own[1], f"shortcuts, drawing {n + 1}: other PDF bytes")
+    # text_problems on a figure whose tick labels overlap: the overlaps found with the shortcuts
+    # (the ticks the drawing drew) are matplotlib's (the ticks made again), and there are some.
+    found = []
+    for own_text in (False, True):
+        rf.use_matplotlib_text(own_text)
+        try:
+            fig = rf.plt.figure(figsize=(2.0, 1.5), dpi=rf.DPI)
+            crowded = fig.add_axes([0.2, 0.3, 0.7, 0.6])
+            crowded.plot(range(12), range(12))
+            crowded.set_xticks(range(12))
+            crowded.set_xticklabels([f"label {k}" for k in range(12)])
+            found.append(rf.text_problems(fig))
+            rf.plt.close(fig)
+        finally:
+            rf.use_matplotlib_text(False)
+    check(found[0] == found[1], "text_problems: other overlaps with the shortcuts than without")
+    check(len(found[1][0]) >= 5, f"text_problems: {len(found[1][0])} overlaps of 12 crowded tick "
+          "labels found, expected at least 5")
     font = rf.matplotlib.font_manager.findfont("DejaVu Sans")
     check(rf._font_subset(font, "abc10").getvalue() == rf._SUBSET_FONT(font, "01cba").getvalue(),
           "font subset: other bytes than matplotlib's for the same characters")
