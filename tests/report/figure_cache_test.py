@@ -77,18 +77,21 @@ def drawn(rf, tile, in_view, grid_tile=None):
     img = fig.add_axes([0.75, 0.2, 0.2, 0.3])
     img.set_axis_off()
     img.imshow(tile, interpolation="nearest", aspect="auto")
+    def place_tile(ax, extent, limits):
+        """A tile at `extent` on `ax` (axis off, at `limits`): add_tile's or imshow's."""
+        if grid_tile is not None:
+            import report_grids
+            report_grids.add_tile(ax, grid_tile, extent)
+        else:
+            ax.imshow(tile, interpolation="nearest", aspect="auto", extent=extent)
+            ax.set_xlim(*limits[0])
+            ax.set_ylim(*limits[1])
+
     cell = fig.add_axes([0.031, 0.043, 0.137, 0.113])
     cell.set_axis_off()
     cell.set_xlim(0, 1)
     cell.set_ylim(0, 1)
-    extent = (0.113, 0.871, 0.097, 0.933)
-    if grid_tile is not None:
-        import report_grids
-        report_grids.add_tile(cell, grid_tile, extent)
-    else:
-        cell.imshow(tile, interpolation="nearest", aspect="auto", extent=extent)
-        cell.set_xlim(0, 1)
-        cell.set_ylim(0, 1)
+    place_tile(cell, (0.113, 0.871, 0.097, 0.933), ((0, 1), (0, 1)))
     # A grid's axes spans the figure in inches: a tile inside it (drawn unclipped by add_tile)
     # and one across its right edge (clipped), each at an extent whose edges cut pixels.
     sheet = fig.add_axes([0, 0, 1, 1])
@@ -96,13 +99,7 @@ def drawn(rf, tile, in_view, grid_tile=None):
     sheet.set_xlim(0, 3.3)
     sheet.set_ylim(0, 2.0)
     for sheet_extent in ((2.403, 2.987, 1.103, 1.771), (3.013, 3.5, 0.071, 0.689)):
-        if grid_tile is not None:
-            import report_grids
-            report_grids.add_tile(sheet, grid_tile, sheet_extent)
-        else:
-            sheet.imshow(tile, interpolation="nearest", aspect="auto", extent=sheet_extent)
-            sheet.set_xlim(0, 3.3)
-            sheet.set_ylim(0, 2.0)
+        place_tile(sheet, sheet_extent, ((0, 3.3), (0, 2.0)))
     if in_view:
         rf.ticks_in_view(fig)
     fig.canvas.draw()
