@@ -459,7 +459,6 @@ def _remembered_extent(name, measure):
     return extent
 
 
-@functools.wraps(_LEGEND_DRAW)  # its rasterization flag too
 def _legend_draw_once(self, renderer):
     """Legend.draw with every box of the legend measured once (see above)."""
     global _LEGEND_EXTENTS
@@ -470,6 +469,9 @@ def _legend_draw_once(self, renderer):
         return _LEGEND_DRAW(self, renderer)
     finally:
         _LEGEND_EXTENTS = None
+
+
+_legend_draw_once._supports_rasterization = True  # as matplotlib's (allow_rasterization)
 
 
 # --- An axis's tick label boxes measured once per drawing ---------------------------------------
@@ -485,7 +487,6 @@ _TICK_BOXES = _maxis.Axis._get_ticklabel_bboxes
 _SIBLING_BOXES = _maxis.Axis._get_tick_boxes_siblings
 
 
-@functools.wraps(_AXIS_DRAW)  # its rasterization flag too
 def _axis_draw(self, renderer, *args, **kwargs):
     """Axis.draw, remembering the first tick label boxes it measures (_tick_boxes)."""
     self._drawn_boxes = []
@@ -493,6 +494,9 @@ def _axis_draw(self, renderer, *args, **kwargs):
         return _AXIS_DRAW(self, renderer, *args, **kwargs)
     finally:
         del self._drawn_boxes
+
+
+_axis_draw._supports_rasterization = True  # as matplotlib's (allow_rasterization)
 
 
 def _tick_boxes(self, ticks, renderer=None):
