@@ -11,6 +11,7 @@ This file runs the steps in order: read (report_inputs, results_csv), compute, t
 concern has its module, mapped in docs/architecture.md ("report/").
 """
 
+import gc
 import glob
 import json
 import multiprocessing
@@ -83,6 +84,18 @@ def material_figures(material):
     return grids, probe_figs
 
 
+def worker_material_figures(material):
+    """material_figures in a figure worker, then what survives it (the kept probe figures, the
+    text caches) frozen for the collector: a material's figures set off ~120 young and ~10
+    middle passes, which otherwise walk every earlier material's survivors, and their garbage
+    (closed figures) is collected here once. 20 materials' figures in one process: collection
+    2.1-3.5 -> 1.4-1.6 s, peak 631 -> 581 MB. The worker ends with the pool, frozen heap and all."""
+    records = material_figures(material)
+    gc.collect()
+    gc.freeze()
+    return records
+
+
 class MaterialFigures:
     """Every material's grids (in the study's order), then every probe figure (by material
     name): the same records, in the same order, with one process or several. A material whose
@@ -119,7 +132,7 @@ class MaterialFigures:
                 self.pool = multiprocessing.get_context("fork").Pool(jobs)
             except OSError:
                 pass  # No POSIX semaphores here (a container without /dev/shm): one process.
-        self.drawn = (self.pool.imap(material_figures, self.todo, chunksize=1)
+        self.drawn = (self.pool.imap(worker_material_figures, self.todo, chunksize=1)
                       if self.pool is not None else None)
 
     def abandon(self):
