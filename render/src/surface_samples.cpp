@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <mutex>
 #include <thread>
 
@@ -377,22 +376,10 @@ bool LightReaches(const Scene& scene, int object, const Vec3d& p, const Vec3d& n
   return !scene.ray_caster->Occluded(Ray{p + n * offset, l}, kRayEpsilon, dist);
 }
 
-Image ShadowEdgeMask(const Scene& scene) {
-  if (!scene.HasSurfaceObjects()) return Image();
-  // A normal-map object alone gives every sample of a pixel the pixel's data
-  // (PixelSurfaceSamples), so each sample sees the lights its pixel's centre sees: one sample per
-  // pixel gives the same mask as 3 x 3, for a ninth of the rays and memory.
-  const bool one_per_pixel =
-      scene.objects.size() == 1 && scene.objects[0].type == SceneObject::Type::kNormalMap;
-  const int ss = one_per_pixel ? 1 : std::max(3, scene.camera.supersample);
-  const std::string key = internal::SurfaceLightsKey(scene, ss);
-  static std::mutex mutex;
-  static std::map<std::string, Image> cache;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    auto it = cache.find(key);
-    if (it != cache.end()) return it->second;
-  }
+namespace {
+
+// ShadowEdgeMask's image at `ss` x `ss` samples a pixel, made anew.
+Image MakeShadowEdgeMask(const Scene& scene, int ss) {
   const std::shared_ptr<const internal::SurfaceSamples> kept =
       internal::KeptRayCastSurfaceSamples(scene, ss);
   const internal::SurfaceSamples& samples = *kept;
@@ -443,8 +430,23 @@ Image ShadowEdgeMask(const Scene& scene) {
       mask.at(x, y, 0) = edge ? 1.0f : 0.0f;
     }
   }
-  std::lock_guard<std::mutex> lock(mutex);
-  return cache.emplace(key, std::move(mask)).first->second;
+  return mask;
+}
+
+}  // namespace
+
+Image ShadowEdgeMask(const Scene& scene) {
+  if (!scene.HasSurfaceObjects()) return Image();
+  // A normal-map object alone gives every sample of a pixel the pixel's data
+  // (PixelSurfaceSamples), so each sample sees the lights its pixel's centre sees: one sample per
+  // pixel gives the same mask as 3 x 3, for a ninth of the rays and memory.
+  const bool one_per_pixel =
+      scene.objects.size() == 1 && scene.objects[0].type == SceneObject::Type::kNormalMap;
+  const int ss = one_per_pixel ? 1 : std::max(3, scene.camera.supersample);
+  // Made once per geometry and lights, as SelfOcclusion below.
+  static MadeOnce<Image> made;
+  return made.Get(internal::SurfaceLightsKey(scene, ss),
+                  [&] { return MakeShadowEdgeMask(scene, ss); });
 }
 
 namespace {
