@@ -652,17 +652,18 @@ class _PdfRaster(matplotlib.artist.Artist):
         gc.restore()
 
 
-def pdf_images_as_drawn(fig, ax):
-    """Replaces the images of `ax` (once the figure is drawn at DPI by Agg) by one image for the
-    PDF: Agg's pixels over the images' bounding box, embedded as they are (no resampling), at
-    the place they cover. A grid's ~70 tiles and colour bars were each resampled for the PDF and
-    embedded as an image of their own (encoded, most of them quantised to a palette): half of
-    a grid's PDF. The PDF's raster is then the PNG's pixels; its text and lines stay vectors
-    over it. Anything Agg drew inside the box (a tile's "missing", the bars' outlines) is in
-    the raster too, under its vector. Returns the number of images replaced."""
+def _raster_images(ax):
+    """The images of `ax` that the PDF takes as one raster (none where it has fewer than two)."""
     images = [im for im in ax.get_images() if im.get_visible()]
-    if len(images) < 2:
-        return 0
+    return images if len(images) >= 2 else []
+
+
+def _drawn_raster(fig, images):
+    """(x, y, rgba): Agg's pixels over the bounding box of `images` once the figure is drawn,
+    rows from the bottom up (as a renderer's draw_image takes them), their lower left corner at
+    (x, y) in pixels; None without images or where the box holds no pixel."""
+    if not images:
+        return None
     renderer = fig.canvas.get_renderer()
     box = matplotlib.transforms.Bbox.union([im.get_window_extent(renderer) for im in images])
     pixels = np.asarray(fig.canvas.buffer_rgba())
@@ -672,12 +673,27 @@ def pdf_images_as_drawn(fig, ax):
     c0, c1 = max(0, math.floor(box.x0)), min(cols, math.ceil(box.x1))
     r0, r1 = max(0, rows - math.ceil(box.y1)), min(rows, rows - math.floor(box.y0))
     if c1 <= c0 or r1 <= r0:
+        return None
+    return c0, rows - r1, np.array(pixels[r0:r1, c0:c1][::-1])
+
+
+def pdf_images_as_drawn(fig, ax):
+    """Replaces the images of `ax` (once the figure is drawn at DPI by Agg) by one image for the
+    PDF: Agg's pixels over the images' bounding box, embedded as they are (no resampling), at
+    the place they cover. A grid's ~70 tiles and colour bars were each resampled for the PDF and
+    embedded as an image of their own (encoded, most of them quantised to a palette): half of
+    a grid's PDF. The PDF's raster is then the PNG's pixels; its text and lines stay vectors
+    over it. Anything Agg drew inside the box (a tile's "missing", the bars' outlines) is in
+    the raster too, under its vector. Returns the number of images replaced."""
+    images = _raster_images(ax)
+    drawn = _drawn_raster(fig, images)
+    if drawn is None:
         return 0
-    x, y = ax.transData.inverted().transform((c0, rows - r1))
+    x_px, y_px, rgba = drawn
+    x, y = ax.transData.inverted().transform((x_px, y_px))
     for im in images:
         im.set_visible(False)
-    # A renderer's draw_image takes an image's rows from the bottom up (as _make_image makes).
-    raster = _PdfRaster(ax, np.array(pixels[r0:r1, c0:c1][::-1]), x, y)
+    raster = _PdfRaster(ax, rgba, x, y)
     raster.set_zorder(-1)  # under the axes, so under every text and line of the figure
     fig.add_artist(raster)
     return len(images)
@@ -736,6 +752,156 @@ def ticks_in_view(fig):
                     setter(_InViewLocator(ticker.locator))
 
 
+# --- One drawing for both files ------------------------------------------------------------------
+# matplotlib draws a figure twice for its two files: once by Agg at DPI (the PNG, and the drawing
+# text_problems measures) and once for the PDF at 72 points per inch, laying everything out again
+# (ticks located and formatted, every text measured, legends packed): half of the report's
+# drawing time. Here the Agg drawing's calls to its renderer are also kept, in PDF points (every
+# position and transform scaled by 72 / DPI; line widths, dashes and font sizes are in points
+# for both), and the PDF is written from them by matplotlib's own PDF renderer: the same
+# operations in the same order, the same fonts, images and graphics states, placed where the PNG
+# places them. matplotlib's own PDF measures its text at 72 dpi with hinting, so its layout moves
+# by up to ~0.3 pt from the PNG's; this one is the PNG's drawing, the one the overlap check
+# measured. figures_test compares the two PDFs operation by operation. A figure that asks for
+# anything else of the renderer (Gouraud shading, a quad mesh, TeX, rasterised artists, Agg
+# filters) is drawn for its PDF by matplotlib as before.
+ONE_DRAWING = MATPLOTLIB_3_6
+
+_TO_POINTS = np.diag([72.0 / DPI, 72.0 / DPI, 1.0])
+_KEPT_CALLS = ("draw_path", "draw_markers", "draw_path_collection", "draw_image", "draw_text")
+_OTHER_CALLS = ("draw_gouraud_triangle", "draw_gouraud_triangles", "draw_quad_mesh", "draw_tex",
+                "start_rasterizing", "start_filter")
+
+
+def _in_points(transform):
+    """An affine transform to Agg's pixels, to PDF points instead."""
+    return matplotlib.transforms.Affine2D(_TO_POINTS @ transform.get_matrix())
+
+
+class _PdfCalls:
+    """The calls an Agg renderer gets while it draws one figure, kept in PDF points (install()
+    before the drawing, remove() after it), then made on a PDF renderer (write()). `png_only`:
+    while > 0, calls are Agg's alone (a grid's tiles, which the PDF takes as one raster)."""
+
+    def __init__(self, renderer):
+        self.renderer, self.calls, self.complete, self.png_only = renderer, [], True, 0
+        # Clip boxes and paths by the identity of Agg's: the PDF renderer sets a clip again only
+        # where a call's object is another (GraphicsContextPdf.delta), as in its own drawing.
+        # The originals are kept, so that no id is reused while the figure draws.
+        self._clips = {}
+
+    def install(self):
+        r = self.renderer
+        for name in _KEPT_CALLS:
+            setattr(r, name, functools.partial(self._kept, name, getattr(r, name)))
+        for name in _OTHER_CALLS:
+            setattr(r, name, functools.partial(self._other, getattr(r, name)))
+
+    def remove(self):
+        r = self.renderer
+        for name in _KEPT_CALLS + _OTHER_CALLS:
+            del r.__dict__[name]
+        r._update_methods()  # Agg's C++ methods, as its constructor set them
+
+    def _other(self, call, *args, **kwargs):
+        self.complete = False
+        return call(*args, **kwargs)
+
+    def _kept(self, name, call, gc, *args, **kwargs):
+        if not self.png_only:
+            self.calls.append((name, self._gc(gc), getattr(self, "_" + name)(*args, **kwargs)))
+        return call(gc, *args, **kwargs)
+
+    def _clip(self, kind, obj, scaled):
+        held = self._clips.get((kind, id(obj)))
+        if held is None:
+            held = self._clips[(kind, id(obj))] = (obj, scaled())
+        return held[1]
+
+    def _gc(self, gc):
+        kept = matplotlib.backend_bases.GraphicsContextBase()
+        kept.copy_properties(gc)
+        if gc._cliprect is not None:
+            kept._cliprect = self._clip("rect", gc._cliprect, lambda: matplotlib.transforms.Bbox(
+                gc._cliprect.get_points() * _TO_POINTS[0, 0]))
+        if gc._clippath is not None:
+            kept._clippath = self._clip("path", gc._clippath, lambda: (
+                lambda path, affine: matplotlib.transforms.TransformedPath(
+                    path, _in_points(affine)))(*gc._clippath.get_transformed_path_and_affine()))
+        return kept
+
+    # Each kept call's arguments after the gc, in points.
+    @staticmethod
+    def _draw_path(path, transform, rgbFace=None):
+        return path, _in_points(transform), rgbFace
+
+    @staticmethod
+    def _draw_markers(marker_path, marker_trans, path, trans, rgbFace=None):
+        return marker_path, _in_points(marker_trans), path, _in_points(trans), rgbFace
+
+    @staticmethod
+    def _draw_path_collection(master_transform, paths, all_transforms, offsets, offset_trans,
+                              *rest):
+        return (_in_points(master_transform), paths, all_transforms, offsets,
+                _in_points(offset_trans), *rest)
+
+    def _draw_image(self, x, y, im, transform=None):
+        if transform is not None:  # Agg takes none (option_scale_image)
+            self.complete = False
+        return x * _TO_POINTS[0, 0], y * _TO_POINTS[0, 0], im
+
+    def _draw_text(self, x, y, s, prop, angle, ismath=False, mtext=None):
+        # Agg's text is placed from the top (flipy: Text.draw passed the canvas height less y).
+        # No mtext: the PDF renderer would read its position from the figure, at Agg's DPI.
+        y = self.renderer.height - y
+        return x * _TO_POINTS[0, 0], y * _TO_POINTS[0, 0], s, prop, angle, ismath
+
+    def add_image(self, at, x, y, im):
+        """An image of the PDF's alone (the grid's raster) at the place in the calls `at`
+        (raster_slot), (x, y) in Agg's pixels."""
+        self.calls.insert(at, ("draw_image", matplotlib.backend_bases.GraphicsContextBase(),
+                               (x * _TO_POINTS[0, 0], y * _TO_POINTS[0, 0], im)))
+
+    def write(self, fig, path):
+        """The PDF of the calls, as FigureCanvasPdf.print_pdf writes a figure's."""
+        width, height = fig.get_size_inches()
+        pdf = _backend_pdf.PdfFile(path, metadata={"CreationDate": None})
+        try:
+            pdf.newPage(width, height)
+            renderer = _backend_pdf.RendererPdf(pdf, DPI, height, width)
+            for name, kept, args in self.calls:
+                gc = renderer.new_gc()
+                gc.copy_properties(kept)
+                getattr(renderer, name)(gc, *args)
+                gc.restore()
+            renderer.finalize()
+            pdf.finalize()
+        finally:
+            pdf.close()
+
+
+class _RasterSlot(matplotlib.artist.Artist):
+    """Where the grid's raster goes among the PDF's calls: drawn under the axes (zorder -1),
+    as pdf_images_as_drawn's _PdfRaster is; Agg draws nothing for it."""
+
+    def __init__(self, calls):
+        super().__init__()
+        self._calls, self.at = calls, None
+        self.set_zorder(-1)
+        self.set_in_layout(False)
+
+    def draw(self, renderer):
+        self.at = len(self._calls.calls)
+
+
+def _png_only(calls, image, renderer):
+    calls.png_only += 1
+    try:
+        type(image).draw(image, renderer)
+    finally:
+        calls.png_only -= 1
+
+
 def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=None):
     """Writes name.png and name.pdf and appends the figure's record to `manifest`; `extra`: more
     fields for the record (a split grid's kind, material and part). `pdf_raster`: an axes whose
@@ -747,7 +913,26 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     fig.set_size_inches((w_px + 0.01) / DPI, (h_px + 0.01) / DPI)
     fig.set_dpi(DPI)
     ticks_in_view(fig)
-    overlaps, outside = text_problems(fig)
+    calls, slot, raster_images = None, None, []
+    if ONE_DRAWING:
+        calls = _PdfCalls(fig.canvas.get_renderer())
+        if pdf_raster is not None:
+            raster_images = _raster_images(pdf_raster)
+        if raster_images:
+            slot = _RasterSlot(calls)
+            fig.add_artist(slot)
+            for im in raster_images:
+                im.draw = functools.partial(_png_only, calls, im)
+        calls.install()
+    try:
+        overlaps, outside = text_problems(fig)
+    finally:
+        if calls is not None:
+            calls.remove()
+            for im in raster_images:
+                del im.draw
+            if slot is not None:
+                slot.remove()
     # The titles stay where that drawing put them (matplotlib 3.6's flag; elsewhere it is only
     # an attribute): the PDF's drawing would place them again, measuring the axes' tick labels
     # once more for it, and the two files' titles agree by construction.
@@ -757,15 +942,24 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     pdf = os.path.join(fig_dir, name + ".pdf")
     # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing.
     write_png(png, np.asarray(fig.canvas.buffer_rgba()), DPI)
-    if pdf_raster is not None:
-        pdf_images_as_drawn(fig, pdf_raster)
-    # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
-    # Other figures' images (a chart's) stay their own, not composited by matplotlib, and are
-    # resampled at the PNG's resolution: without `dpi` matplotlib resamples a PDF's images at
-    # the figure's first resolution (100 dpi). Text and lines stay vectors. A grid's tiles are
-    # one raster of the PNG's pixels by now (pdf_raster above).
-    with matplotlib.rc_context({"image.composite_image": False}):
-        fig.savefig(pdf + ".tmp.pdf", format="pdf", dpi=DPI, metadata={"CreationDate": None})
+    written = False
+    if calls is not None and calls.complete and fig.canvas.get_renderer() is calls.renderer:
+        raster = _drawn_raster(fig, raster_images)
+        if raster is not None or not raster_images:
+            if raster is not None:
+                calls.add_image(slot.at, *raster)
+            calls.write(fig, pdf + ".tmp.pdf")
+            written = True
+    if not written:  # matplotlib's own PDF drawing
+        if pdf_raster is not None:
+            pdf_images_as_drawn(fig, pdf_raster)
+        # No creation date: a rerun writes the same bytes (docs/studies.md, "Determinism").
+        # Other figures' images (a chart's) stay their own, not composited by matplotlib, and
+        # are resampled at the PNG's resolution: without `dpi` matplotlib resamples a PDF's
+        # images at the figure's first resolution (100 dpi). Text and lines stay vectors. A
+        # grid's tiles are one raster of the PNG's pixels by now (pdf_raster above).
+        with matplotlib.rc_context({"image.composite_image": False}):
+            fig.savefig(pdf + ".tmp.pdf", format="pdf", dpi=DPI, metadata={"CreationDate": None})
     os.replace(pdf + ".tmp.pdf", pdf)
     plt.close(fig)
     manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
