@@ -12,7 +12,9 @@ matplotlib's own PDF of it, placed where the PNG places things:
   check);
 - a legend's texts start where the PNG's drawing put them (Agg's window extent, less nothing:
   left and baseline aligned), within 0.05 pt; matplotlib's own PDF lays the legend out again at
-  72 dpi and puts them up to several points away.
+  72 dpi and puts them up to several points away;
+- a figure that asks the renderer for a call not kept (a quad mesh) gets matplotlib's own PDF,
+  the same bytes.
 
 The figures use what the report's do and more: dashes, markers, log axes with mathtext labels,
 rotated labels (90 degrees and 30 with rotation_mode "anchor"), clipped lines, a scatter, a
@@ -184,8 +186,14 @@ def main(argv):
             tiles.text(k + 0.5, 0.9, f"tile {k}", ha="center", va="center")
         return fig, tiles
 
+    def mesh_figure():  # a quad mesh: not kept, so the PDF is matplotlib's own drawing
+        fig = plt.figure(figsize=(rf.COLUMN_IN, 1.5))
+        ax = fig.add_axes([0.15, 0.2, 0.7, 0.7])
+        ax.pcolormesh(np.arange(5), np.arange(4), np.arange(12).reshape(3, 4))
+        return fig, None
+
     figures = {"lines": lines_figure, "bars": bars_figure, "legend": legend_figure,
-               "grid": grid_figure}
+               "grid": grid_figure, "mesh": mesh_figure}
     failures = []
     for name, make in figures.items():
         paths = {}
@@ -202,6 +210,12 @@ def main(argv):
         with open(paths[True][0], "rb") as f, open(paths[False][0], "rb") as g:
             if f.read() != g.read():
                 failures.append(f"{name}: the PNG differs with the calls kept")
+        if name == "mesh":
+            with open(paths[True][1], "rb") as f, open(paths[False][1], "rb") as g:
+                if f.read() != g.read():
+                    failures.append("mesh: a figure with a quad mesh is not matplotlib's own "
+                                    "PDF")
+            continue
         # The legend figure's lines, arrow and box are placed by its text: as its text.
         failures += [f"{name}: {p}" for p in compare_pdfs(
             paths[True][1], paths[False][1], 1.5 if name == "legend" else 0.01)]
