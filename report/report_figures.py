@@ -760,11 +760,11 @@ def ticks_in_view(fig):
 # position and transform scaled by 72 / DPI; line widths, dashes and font sizes are in points
 # for both), and the PDF is written from them by matplotlib's own PDF renderer: the same
 # operations in the same order, the same fonts, images and graphics states, placed where the PNG
-# places them. matplotlib's own PDF measures its text at 72 dpi with hinting, so its layout moves
-# by up to ~0.3 pt from the PNG's; this one is the PNG's drawing, the one the overlap check
-# measured. figures_test compares the two PDFs operation by operation. A figure that asks for
-# anything else of the renderer (Gouraud shading, a quad mesh, TeX, rasterised artists, Agg
-# filters) is drawn for its PDF by matplotlib as before.
+# places them. matplotlib's own PDF measures its text at 72 dpi with hinting, so its layout moved
+# from the PNG's (a probe figure's legend by ~6 pt); this one is the PNG's drawing, the one the
+# overlap check measured. tests/report/one_drawing_test.py compares the two PDFs operation by
+# operation. A figure that asks for anything else of the renderer (Gouraud shading, a quad mesh,
+# TeX, rasterised artists, Agg filters) is drawn for its PDF by matplotlib as before.
 ONE_DRAWING = MATPLOTLIB_3_6
 
 _TO_POINTS = np.diag([72.0 / DPI, 72.0 / DPI, 1.0])
@@ -857,27 +857,33 @@ class _PdfCalls:
         return x * _TO_POINTS[0, 0], y * _TO_POINTS[0, 0], s, prop, angle, ismath
 
     def add_image(self, at, x, y, im):
-        """An image of the PDF's alone (the grid's raster) at the place in the calls `at`
-        (raster_slot), (x, y) in Agg's pixels."""
+        """An image of the PDF's alone (the grid's raster) at index `at` of the calls (a
+        _RasterSlot's), its lower left corner at (x, y) in Agg's pixels."""
         self.calls.insert(at, ("draw_image", matplotlib.backend_bases.GraphicsContextBase(),
                                (x * _TO_POINTS[0, 0], y * _TO_POINTS[0, 0], im)))
 
     def write(self, fig, path):
-        """The PDF of the calls, as FigureCanvasPdf.print_pdf writes a figure's."""
+        """The PDF of the calls at `path`, as FigureCanvasPdf.print_pdf writes a figure's;
+        nothing left there if it fails."""
         width, height = fig.get_size_inches()
         pdf = _backend_pdf.PdfFile(path, metadata={"CreationDate": None})
         try:
-            pdf.newPage(width, height)
-            renderer = _backend_pdf.RendererPdf(pdf, DPI, height, width)
-            for name, kept, args in self.calls:
-                gc = renderer.new_gc()
-                gc.copy_properties(kept)
-                getattr(renderer, name)(gc, *args)
-                gc.restore()
-            renderer.finalize()
-            pdf.finalize()
-        finally:
-            pdf.close()
+            try:
+                pdf.newPage(width, height)
+                renderer = _backend_pdf.RendererPdf(pdf, DPI, height, width)
+                for name, kept, args in self.calls:
+                    gc = renderer.new_gc()
+                    gc.copy_properties(kept)
+                    getattr(renderer, name)(gc, *args)
+                    gc.restore()
+                renderer.finalize()
+                pdf.finalize()
+            finally:
+                pdf.close()
+        except BaseException:
+            if os.path.exists(path):
+                os.remove(path)
+            raise
 
 
 class _RasterSlot(matplotlib.artist.Artist):
@@ -947,7 +953,7 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     write_png(png, rgba[..., :3] if (rgba[..., 3] == 255).all() else rgba, DPI)
     written = False
     if calls is not None and calls.complete and fig.canvas.get_renderer() is calls.renderer:
-        raster = _drawn_raster(fig, raster_images)
+        raster = _drawn_raster(fig, raster_images) if slot is None or slot.at is not None else None
         if raster is not None or not raster_images:
             if raster is not None:
                 calls.add_image(slot.at, *raster)
