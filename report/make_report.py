@@ -127,7 +127,7 @@ class MaterialFigures:
         # A material's grids and its probe figures are two tasks (~1.3 and ~1.2 CPU-s in the
         # measured study): the last task to finish keeps one core busy alone for half as long.
         self.tasks = [(m, part) for m in self.todo for part in ("grids", "probes")]
-        jobs = min(jobs, len(self.todo))
+        jobs = min(jobs, len(self.tasks))
         self.pool = None
         if jobs > 1:
             report_figures.warm_up()  # once here, not once per worker

@@ -951,6 +951,9 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
     # measured report's PNGs ~10% smaller, 15-20% faster to write), the same pixels.
     rgba = np.asarray(fig.canvas.buffer_rgba())
     write_png(png, rgba[..., :3] if (rgba[..., 3] == 255).all() else rgba, DPI)
+    # The kept calls hold the artists' paths, fonts and colour arrays as the drawing passed them,
+    # by reference: nothing between the drawing and the PDF may change the figure (a spine's path,
+    # say, is rewritten in place when it is drawn again).
     written = False
     if calls is not None and calls.complete and fig.canvas.get_renderer() is calls.renderer:
         raster = _drawn_raster(fig, raster_images) if slot is None or slot.at is not None else None
