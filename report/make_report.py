@@ -42,7 +42,7 @@ import report_inputs  # noqa: E402
 import section_words  # noqa: E402
 from report_inputs import ReportInputError, load_study  # noqa: E402
 from progress import Progress  # noqa: E402
-from report_util import (flatten, fmt, frozen_heap, materials_of, to_float,  # noqa: E402
+from report_util import (collector_thresholds, flatten, fmt, frozen_heap, materials_of, to_float,  # noqa: E402
                          write_text)
 
 
@@ -306,7 +306,8 @@ def make_report(study_dir, quiet=True):
     # longer walk them. In a one-process report of the measured study those passes took 9.2 of
     # 51.8 s, 4.2 after (most of it now freeing the closed figures). The figure workers fork
     # inside the block and inherit it; a caller that makes several reports keeps nothing frozen.
-    with frozen_heap():
+    # The figure workers fork inside both blocks and inherit them.
+    with frozen_heap(), collector_thresholds(50000, 20, 10):
         return _make_report(inp, study_dir, quiet)
 
 

@@ -33,6 +33,21 @@ def frozen_heap():
             gc.unfreeze()
 
 
+@contextlib.contextmanager
+def collector_thresholds(*thresholds):
+    """gc.set_threshold(*thresholds) until the block ends. A figure's drawing makes and drops
+    hundreds of thousands of small objects: with the first generation collected after 700 more
+    allocations than frees (Python's default), each of its many passes also walks whatever
+    survived since the last. (50000, 20, 10), a measured study's figures, 10 materials in one
+    process: 0.92 -> 0.52 s in the collector, the same peak memory (533 MB)."""
+    old = gc.get_threshold()
+    gc.set_threshold(*thresholds)
+    try:
+        yield
+    finally:
+        gc.set_threshold(*old)
+
+
 def labels_of(study):
     return [f["label"] for f in study["fits"]]
 
