@@ -21,6 +21,19 @@ namespace {
 using shadefit::Image;
 namespace m = shadefit::metrics;
 
+// One metrics thread for a benchmark's scope, as a study job's worker has; the count before it
+// restored after.
+class OneMetricsThread {
+ public:
+  OneMetricsThread() : before_(m::MetricsThreads()) { m::SetMetricsThreads(1); }
+  ~OneMetricsThread() { m::SetMetricsThreads(before_); }
+  OneMetricsThread(const OneMetricsThread&) = delete;
+  OneMetricsThread& operator=(const OneMetricsThread&) = delete;
+
+ private:
+  int before_;
+};
+
 constexpr int kSize = 512;
 
 float Noise(std::uint32_t i, std::uint32_t seed) {
@@ -108,24 +121,19 @@ BENCHMARK(BM_FlipHdr512)->Unit(benchmark::kMillisecond)->UseRealTime();
 // CIEDE2000 as a study job runs it: one metrics thread, the reference's CIELAB from the cache,
 // so each call converts the test image and takes the colour difference per pixel.
 void BM_Ciede2000_512CachedReferenceOneThread(benchmark::State& state) {
-  const int threads_before = m::MetricsThreads();
-  m::SetMetricsThreads(1);
+  const OneMetricsThread one_thread;
   m::ReferenceCache cache(std::size_t{1} << 30);
   m::DeltaE2000Parameters p;
   p.reference_cache = &cache;
   for (auto _ : state) benchmark::DoNotOptimize(m::DeltaE2000(Reference(), Test(), p).mean);
-  m::SetMetricsThreads(threads_before);
 }
 BENCHMARK(BM_Ciede2000_512CachedReferenceOneThread)->Unit(benchmark::kMillisecond)->UseRealTime();
-
-}  // namespace
 
 // HDR-FLIP as a study job runs it: one metrics thread per worker, the reference's half from
 // the cache (every fit of a material is compared with the same references), so each call
 // computes the test image's half at every exposure and combines.
 void BM_FlipHdr512CachedReferenceOneThread(benchmark::State& state) {
-  const int threads_before = m::MetricsThreads();
-  m::SetMetricsThreads(1);
+  const OneMetricsThread one_thread;
   m::ReferenceCache cache(std::size_t{1} << 30);
   m::FlipParameters p;
   p.reference_cache = &cache;
@@ -135,7 +143,8 @@ void BM_FlipHdr512CachedReferenceOneThread(benchmark::State& state) {
     exposures = f.num_exposures;
     benchmark::DoNotOptimize(f.mean);
   }
-  m::SetMetricsThreads(threads_before);
   state.counters["exposures"] = exposures;
 }
 BENCHMARK(BM_FlipHdr512CachedReferenceOneThread)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
