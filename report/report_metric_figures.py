@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 
-from report_figures import (COLUMN_IN, FONT_PT, PAGE_IN, bar_style, legend_layout, plt,
+from report_figures import (COLUMN_IN, FONT_PT, PAGE_IN, bar_style, bars, legend_layout, plt,
                             save_figure, style_of, text_width_in, wrap_to_width)
 from report_regions import lightings_of
 from report_util import materials_of, rows_by
@@ -55,7 +55,7 @@ def metric_bars(study, rows, fig_dir, manifest, to_float, metric="flip_ldr_mean"
                 v = [to_float(r[metric]) for r in grouped.get((m, l, split), ())]
                 v = [a for a in v if a is not None]
                 vals.append(np.mean(v) if v else np.nan)
-            ax.bar(x + i * width, vals, width, label=l, **bar_style(i, l))
+            bars(ax, x + i * width, vals, width, label=l, **bar_style(i, l))
         ax.set_xticks(x + 0.4 - width / 2)
         ax.set_xlim(-0.3, len(materials) - 0.1)
         if stacked and split == "train":
@@ -165,8 +165,8 @@ def region_figure(means, rec, labels, fig_dir, manifest):
         for i, f in enumerate(fits):
             cells = [means.get((split, l, g, f)) for l in lightings]
             xs = x + (i - (len(fits) - 1) / 2) * width
-            ax.bar(xs, [c["abs"] if c else np.nan for c in cells], width,
-                   label=f if k == 0 else None, **bar_style(i, f))
+            bars(ax, xs, [c["abs"] if c else np.nan for c in cells], width,
+                 label=f if k == 0 else None, **bar_style(i, f))
             ax.scatter(xs, [c["signed"] if c else np.nan for c in cells], marker="_",
                        color="black", s=30, linewidths=1.0, zorder=3)
         ax.axhline(0, color="#555555", linewidth=0.5)

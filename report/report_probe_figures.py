@@ -8,7 +8,8 @@ import numpy as np
 from matplotlib.transforms import Bbox
 
 from report_figures import (COLUMN_IN, FONT_PT, GROUND_SERIES, MATPLOTLIB_3_6, PAGE_IN,
-                            bar_style, legend_layout, plt, save_figure, style_of, text_width_in)
+                            bar_style, bars, legend_layout, plt, save_figure, style_of,
+                            text_width_in)
 
 
 # --- Probe curves and bars ----------------------------------------------------------------------
@@ -239,8 +240,8 @@ def probe_bar_figure(probe, material, numbers, flatten, labels=()):
         for i, s in enumerate(series):
             f = flatten(numbers[s])
             # The fit's place in the study picks its fill, as in the other bar figure.
-            ax.bar(x + i * width, [f.get(k, np.nan) for k in keys], width, label=s,
-                   **bar_style(labels.index(s) if s in labels else i, s))
+            bars(ax, x + i * width, [f.get(k, np.nan) for k in keys], width, label=s,
+                 **bar_style(labels.index(s) if s in labels else i, s))
         ax.set_xticks(x + 0.4 - width / 2)
         ax.set_xticklabels(short, rotation=90, fontsize=FONT_PT - 2)
         fig.legend(*ax.get_legend_handles_labels(), frameon=False, ncol=legend_cols,
