@@ -655,7 +655,7 @@ class _PdfRaster(matplotlib.artist.Artist):
 def _raster_images(ax):
     """The images of `ax` that the PDF takes as one raster (none where it has fewer than two)."""
     images = [im for im in ax.get_images() if im.get_visible()]
-    return images if len(images) >= 2 else []
+    return images if sum(getattr(im, "tile_count", 1) for im in images) >= 2 else []
 
 
 def _drawn_raster(fig, images):

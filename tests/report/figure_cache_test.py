@@ -92,14 +92,17 @@ def drawn(rf, tile, in_view, grid_tile=None):
     cell.set_xlim(0, 1)
     cell.set_ylim(0, 1)
     place_tile(cell, (0.113, 0.871, 0.097, 0.933), ((0, 1), (0, 1)))
-    # A grid's axes spans the figure in inches: a tile inside it (drawn unclipped by add_tile)
-    # and one across its right edge (clipped), each at an extent whose edges cut pixels.
-    sheet = fig.add_axes([0, 0, 1, 1])
-    sheet.set_axis_off()
-    sheet.set_xlim(0, 3.3)
-    sheet.set_ylim(0, 2.0)
-    for sheet_extent in ((2.403, 2.987, 1.103, 1.771), (3.013, 3.5, 0.071, 0.689)):
-        place_tile(sheet, sheet_extent, ((0, 3.3), (0, 2.0)))
+    # A grid's axes spans the figure in inches: tiles inside it (drawn unclipped by add_tile,
+    # one artist drawing them in turn) and, on another such axes, one across its right edge
+    # (clipped), each at an extent whose edges cut pixels.
+    for extents in [((2.403, 2.987, 1.103, 1.771), (2.403, 2.874, 0.057, 0.901),
+                     (0.021, 0.333, 1.811, 1.987)), ((3.013, 3.5, 0.071, 0.689),)]:
+        sheet = fig.add_axes([0, 0, 1, 1])
+        sheet.set_axis_off()
+        sheet.set_xlim(0, 3.3)
+        sheet.set_ylim(0, 2.0)
+        for sheet_extent in extents:
+            place_tile(sheet, sheet_extent, ((0, 3.3), (0, 2.0)))
     if in_view:
         rf.ticks_in_view(fig)
     fig.canvas.draw()
