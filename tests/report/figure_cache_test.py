@@ -103,9 +103,18 @@ def drawn(rf, tile, in_view, grid_tile=None):
         sheet.set_ylim(0, 2.0)
         for sheet_extent in extents:
             place_tile(sheet, sheet_extent, ((0, 3.3), (0, 2.0)))
+    # Large values that differ little: the y axis writes an offset ("+1e6") above the axes,
+    # which its wide title must clear (matplotlib moves the title up); a title over a log axis
+    # (no offset) stays where it is.
+    offset = fig.add_axes([0.08, 0.6, 0.25, 0.2])
+    offset.plot([0, 1, 2], [1e6, 1e6 + 3, 1e6 + 1])
+    offset.set_title("a title as wide as the axes", fontsize=5)
     if in_view:
         rf.ticks_in_view(fig)
     fig.canvas.draw()
+    check(offset.title.get_position()[1] > 1.0 and ax.title.get_position()[1] == 1.0,
+          "titles: the one over an offset text not moved up, or the one over a log axis "
+          "moved")
     pixels = np.asarray(fig.canvas.buffer_rgba()).copy()
     pdf = io.BytesIO()
     fig.savefig(pdf, format="pdf", metadata={"CreationDate": None})
