@@ -5,8 +5,10 @@ the same PNG bytes), and bar charts chosen to reach the rule's edges: a log axis
 missing values, many bars. Where one path would change a pixel (bars that overlap, see-through)
 or where Agg would draw it otherwise (more vertices than it snaps, bars of several colours), the
 bars are drawn one by one: the test checks that they are, and that one path there would indeed
-differ, so the case can catch a rule that lets it through. Compared with the same chart drawn
-bar by bar, not with any stored drawing.
+differ, so the case can catch a rule that lets it through. The bars' data limits, found without
+splitting each bar into curves (report_figures._patch_limits), are matplotlib's to the bit.
+Compared with the same chart drawn bar by bar, or made by matplotlib's own code, not with any
+stored drawing.
 
     bars_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -142,6 +144,40 @@ def main(report_dir, out_dir):
         check(counts.one > 0 and differ(apart, forced) > 0,
               f"{name}: one path forced through changes no pixel ({counts.one} series): the "
               "case cannot catch the rule")
+
+    # The bars' data limits (report_figures._patch_limits) are matplotlib's own: random charts
+    # of negative, zero, missing and offset bars, linear and log, a bar of no height beyond
+    # the others, and a rectangle in axes coordinates, every limit the same double.
+    for seed in range(12):
+        for log in (False, True):
+            got = []
+            for own in (True, False):
+                rf.use_matplotlib_text(own)
+                fig = rf.plt.figure(figsize=(3, 2))
+                ax = fig.add_axes([0.1, 0.1, 0.8, 0.8])
+                rng = np.random.default_rng(seed)
+                for i in range(9):
+                    heights = rng.normal(size=10) * 10.0 ** rng.uniform(-3, 3)
+                    heights[i % 10], heights[(i + 3) % 10] = np.nan, 0.0
+                    ax.bar(np.arange(10) + i * 0.09 + rng.uniform(-1e-9, 1e-9), heights, 0.09,
+                           bottom=rng.uniform(-1, 1) if i % 3 == 0 else 0.0)
+                ax.bar([1000.0], [0.0], 0.5)  # no height, right of the others: widens x
+                # In axes coordinates, left of and below the view: matplotlib takes its corners
+                # to data coordinates through the view it has then.
+                ax.set_xlim(-1.0, 30.0)
+                ax.set_ylim(-5.0, 5.0)
+                ax.add_patch(rf.matplotlib.patches.Rectangle((-40.0, -40.0), 5.0, 5.0,
+                                                             transform=ax.transAxes))
+                ax.autoscale(True)
+                if log:
+                    ax.set_yscale("log")
+                got.append([np.array(v, dtype=float) for v in (
+                    ax.dataLim.get_points(), ax.dataLim.minpos, ax.get_xlim(), ax.get_ylim())])
+                rf.plt.close(fig)
+            rf.use_matplotlib_text(False)
+            check(all(np.array_equal(a, b) for a, b in zip(*got)),
+                  f"data limits of bar chart {seed} (log {log}): {got[1]} against matplotlib's "
+                  f"{got[0]}")
 
     # The report's probe bar figure, saved: the same PNG bytes, a PDF each way.
     labels = [f"fit-{i}@key" for i in range(12)]
