@@ -98,7 +98,8 @@ def image_grid(study_dir, study, fits, material, fig_dir, manifest):
             train = next((f["train"] for f in study["fits"] if f["label"] == part[0]), None)
             heading = f"part {k + 1} of {len(parts)}" + (
                 f": fits trained on {', '.join(train)}" if train else "")
-        fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading, read)
+        fig, caption, rows = grid_figure(study_dir, study, fits, material, part, heading, read,
+                                         keep=KEEP_GRID)
         save_figure(fig, fig_dir, f"grid-{material}{suffix}", manifest, caption,
                     {"kind": "grid", "material": material, "part": k + 1, "parts": len(parts),
                      "fits": part, "lightings": rows}, pdf_raster=fig.axes[0])
@@ -519,10 +520,55 @@ def grid_caption(material, heading, exposures, box, frame, rows_note):
             + (f"; {rows_note}" if rows_note else "") + ".")
 
 
-def grid_figure(study_dir, study, fits, material, labels, heading, read=None):
+# The grid figure kept from one grid to the next in a process and emptied, as the probe figures
+# are (report_probe_figures.KEEP_FIGURES): making its axes (its spines, axes and their first
+# ticks: ~15 ms) took ~1.5 of the ~8 CPU-s of making the measured study's 100 grids. It draws
+# what a new figure would, byte for byte (tests/report/kept_figure_test.py draws both). Only
+# image_grid keeps it (it has saved and closed a grid before it makes the next); matplotlib 3.6
+# only, as the other shortcuts.
+KEEP_GRID = MATPLOTLIB_3_6
+_kept_grid = []  # [(figure, its tiles' axes, the axes' first _autotitlepos)]
+
+
+def _grid_canvas(height, keep):
+    """A figure PAGE_IN x `height` in and its one axes spanning it in inches, axis off: with
+    `keep`, the last kept one emptied where there is one, and kept for the next; else new."""
+    if keep and _kept_grid:
+        fig, tiles, titlepos = _kept_grid.pop()
+        for artist in (list(fig.texts) + list(tiles.texts) + list(tiles.patches)
+                       + list(tiles.collections) + list(tiles.images) + list(tiles.lines)
+                       + list(tiles.artists)):
+            artist.remove()
+        tiles.__dict__.pop("_shadefit_tiles", None)
+        tiles.dataLim = matplotlib.transforms.Bbox.null()
+        tiles.ignore_existing_data_limits = True
+        tiles._autotitlepos = titlepos
+        fig.set_dpi(matplotlib.rcParams["figure.dpi"])
+        fig.set_size_inches(PAGE_IN, height)
+    else:
+        fig = plt.figure(figsize=(PAGE_IN, height))
+        # Every tile is an image of one axes spanning the figure, in inches: one axes per tile
+        # (up to 77 in the measured study) made building a grid take ~2 s.
+        tiles = fig.add_axes([0, 0, 1, 1])
+        tiles.set_axis_off()
+        tiles.set_xticks([])
+        tiles.set_yticks([])
+        titlepos = tiles._autotitlepos
+    # Inches, set before the tiles: fixed limits are not widened by each image's extent (an
+    # autoscaled axes set its limits again for every tile).
+    tiles.set_xlim(0, PAGE_IN)
+    tiles.set_ylim(0, height)
+    if keep:
+        _kept_grid[:] = [(fig, tiles, titlepos)]
+    return fig, tiles
+
+
+def grid_figure(study_dir, study, fits, material, labels, heading, read=None, keep=False):
     """One grid figure over `labels`, and its caption; `heading` (a split grid's part) goes above
     the column titles and into the caption. Every frame is cropped to the object's bounds
-    (grid_crop) and keeps its pixel aspect ratio; many lightings show a subset (grid_lightings)."""
+    (grid_crop) and keeps its pixel aspect ratio; many lightings show a subset (grid_lightings).
+    `keep`: the figure may be the last one kept, emptied (the caller has saved and closed it),
+    and is kept for the next (KEEP_GRID)."""
     evals = {l: {e["lighting"]: e for e in fits[(material, l)]["evaluations"]} for l in labels}
     all_lightings = [r["lighting"] for g in study["groups"] if g["material"] == material
                      for r in g["references"]]
@@ -533,17 +579,7 @@ def grid_figure(study_dir, study, fits, material, labels, heading, read=None):
     box, frame = grid_crop(study_dir, evals, labels, lightings, read)
     aspect = (box[3] - box[1]) / (box[2] - box[0]) if box else 1.0  # tile height / width
     g = grid_layout(study, labels, heading, aspect, len(lightings))
-    fig = plt.figure(figsize=(PAGE_IN, g.height))
-    # Every tile is an image of one axes spanning the figure, in inches: one axes per tile (up to
-    # 77 in the measured study) made building a grid take ~2 s, most of the report's time.
-    tiles = fig.add_axes([0, 0, 1, 1])
-    tiles.set_axis_off()
-    tiles.set_xticks([])
-    tiles.set_yticks([])
-    # Inches, set before the tiles: fixed limits are not widened by each image's extent (an
-    # autoscaled axes set its limits again for every tile).
-    tiles.set_xlim(0, PAGE_IN)
-    tiles.set_ylim(0, g.height)
+    fig, tiles = _grid_canvas(g.height, keep)
     if g.heading:
         fig.text((g.left_in + GRID_GAP_IN) / PAGE_IN, (g.height - 0.03) / g.height,
                  f"{material}, {g.heading}", ha="left", va="top", fontsize=FONT_PT)

@@ -13,7 +13,9 @@ fixed values), drawn by report_grids.image_grid. The grid must
 - draw its tiles in the PDF as one raster that is the PNG's pixels, where the PNG has them,
 - give every row a colour bar: viridis from 0 at the bottom of the row's tiles to the row's error
   scale at their top (read from the PNG's pixels), with its three labels, "0", half the scale and
-  the scale, at the bottom, middle and top of that bar.
+  the scale, at the bottom, middle and top of that bar;
+- be the same bytes drawn on the figure kept from the grid before (report_grids.KEEP_GRID) as on
+  a new one.
 
     grid_fit_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
@@ -166,12 +168,53 @@ def bar_problems(report_grids, d, study, fits, labels, png, rows):
     return problems
 
 
+SETS = {}  # name -> (folder, study, fits) of each set check() wrote
+
+
+def kept_problems(report_grids, out):
+    """Grids drawn on a kept figure (report_grids.KEEP_GRID: one figure emptied for the next)
+    are the bytes and records of grids drawn on new figures: grids of other heights, fits and
+    headings in turn, the kept figure drawn again after a taller and a shorter one."""
+    import matplotlib.pyplot as plt
+    from report_figures import save_figure
+    order = [("ball", LABELS, ""), ("backdrop", LABELS[:1], ""),
+             ("ball", LABELS[:1], "part 1 of 2: fits trained on L00"), ("ball", LABELS, "")]
+    drawn, problems = {}, []
+    for keep in (False, True):
+        folder = os.path.join(out, "kept" if keep else "new")
+        records, figures = [], []
+        for i, (name, labels, heading) in enumerate(order):
+            d, study, fits = SETS[name]
+            fig, caption, _ = report_grids.grid_figure(d, study, fits, "ball", labels, heading,
+                                                       keep=keep)
+            figures.append(id(fig))
+            save_figure(fig, folder, f"grid-{i}", records, caption)
+            plt.close(fig)
+        drawn[keep] = records
+        if keep and len(set(figures)) != 1:
+            problems.append(f"keep=True made {len(set(figures))} figures, want 1 (the "
+                            "comparison would test nothing)")
+    for a, b in zip(drawn[False], drawn[True]):
+        if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
+            problems.append(f"kept grid {a['name']}: figures.json records differ")
+        for ext in ("png", "pdf"):
+            with open(os.path.join(out, "new", f"{a['name']}.{ext}"), "rb") as f:
+                want = f.read()
+            with open(os.path.join(out, "kept", f"{a['name']}.{ext}"), "rb") as f:
+                got = f.read()
+            if got != want:
+                problems.append(f"kept grid {a['name']}.{ext}: other bytes than a new "
+                                "figure's")
+    return problems
+
+
 def check(report_grids, out, name, labels, fit_ground, min_fill):
     """Draws the grid of one synthetic set; returns its problems."""
     import matplotlib.image as mpimg
     d = os.path.join(out, name)
     shutil.rmtree(d, ignore_errors=True)
     study, fits, tests = write_set(d, labels, fit_ground)
+    SETS[name] = (d, study, fits)
     manifest = []
     report_grids.image_grid(d, study, fits, "ball", os.path.join(d, "figures"), manifest)
     failures = []
@@ -243,6 +286,7 @@ def main(argv):
     # one fit, whose wide columns would make 12 rows 3900 px tall without the page's limit. The
     # disc spans 220 of 612 px: 0.36 of the tile.
     failures += check(report_grids, out, "backdrop", LABELS[:1], 0.1, 0.3)
+    failures += kept_problems(report_grids, os.path.join(out, "kept-grids"))
     for f in failures:
         print("FAILED: " + f)
     return 1 if failures else 0
