@@ -396,12 +396,62 @@ def test_classes(make_report, out):
     check("**metals** (finer classes; 5 materials" in md, "classes: summary.md has no metals line")
 
 
+def test_bootstrap_indices(make_report, out):
+    """answer_stats.bootstrap_ci, its resample indices drawn once per sample size
+    (_BootstrapRng), gives scipy's interval with a generator seeded anew for every sample, to the
+    bit: samples of many sizes in an order that returns to each size, ties, a constant sample;
+    and the generator's later draws are a freshly seeded generator's."""
+    import warnings
+    from scipy import stats
+    import answer_stats
+
+    def scipy_own(values):
+        values = np.asarray(values, dtype=float)
+        if len(values) < answer_stats.MIN_MATERIALS_FOR_CI:
+            return None, None
+        if np.ptp(values) == 0:
+            return float(values[0]), float(values[0])
+        rng = np.random.default_rng(answer_stats.BOOTSTRAP_SEED)
+        for method in ("BCa", "percentile"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = stats.bootstrap((values,), np.mean, confidence_level=0.95, method=method,
+                                      n_resamples=answer_stats.BOOTSTRAP_RESAMPLES,
+                                      random_state=rng)
+            lo, hi = res.confidence_interval
+            if np.isfinite(lo) and np.isfinite(hi):
+                return float(lo), float(hi)
+        return None, None
+
+    rng = np.random.default_rng(11)
+    samples = [rng.normal(size=n) for n in (20, 6, 12, 20, 3, 8, 6, 19, 12)]
+    samples += [np.array([1.0, 1.0, 1.0, 2.0]), np.array([0.5] * 7), np.array([1.0, 2.0]),
+                np.array([0.0, 0.0, 0.0, 0.0, 1e-3]), np.round(rng.normal(size=20), 1)]
+    for values in samples:
+        got, want = answer_stats.bootstrap_ci(values), scipy_own(values)
+        check(got == want, f"bootstrap_ci of {len(values)} values: {got}, scipy's own {want}")
+    # The generator itself: its draws are a freshly seeded one's, whether its first draw was
+    # served from what an earlier generator drew or it draws something else first.
+    for first in ("integers", "random"):
+        for _ in range(2):  # the second time, the indices come from the first's draw
+            mine = answer_stats._BootstrapRng()
+            plain = np.random.default_rng(answer_stats.BOOTSTRAP_SEED)
+            if first == "random":
+                check(mine.random(3).tolist() == plain.random(3).tolist(),
+                      "_BootstrapRng: a first draw of floats differs")
+            a, b = mine.integers(0, 7, (50, 7)), plain.integers(0, 7, (50, 7))
+            c, d = mine.integers(0, 7, (50, 7)), plain.integers(0, 7, (50, 7))
+            check(np.array_equal(a, b) and np.array_equal(c, d)
+                  and mine.random(4).tolist() == plain.random(4).tolist(),
+                  f"_BootstrapRng (first draw {first}): other draws than default_rng's")
+
+
 def main(argv):
     report_src, out = argv[1], os.path.abspath(argv[2])
     sys.path.insert(0, report_src)
     import make_report  # noqa: E402
-    for test in (test_metric_dependent, test_judging_set, test_old_study, test_losses, test_other_split,
-                 test_floor, test_regions, test_classes):
+    for test in (test_bootstrap_indices, test_metric_dependent, test_judging_set, test_old_study,
+                 test_losses, test_other_split, test_floor, test_regions, test_classes):
         test(make_report, out)
     for f in FAILURES:
         print("FAILED: " + f)
