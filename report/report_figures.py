@@ -168,13 +168,13 @@ def text_problems(fig):
             boxes.append((t.get_text().replace("\n", " "), bb))
     w, h = fig.get_size_inches() * fig.dpi
     outside = [s for s, b in boxes if b.x0 < -0.5 or b.y0 < -0.5 or b.x1 > w + 0.5 or b.y1 > h + 0.5]
-    overlaps = []
-    for i in range(len(boxes)):
-        for j in range(i + 1, len(boxes)):
-            a, b = boxes[i][1], boxes[j][1]
-            # Touching is fine; a shared strip wider than a pixel both ways is an overlap.
-            if min(a.x1, b.x1) - max(a.x0, b.x0) > 1 and min(a.y1, b.y1) - max(a.y0, b.y0) > 1:
-                overlaps.append([boxes[i][0], boxes[j][0]])
+    # Every pair (i < j, in that order): touching is fine; a shared strip wider than a pixel both
+    # ways is an overlap.
+    x0, y0, x1, y1 = np.array([[b.x0, b.y0, b.x1, b.y1] for _, b in boxes]).reshape(-1, 4).T
+    shared = ((np.minimum.outer(x1, x1) - np.maximum.outer(x0, x0) > 1)
+              & (np.minimum.outer(y1, y1) - np.maximum.outer(y0, y0) > 1))
+    pairs = zip(*np.nonzero(np.triu(shared, k=1)))
+    overlaps = [[boxes[i][0], boxes[j][0]] for i, j in pairs]
     return overlaps, outside
 
 

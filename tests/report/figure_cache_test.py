@@ -155,6 +155,20 @@ def check_shortcuts(report_src):
             crowded.set_xticks(range(12))
             crowded.set_xticklabels([f"label {k}" for k in range(12)])
             found.append(rf.text_problems(fig))
+            if not own_text:
+                # The pairs as the test finds them, one by one, from the same drawing's boxes.
+                renderer = fig.canvas.get_renderer()
+                boxes = [(t.get_text().replace("\n", " "), t.get_window_extent(renderer))
+                         for t in rf.drawn_texts(fig)]
+                boxes = [(s, b) for s, b in boxes if b.width > 0 and b.height > 0]
+                pairs = [[boxes[i][0], boxes[j][0]] for i in range(len(boxes))
+                         for j in range(i + 1, len(boxes))
+                         if min(boxes[i][1].x1, boxes[j][1].x1)
+                         - max(boxes[i][1].x0, boxes[j][1].x0) > 1
+                         and min(boxes[i][1].y1, boxes[j][1].y1)
+                         - max(boxes[i][1].y0, boxes[j][1].y0) > 1]
+                check(found[-1][0] == pairs, f"text_problems: overlaps {found[-1][0]}, the "
+                      f"test's {pairs}")
             rf.plt.close(fig)
         finally:
             rf.use_matplotlib_text(False)
