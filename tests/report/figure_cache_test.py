@@ -183,8 +183,9 @@ def check_shortcuts(report_src):
 
 def check_subset_of_base(rf, font):
     """Subsets made from the base subset (a shared folder set, as make_report does) are the bytes
-    of the same subsets of the whole font: random sets of the base characters, the whole base,
-    one character, and a set with a character outside the base (made from the whole font)."""
+    of the same subsets of the whole font, widened to the common characters where the base holds
+    the set: random sets of the base characters, the whole base, one character, and a set with a
+    character outside the base (made from the whole font, as it is)."""
     import random
     import tempfile
     rng = random.Random(46)
@@ -196,13 +197,76 @@ def check_subset_of_base(rf, font):
         try:
             for chars in sets:
                 made = rf._font_subset(font, "".join(chars)).getvalue()
-                whole = rf._SUBSET_FONT(font, "".join(sorted(set(chars)))).getvalue()
+                # A set within the base is widened to the common characters first; one with a
+                # character outside it is not.
+                want = set(chars)
+                if rf.SUBSET_BASE_CHARACTERS.issuperset(want):
+                    want |= rf.SUBSET_COMMON_CHARACTERS
+                whole = rf._SUBSET_FONT(font, "".join(sorted(want))).getvalue()
                 check(made == whole, f"font subset of {''.join(sorted(set(chars)))!r} from the "
-                      "base subset: other bytes than from the whole font")
+                      "base subset: other bytes than the whole font's subset to "
+                      f"{''.join(sorted(want))!r}")
             check(any(n.startswith("base-") for n in os.listdir(folder)),
                   "font subsets: no base subset made in the shared folder")
         finally:
             rf.share_font_subsets(None)
+    # A figure's PDF with its font widened (the report's shared folder) and without: the same
+    # PDF but for the font program (its stream and lengths), every other object the same.
+    pdfs = []
+    with tempfile.TemporaryDirectory(prefix="shadefit-fonts-test-") as folder:
+        for shared in (None, os.path.join(folder, "fonts")):
+            if shared:
+                os.makedirs(shared)
+            rf.share_font_subsets(shared)
+            try:
+                fig = rf.plt.figure(figsize=(2.0, 1.0))
+                fig.text(0.1, 0.5, "Gold: fresnel 0.25 W m\u207b\u00b2", fontsize=7)
+                fig.text(0.1, 0.2, "x", fontsize=5)
+                rf.save_figure(fig, folder, "font", [], "a caption")
+                with open(os.path.join(folder, "font.pdf"), "rb") as f:
+                    pdfs.append(pdf_objects(f.read()))
+            finally:
+                rf.share_font_subsets(None)
+    check(pdfs[0][0] == pdfs[1][0] and pdfs[0][1] != pdfs[1][1],
+          "a PDF with its font widened: other objects than the font program and its glyph map "
+          "differ, or the font program does not (the case tests nothing)")
+    # In each, every character drawn maps (CIDToGIDMap) to the glyph the embedded font's own
+    # character map gives it.
+    import io
+    import numpy as np
+    from fontTools.ttLib import TTFont
+    for (_, fonts, maps), shared in zip(pdfs, ("own", "widened")):
+        embedded = TTFont(io.BytesIO(fonts[0]))
+        order, cmap = embedded.getGlyphOrder(), embedded.getBestCmap()
+        gids = np.frombuffer(maps[0], dtype=">u2")
+        wrong = [c for c in set("Gold: fresnel 0.25 W m\u207b\u00b2x")
+                 if order[gids[ord(c)]] != cmap.get(ord(c))]
+        check(not wrong, f"a PDF's font ({shared}): {wrong} map to other glyphs")
+
+
+def pdf_objects(pdf):
+    """(the PDF's objects but its TrueType font programs and CID-to-glyph maps, with stream
+    lengths dropped and streams inflated; its font programs; its CID-to-glyph maps)."""
+    import re
+    import zlib
+    bodies = dict(re.findall(rb"(\d+) 0 obj\n(.*?)endobj", pdf, re.S))
+    map_ids = set(re.findall(rb"/CIDToGIDMap (\d+) 0 R", pdf))
+    objects, fonts, maps = [], [], []
+    for number, body in bodies.items():
+        head, _, rest = body.partition(b"stream\n")
+        data = rest.rsplit(b"\nendstream", 1)[0] if rest else b""
+        if data:
+            try:
+                data = zlib.decompress(data)
+            except zlib.error:
+                pass
+        if data.startswith(b"\x00\x01\x00\x00"):  # an sfnt (TrueType) font program
+            fonts.append(data)
+        elif number in map_ids:  # a glyph index per CID (big-endian 16 bits)
+            maps.append(data)
+        else:
+            objects.append((re.sub(rb"/Length1? \d+", b"", head), data))
+    return objects, fonts, maps
 
 
 def main(argv):
