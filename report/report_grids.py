@@ -529,7 +529,7 @@ def grid_caption(material, heading, exposures, box, frame, rows_note):
 # The grid figure kept from one grid to the next in a process and emptied, as the probe figures
 # are (report_probe_figures.KEEP_FIGURES): making its axes (its spines, axes and their first
 # ticks: ~15 ms) took ~1.5 of the ~8 CPU-s of making the measured study's 100 grids. It draws
-# what a new figure would, byte for byte (tests/report/kept_figure_test.py draws both). Only
+# what a new figure would, byte for byte (tests/report/grid_fit_test.py draws both). Only
 # image_grid keeps it (it has saved and closed a grid before it makes the next); matplotlib 3.6
 # only, as the other shortcuts.
 KEEP_GRID = MATPLOTLIB_3_6
