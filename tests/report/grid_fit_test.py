@@ -20,7 +20,6 @@ fixed values), drawn by report_grids.image_grid. The grid must
     grid_fit_test.py REPORT_DIR OUT_DIR      exit 0 pass, 1 fail
 """
 
-import json
 import os
 import shutil
 import sys
@@ -29,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import figures_test  # noqa: E402  (pdf_raster_problems)
+import kept_figure_test  # noqa: E402  (kept_against_new)
 
 W, H = 612, 512                   # The frame, as the data set's photographs.
 CX, CY, R = 250.0, 280.0, 110.0   # The ball: off centre, radius 110 px.
@@ -194,18 +194,8 @@ def kept_problems(report_grids, out):
         if keep and len(set(figures)) != 1:
             problems.append(f"keep=True made {len(set(figures))} figures, want 1 (the "
                             "comparison would test nothing)")
-    for a, b in zip(drawn[False], drawn[True]):
-        if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
-            problems.append(f"kept grid {a['name']}: figures.json records differ")
-        for ext in ("png", "pdf"):
-            with open(os.path.join(out, "new", f"{a['name']}.{ext}"), "rb") as f:
-                want = f.read()
-            with open(os.path.join(out, "kept", f"{a['name']}.{ext}"), "rb") as f:
-                got = f.read()
-            if got != want:
-                problems.append(f"kept grid {a['name']}.{ext}: other bytes than a new "
-                                "figure's")
-    return problems
+    return problems + [f"kept grid {p}" for p in
+                       kept_figure_test.kept_against_new(out, drawn[False], drawn[True])]
 
 
 def check(report_grids, out, name, labels, fit_ground, min_fill):

@@ -78,6 +78,24 @@ def draw_all(rpf, rf, out_dir, keep):
     return manifest, figs
 
 
+def kept_against_new(out, new_records, kept_records):
+    """Problems where figures saved under out/kept (drawn on kept figures) are not the records
+    and the PNG and PDF bytes of the same figures saved under out/new (drawn on new ones)."""
+    problems = []
+    for a, b in zip(new_records, kept_records):
+        if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
+            problems.append(f"{a['name']}: figures.json records differ: {a} against {b}")
+        for ext in ("png", "pdf"):
+            with open(os.path.join(out, "new", f"{a['name']}.{ext}"), "rb") as f:
+                want = f.read()
+            with open(os.path.join(out, "kept", f"{a['name']}.{ext}"), "rb") as f:
+                got = f.read()
+            if got != want:
+                problems.append(f"{a['name']}.{ext}: the kept figure's bytes differ from a new "
+                                f"figure's ({len(got)} against {len(want)} bytes)")
+    return problems
+
+
 def main(argv):
     sys.path.insert(0, argv[1])
     import report_figures as rf  # noqa: E402
@@ -93,17 +111,7 @@ def main(argv):
     if len({id(f) for f in kept_figs}) != 1:
         problems.append(f"keep=True made {len({id(f) for f in kept_figs})} figures for one "
                         "layout, want 1 (the comparison below would test nothing)")
-    for a, b in zip(new_records, kept_records):
-        if json.dumps(a, sort_keys=True) != json.dumps(b, sort_keys=True):
-            problems.append(f"{a['name']}: figures.json records differ: {a} against {b}")
-        for ext in ("png", "pdf"):
-            with open(os.path.join(out, "new", f"{a['name']}.{ext}"), "rb") as f:
-                want = f.read()
-            with open(os.path.join(out, "kept", f"{a['name']}.{ext}"), "rb") as f:
-                got = f.read()
-            if got != want:
-                problems.append(f"{a['name']}.{ext}: the kept figure's bytes differ from a new "
-                                f"figure's ({len(got)} against {len(want)} bytes)")
+    problems += kept_against_new(out, new_records, kept_records)
     for p in problems:
         print("kept_figure_test: " + p)
     print("kept_figure_test: " + ("FAIL" if problems else "ok"))
