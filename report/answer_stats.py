@@ -14,7 +14,6 @@ import warnings
 
 import numpy as np
 from scipy import stats
-from statsmodels.stats.multitest import multipletests
 
 from report_records import Comparison
 from report_util import frozen_heap
@@ -142,6 +141,9 @@ def compare_pair(errors, materials, label, base, mode):
 def holm_by_pair(tests):
     """Holm's step-down correction over `tests` (comparison records with `fit`, `baseline`,
     `p`), one family per compared pair: sets each record's `p_holm` and `holm_family`."""
+    # Imported here: statsmodels brings pandas (~0.2 s), which only this needs, and the report
+    # imports this module before its figure workers start (the import is then no longer serial).
+    from statsmodels.stats.multitest import multipletests
     families = {}
     for c in tests:
         families.setdefault((c.fit, c.baseline), []).append(c)
