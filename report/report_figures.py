@@ -29,6 +29,7 @@ import numpy as np  # noqa: E402
 import PIL.Image  # noqa: E402
 
 import png_codec  # noqa: E402
+from report_util import temporary_path  # noqa: E402
 
 # The version whose internals the drawing shortcuts below replace or follow (use_matplotlib_text,
 # ticks_in_view, report_grids.add_tile); on any other, matplotlib's own code runs.
@@ -708,7 +709,7 @@ def write_png(path, pixels, dpi):
             + _png_chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1))
             + _png_chunk(b"IDAT", png_idat(pixels))
             + _png_chunk(b"IEND", b""))
-    tmp = path + ".tmp.png"
+    tmp = temporary_path(path)
     with open(tmp, "wb") as f:
         f.write(data)
     os.replace(tmp, path)
@@ -1106,6 +1107,7 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
         ax._autotitlepos = False
     png = os.path.join(fig_dir, name + ".png")
     pdf = os.path.join(fig_dir, name + ".pdf")
+    pdf_tmp = temporary_path(pdf)
     # The PNG is the drawing text_problems made at DPI (Agg's buffer), not a second drawing; an
     # opaque one (every figure here: white behind it) as RGB, a quarter less to deflate (the
     # measured report's PNGs ~10% smaller, 15-20% faster to write), the same pixels.
@@ -1120,7 +1122,7 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
         if raster is not None or not raster_images:
             if raster is not None:
                 calls.add_image(slot.at, *raster)
-            calls.write(fig, pdf + ".tmp.pdf")
+            calls.write(fig, pdf_tmp)
             written = True
     if not written:  # matplotlib's own PDF drawing
         if pdf_raster is not None:
@@ -1131,8 +1133,8 @@ def save_figure(fig, fig_dir, name, manifest, caption, extra=None, pdf_raster=No
         # images at the figure's first resolution (100 dpi). Text and lines stay vectors. A
         # grid's tiles are one raster of the PNG's pixels by now (pdf_raster above).
         with matplotlib.rc_context({"image.composite_image": False}):
-            fig.savefig(pdf + ".tmp.pdf", format="pdf", dpi=DPI, metadata={"CreationDate": None})
-    os.replace(pdf + ".tmp.pdf", pdf)
+            fig.savefig(pdf_tmp, format="pdf", dpi=DPI, metadata={"CreationDate": None})
+    os.replace(pdf_tmp, pdf)
     plt.close(fig)
     manifest.append({"name": name, "png": f"figures/{name}.png", "pdf": f"figures/{name}.pdf",
                      "width_in": round(w_px / DPI, 3), "height_in": round(h_px / DPI, 3),

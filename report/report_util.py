@@ -8,9 +8,16 @@ import math
 import os
 
 
+def temporary_path(path):
+    """Where a file for `path` is written before its rename: hidden, in the same folder, this
+    process's (a study killed mid-write leaves only dot-files, which a rerun removes and no
+    reader takes for a result)."""
+    return os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{os.getpid()}.tmp")
+
+
 def write_text(path, text):
     """Writes through a temporary file in the same folder and a rename: never a partial file."""
-    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{os.getpid()}.tmp")
+    tmp = temporary_path(path)
     with open(tmp, "w", encoding="utf-8", newline="") as f:
         f.write(text)
     os.replace(tmp, path)

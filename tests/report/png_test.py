@@ -4,7 +4,9 @@ and gray images) decodes, with Pillow's PNG decoder, to exactly the pixels it wa
 8-bit images of awkward sizes (one pixel, odd widths; rows whose differences wrap modulo 256), a
 figure saved by save_figure against Agg's buffer of the same drawing, and the Flate streams the
 PDF embeds. The previews' reader (report/png_codec.py read_up_png) reads what Pillow reads, with
-libdeflate and with zlib, and leaves every other kind and every damaged file to Pillow.
+libdeflate and with zlib, and leaves every other kind and every damaged file to Pillow. A figure
+whose saving is stopped before a rename leaves only a hidden temporary that the study runner
+sweeps.
 
     png_test.py REPORT_DIR      exit 0 pass, 1 fail
 """
@@ -48,7 +50,7 @@ def main(argv):
                                 " samples differ")
             if dpi is None or abs(dpi[0] - rf.DPI) > 0.01 or abs(dpi[1] - rf.DPI) > 0.01:
                 failures.append(f"write_png {pixels.shape}: dpi {dpi}, want {rf.DPI}")
-            if os.path.exists(path + ".tmp.png"):
+            if [n for n in os.listdir(tmp) if n.startswith(".")]:
                 failures.append(f"write_png {pixels.shape}: its temporary was left behind")
 
         # A figure through save_figure: its PNG is Agg's buffer of that drawing.
@@ -84,6 +86,36 @@ def main(argv):
         if mode != "RGBA" or got.shape != buffer.shape or not np.array_equal(got, buffer):
             failures.append(f"save_figure: a see-through figure's PNG is {mode} {got.shape}, "
                             f"not Agg's RGBA buffer {buffer.shape}")
+
+        # A report killed between writing a figure and its rename leaves only hidden
+        # temporaries named as the study runner sweeps a dead process's (".<name>.<pid>.tmp",
+        # studies/runner/src/temporaries.cpp): the PNG's, then the PDF's (the rename fails here
+        # as a kill would stop it).
+        import re
+        for stop_at in (1, 2):
+            folder = os.path.join(tmp, f"killed-{stop_at}")
+            renames, replace = [0], os.replace
+
+            def killed(src, dst, stop_at=stop_at):
+                renames[0] += 1
+                if renames[0] == stop_at:
+                    raise KeyboardInterrupt("killed")
+                return replace(src, dst)
+            fig = plt.figure(figsize=(1.0, 0.5))
+            fig.add_subplot().plot([0, 1], [1, 0])
+            os.replace = killed
+            try:
+                rf.save_figure(fig, folder, "killed", [], "a figure killed while saved")
+            except KeyboardInterrupt:
+                pass
+            finally:
+                os.replace = replace
+                plt.close(fig)
+            left = sorted(n for n in os.listdir(folder) if n not in ("killed.png", "killed.pdf"))
+            if not left or not all(re.fullmatch(rf"\.killed\.(png|pdf)\.{os.getpid()}\.tmp", n)
+                                   for n in left):
+                failures.append(f"save_figure killed at rename {stop_at}: left {left}, want "
+                                "one hidden .<name>.<pid>.tmp")
 
         # The PDF's images: RGB and gray through png_idat, a palette image through Pillow.
         for mode, shape, color_type in (("RGB", (21, 13, 3), 2), ("L", (9, 30), 0)):
