@@ -17,6 +17,7 @@ import math
 import os
 import re
 import struct
+import types
 import zlib
 
 import matplotlib
@@ -1043,8 +1044,8 @@ class _WholeStream:
         return c.compress(b"".join(self._parts)) + c.flush()
 
 
-class _ZLIB_WHOLE_STREAMS:  # the zlib that backend_pdf sees while _PdfCalls writes
-    compressobj = _WholeStream
+# The zlib that backend_pdf sees while _PdfCalls writes (its one use of zlib: compressobj).
+_ZLIB_WHOLE_STREAMS = types.SimpleNamespace(compressobj=_WholeStream)
 
 
 class _RasterSlot(matplotlib.artist.Artist):
