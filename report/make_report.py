@@ -304,9 +304,9 @@ def make_report(study_dir, quiet=True):
     # The inputs (a measured study's ~50 MB of records) live until the end: frozen, the
     # collector's full passes, which the figures' many short-lived objects set off ~100 times, no
     # longer walk them. In a one-process report of the measured study those passes took 9.2 of
-    # 51.8 s, 4.2 after (most of it now freeing the closed figures). The figure workers fork
-    # inside the block and inherit it; a caller that makes several reports keeps nothing frozen.
-    # The figure workers fork inside both blocks and inherit them.
+    # 51.8 s, 4.2 after (most of it now freeing the closed figures). The collector's thresholds
+    # are raised meanwhile (report_util.collector_thresholds). The figure workers fork inside
+    # both blocks and inherit them; a caller that makes several reports keeps nothing frozen.
     with frozen_heap(), collector_thresholds(50000, 20, 10):
         return _make_report(inp, study_dir, quiet)
 
